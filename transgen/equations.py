@@ -1,0 +1,215 @@
+"""Per-mode algebraic equations ``E z + F u = 0`` assembled from the mechanism graph
+(thesis section 3.2.5, eqs. 3.8-3.10), with a numeric and a symbolic back-end.
+
+Unknowns ``z`` (in this order):
+
+* ``alpha_<link>``: link accelerations [rad/s^2];
+* ``t_<element>``: torques of the locked shift elements [N*m], transmitted from ``link1`` to
+  ``link2`` (the element acts ``-t`` on ``link1`` and ``+t`` on ``link2``);
+* ``t_<transformer>.<port>``: the intermediate transformer torques [N*m], the torque a link
+  exerts on a transformer port (the link feels ``-t``; thesis eqs. 3.39-3.53 use the same sign:
+  e.g. ``-t_c4 - t_pc1 = J4*alpha4``).
+
+Inputs ``u`` (the same list for every mode): the external torques ``T_in`` (drives the input),
+``T_out`` (delivered by the output to the driveline, acts ``-T_out``), the named loads (drive their
+link), then the torque of every shift element; in a given mode the columns of its locked
+elements are zero, since their torques are unknowns there.
+
+Rows: one torque balance per link, ``J*alpha = sum of torques``; per transformer, its kinematic
+constraint on the accelerations and the power-conservation relations ``t_k*c_ref = c_k*t_ref``
+between its port torques (eq. 3.36); per locked element, ``alpha_1 = alpha_2`` (``alpha_1 = 0``
+for a brake).
+
+``G = -E^-1 F`` is partitioned (eq. 3.10) into ``G_accel`` (link accelerations),
+``G_clutches`` (locked element torques) and ``G_intermediate`` (transformer torques).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import networkx as nx
+import numpy as np
+import scipy.linalg
+
+from .errors import ModeError
+from .graph import build_graph, coefficient, element_nodes, link_nodes, transformer_ports
+from .kinematics import constraint_matrix, null_space, numeric_rank
+from .model import HOUSING, Mechanism
+
+__all__ = ["ModeEquations", "input_names", "assemble", "solve", "diagnose_singular", "symbols_of"]
+
+
+@dataclass(frozen=True)
+class ModeEquations:
+    """``E z + F u = 0`` of one mode, and its solution ``z = G u`` when ``E`` is regular.
+
+    Matrices are ``numpy`` arrays (numeric back-end) or ``sympy.Matrix`` (symbolic back-end).
+    ``n_links``, ``n_locked`` give the partition of ``z`` (eq. 3.10).
+    """
+
+    locked: tuple[str, ...]
+    z: tuple[str, ...]
+    u: tuple[str, ...]
+    E: object
+    F: object
+    n_links: int
+    n_locked: int
+    G: object = None
+
+    @property
+    def G_accel(self):
+        return self.G[: self.n_links, :]
+
+    @property
+    def G_clutches(self):
+        return self.G[self.n_links : self.n_links + self.n_locked, :]
+
+    @property
+    def G_intermediate(self):
+        return self.G[self.n_links + self.n_locked :, :]
+
+
+def input_names(g: nx.DiGraph) -> tuple[str, ...]:
+    """Names of the inputs ``u``: external torques, then every shift element's torque."""
+    sources = [n for n, d in g.nodes(data=True) if d["kind"] == "source"]
+    return tuple(sources) + tuple(f"t_{e}" for e in element_nodes(g))
+
+
+def symbols_of(g: nx.DiGraph) -> dict:
+    """Sympy symbols for the symbolic back-end: transformer parameters and nonzero inertias
+    (``J_<link>``); massless links keep an exact 0."""
+    import sympy
+
+    values = {}
+    for node, data in g.nodes(data=True):
+        for name in data.get("params", {}):
+            values[name] = sympy.Symbol(name, positive=True)
+        if data["kind"] == "link":
+            values[f"J_{node}"] = sympy.Symbol(f"J_{node}", positive=True) if data["J"] > 0 else sympy.Integer(0)
+    return values
+
+
+def _numeric_values(g: nx.DiGraph) -> dict:
+    values = {}
+    for node, data in g.nodes(data=True):
+        values.update(data.get("params", {}))
+        if data["kind"] == "link":
+            values[f"J_{node}"] = data["J"]
+    return values
+
+
+def assemble(g: nx.DiGraph, locked=(), symbolic: bool = False) -> ModeEquations:
+    """Assemble ``E`` and ``F`` of the mode with the elements ``locked`` from the graph."""
+    locked = tuple(locked)
+    values = symbols_of(g) if symbolic else _numeric_values(g)
+    links = link_nodes(g)
+    transformers = [n for n, d in g.nodes(data=True) if d["kind"] in ("planetary", "gearpair")]
+    ports = [(t, link, port, terms) for t in transformers for link, port, terms in transformer_ports(g, t)]
+    z = tuple(f"alpha_{k}" for k in links) + tuple(f"t_{e}" for e in locked) + tuple(f"t_{t}.{p}" for t, _, p, _ in ports)
+    u = input_names(g)
+    zi = {name: i for i, name in enumerate(z)}
+    ui = {name: i for i, name in enumerate(u)}
+    n = len(z)
+    if symbolic:
+        import sympy
+
+        E, F = sympy.zeros(n, n), sympy.zeros(n, len(u))
+    else:
+        E, F = np.zeros((n, n)), np.zeros((n, len(u)))
+    row = 0
+    # torque balance of each link: J*alpha - (sum of torques on it) = 0
+    link_row = {k: i for i, k in enumerate(links)}
+    for k in links:
+        E[link_row[k], zi[f"alpha_{k}"]] = values[f"J_{k}"]
+    for e in element_nodes(g):
+        data = g.nodes[e]
+        for link, sign in ((data["link1"], -1), (data["link2"], 1)):
+            if link == HOUSING:
+                continue
+            if e in locked:
+                E[link_row[link], zi[f"t_{e}"]] += -sign
+            else:
+                F[link_row[link], ui[f"t_{e}"]] += -sign
+    for t, link, port, _ in ports:
+        if link != HOUSING:
+            E[link_row[link], zi[f"t_{t}.{port}"]] += 1  # the link feels -t_port
+    for name, data in g.nodes(data=True):
+        if data["kind"] == "source":
+            F[link_row[data["link"]], ui[name]] += 1 if data["role"] == "output" else -1
+    row = len(links)
+    # transformers: kinematic constraint and power conservation between port torques
+    for t in transformers:
+        tp = [(link, port, coefficient(terms, values)) for link, port, terms in transformer_ports(g, t)]
+        for link, _, c in tp:
+            if link != HOUSING:
+                E[row, zi[f"alpha_{link}"]] += c
+        row += 1
+        _, ref_port, c_ref = tp[-1]
+        for _, port, c in tp[:-1]:
+            E[row, zi[f"t_{t}.{port}"]] = c_ref
+            E[row, zi[f"t_{t}.{ref_port}"]] = -c
+            row += 1
+    # locked elements: equal accelerations of both halves
+    for e in locked:
+        data = g.nodes[e]
+        E[row, zi[f"alpha_{data['link1']}"]] = 1
+        if data["link2"] != HOUSING:
+            E[row, zi[f"alpha_{data['link2']}"]] = -1
+        row += 1
+    assert row == n
+    return ModeEquations(locked, z, u, E, F, len(links), len(locked))
+
+
+def solve(eq: ModeEquations, g: nx.DiGraph, simplify: bool = True) -> ModeEquations:
+    """``G = -E^-1 F``: LU with partial pivoting (numeric) or exact LU (symbolic).
+
+    Raises :class:`ModeError` naming the massless links whose motion is undetermined or the
+    locked elements whose torques are not unique when ``E`` is singular.
+    """
+    if isinstance(eq.E, np.ndarray):
+        n = eq.E.shape[0]
+        if numeric_rank(eq.E) < n:
+            raise ModeError(diagnose_singular(g, eq.locked) or f"mode {'+'.join(eq.locked) or 'none'}: E is singular")
+        G = -scipy.linalg.lu_solve(scipy.linalg.lu_factor(eq.E), eq.F)
+        G[np.abs(G) < 1e-13 * max(1.0, np.abs(G).max(initial=0.0))] = 0.0
+    else:
+        import sympy
+
+        if diagnose_singular(g, eq.locked):
+            raise ModeError(diagnose_singular(g, eq.locked))
+        G = -eq.E.LUsolve(eq.F)
+        if simplify:
+            G = G.applyfunc(lambda x: sympy.factor(sympy.cancel(x)))
+    return ModeEquations(eq.locked, eq.z, eq.u, eq.E, eq.F, eq.n_links, eq.n_locked, G)
+
+
+def diagnose_singular(g: nx.DiGraph, locked=()) -> str:
+    """Why the mode's equations have no unique solution, or ``""`` when they do.
+
+    Two causes: locked elements whose torques are not unique (redundant constraints: the
+    elements over-constrain the mechanism, a static indeterminacy), and massless links whose
+    motion the equations leave undetermined.
+    """
+    locked = tuple(locked)
+    links = link_nodes(g)
+    a = constraint_matrix(g, locked)
+    problems = []
+    if numeric_rank(a) < a.shape[0]:
+        left = null_space(a.T, a.shape[0])  # y with y^T A = 0
+        n_tf = a.shape[0] - len(locked)
+        involved = [locked[i - n_tf] for i in range(n_tf, a.shape[0]) if np.linalg.norm(left[i]) > 1e-9]
+        problems.append("the torques of the locked elements " + ", ".join(involved)
+                        + " are not unique (they over-constrain the mechanism)")
+    basis = null_space(a, len(links))
+    if basis.shape[1]:
+        J = np.diag([g.nodes[k]["J"] for k in links])
+        m = basis.T @ J @ basis
+        free = null_space(m, m.shape[0])
+        if free.shape[1]:
+            motion = basis @ free
+            names = [k for k, row in zip(links, motion) if np.linalg.norm(row) > 1e-9]
+            problems.append("the motion of the massless link(s) " + ", ".join(names)
+                            + " is undetermined (no inertia is coupled to it)")
+    if not problems:
+        return ""
+    return f"mode with {', '.join(locked) or 'no element'} locked: " + "; ".join(problems)

@@ -1,0 +1,102 @@
+"""The bond-graph-like mechanism graph (thesis Figs. 3.9 and 3.13).
+
+:func:`build_graph` turns a :class:`~transgen.model.Mechanism` into a ``networkx.DiGraph``:
+
+========================  =====================================================================
+node ``kind``             meaning
+========================  =====================================================================
+``"link"``                a rigid link: a 1-junction carrying its inertia (I element), ``J``
+``"housing"``             the fixed case: a zero flow source (Sf = 0)
+``"planetary"``           a multiport transformer (MTF) with ports sun, ring, carrier
+``"gearpair"``            a two-port transformer (TF) with ports 1, 2
+``"clutch"``/``"brake"``  a switched element between two junctions: a flow source (equal speeds)
+``"oneway"``              when locked, an effort source (slipping torque) when unlocked
+``"source"``              an external torque (effort source): ``T_in``, ``T_out``, named loads
+========================  =====================================================================
+
+Edges are bonds and point in the direction of positive power: from a link into a transformer
+port (thesis eq. 3.36 convention), from ``link1`` through a shift element to ``link2``, from the
+input source into the input link, from the output link into the output source.
+
+Each transformer port edge carries the kinematic coefficient of its link in the transformer's
+constraint ``sum_k c_k * w_k = 0`` as ``terms``: a tuple of ``(factor, parameter)`` pairs whose
+values are in the transformer node's ``params`` (so that the numeric and the symbolic back-ends
+read the same graph):
+
+* simple planetary: ``Ns*w_s + Nr*w_r - (Ns + Nr)*w_c = 0``
+* double-pinion planetary: ``-Ns*w_s + Nr*w_r - (Nr - Ns)*w_c = 0``
+* external gear pair: ``n1*w1 + n2*w2 = 0``; internal: ``n1*w1 - n2*w2 = 0``
+
+The transformer torques follow from power conservation (eq. 3.36): the torque ``t_k`` a link
+exerts on port ``k`` is proportional to ``c_k``.
+"""
+from __future__ import annotations
+
+import networkx as nx
+
+from .model import HOUSING, Mechanism
+
+__all__ = ["build_graph", "transformer_ports", "link_nodes", "element_nodes", "coefficient"]
+
+
+def _pname(key: str, owner: str) -> str:
+    return f"{key}_{owner}"
+
+
+def build_graph(mech: Mechanism) -> nx.DiGraph:
+    """The bond-graph-like graph of ``mech`` (see the module docstring for its vocabulary)."""
+    g = nx.DiGraph(name=mech.name, input=mech.input, output=mech.output)
+    for link in mech.links:
+        g.add_node(link.name, kind="link", J=link.inertia, label=f"1\n{link.name}")
+    g.add_node(HOUSING, kind="housing", label="Sf=0")
+    for p in mech.planetaries:
+        ns, nr = _pname("Ns", p.name), _pname("Nr", p.name)
+        g.add_node(p.name, kind="planetary", pinions=p.pinions, params={ns: p.n_sun, nr: p.n_ring},
+                   label=f"MTF\n{p.name}")
+        if p.pinions == 1:
+            terms = {"sun": ((1, ns),), "ring": ((1, nr),), "carrier": ((-1, ns), (-1, nr))}
+        else:
+            terms = {"sun": ((-1, ns),), "ring": ((1, nr),), "carrier": ((-1, nr), (1, ns))}
+        for port, member in zip(("sun", "ring", "carrier"), p.members):
+            g.add_edge(member, p.name, bond="port", port=port, terms=terms[port])
+    for pair in mech.gear_pairs:
+        k1, k2 = ("N1", "N2") if pair.by == "teeth" else ("r1", "r2")
+        p1, p2 = _pname(k1, pair.name), _pname(k2, pair.name)
+        g.add_node(pair.name, kind="gearpair", mesh=pair.mesh, params={p1: pair.n1, p2: pair.n2},
+                   label=f"TF\n{pair.name}")
+        g.add_edge(pair.link1, pair.name, bond="port", port="1", terms=((1, p1),))
+        g.add_edge(pair.link2, pair.name, bond="port", port="2", terms=((pair.sign * -1, p2),))
+    for e in mech.elements:
+        g.add_node(e.name, kind=e.kind, static=e.static, dynamic=e.dynamic, free=e.free,
+                   link1=e.link1, link2=e.link2, label=f"{e.kind}\n{e.name}")
+        g.add_edge(e.link1, e.name, bond="element", side=1)
+        g.add_edge(e.name, e.link2, bond="element", side=2)
+    for t in mech.torques:
+        g.add_node(t.name, kind="source", role=t.role, link=t.link, label=f"Se\n{t.name}")
+        if t.role == "output":
+            g.add_edge(t.link, t.name, bond="source")
+        else:
+            g.add_edge(t.name, t.link, bond="source")
+    return g
+
+
+def link_nodes(g: nx.DiGraph) -> list[str]:
+    """Links (1-junctions) in declaration order."""
+    return [n for n, d in g.nodes(data=True) if d["kind"] == "link"]
+
+
+def element_nodes(g: nx.DiGraph) -> list[str]:
+    """Shift elements in declaration order."""
+    return [n for n, d in g.nodes(data=True) if d["kind"] in ("clutch", "brake", "oneway")]
+
+
+def transformer_ports(g: nx.DiGraph, node: str) -> list[tuple[str, str, tuple]]:
+    """``(link, port, terms)`` of a transformer node, in port order."""
+    ports = [(u, d["port"], d["terms"]) for u, _, d in g.in_edges(node, data=True) if d.get("bond") == "port"]
+    order = {"sun": 0, "ring": 1, "carrier": 2, "1": 0, "2": 1}
+    return sorted(ports, key=lambda p: order[p[1]])
+
+
+def coefficient(terms: tuple, values) -> object:
+    """Evaluate a port coefficient ``sum(factor * values[param])`` (numbers or sympy symbols)."""
+    return sum(factor * values[param] for factor, param in terms)

@@ -1,0 +1,284 @@
+"""Kinematic analysis: constraints, degrees of freedom, speed ratios, the gear table.
+
+The speeds ``w`` of the links obey linear constraints ``A w = 0``: one row per transformer
+(planetary or gear pair, always present) and one per engaged shift element (``w1 - w2 = 0``, or
+``w1 = 0`` for a brake). The degrees of freedom of a combination are ``n_links - rank(A)``; the
+link speeds are ``w = N q`` with ``N`` an orthonormal basis of the null space of ``A`` (SVD).
+The speed ratio input/output is determined when the input and output rows of ``N`` are
+proportional (rank one) and the output row is not zero.
+
+Classification of a combination of engaged elements:
+
+``gear``      the input/output ratio is determined (other members may still float: ``floating``)
+``neutral``   input and output can turn independently (the input is free)
+``tie-up``    no degree of freedom is left: the mechanism locks (bindup)
+``other``     one or more degrees of freedom but the input or the output is held
+"""
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass, field
+
+import networkx as nx
+import numpy as np
+
+from .errors import Diagnostic
+from .graph import build_graph, coefficient, element_nodes, link_nodes, transformer_ports
+from .model import HOUSING, Mechanism
+
+__all__ = [
+    "Constraint",
+    "constraints",
+    "constraint_matrix",
+    "numeric_rank",
+    "null_space",
+    "Combination",
+    "analyze",
+    "combinations",
+    "gear_ratios",
+    "GearRow",
+    "GearTable",
+    "gear_table",
+    "check_gears",
+]
+
+RANK_RTOL = 1e-9
+"""Relative tolerance (to the largest singular value) for numerical rank decisions."""
+
+
+@dataclass(frozen=True)
+class Constraint:
+    """One kinematic constraint ``sum(coeffs[link] * w_link) = 0`` (housing terms dropped)."""
+
+    name: str
+    kind: str  # "transformer" or "element"
+    coeffs: dict = field(compare=False)
+
+
+def _values(g: nx.DiGraph) -> dict:
+    values = {}
+    for _, data in g.nodes(data=True):
+        values.update(data.get("params", {}))
+    return values
+
+
+def constraints(g: nx.DiGraph, locked=(), values: dict | None = None) -> list[Constraint]:
+    """Kinematic constraints of the graph with the shift elements ``locked`` engaged.
+
+    ``values`` maps the transformer parameters (``Ns_P1``, ``N1_G``, ...) to numbers (default:
+    the mechanism's own) or to sympy symbols for the symbolic back-end.
+    """
+    values = _values(g) if values is None else values
+    rows = []
+    for node, data in g.nodes(data=True):
+        if data["kind"] in ("planetary", "gearpair"):
+            coeffs = {link: coefficient(terms, values) for link, _, terms in transformer_ports(g, node) if link != HOUSING}
+            rows.append(Constraint(node, "transformer", coeffs))
+    for name in locked:
+        data = g.nodes[name]
+        coeffs = {data["link1"]: 1}
+        if data["link2"] != HOUSING:
+            coeffs[data["link2"]] = -1
+        rows.append(Constraint(name, "element", coeffs))
+    return rows
+
+
+def constraint_matrix(g: nx.DiGraph, locked=()) -> np.ndarray:
+    """Numeric constraint matrix ``A`` (rows: transformers, then locked elements; columns: links)."""
+    links = link_nodes(g)
+    index = {name: i for i, name in enumerate(links)}
+    rows = constraints(g, locked)
+    a = np.zeros((len(rows), len(links)))
+    for r, c in enumerate(rows):
+        for link, value in c.coeffs.items():
+            a[r, index[link]] = float(value)
+    return a
+
+
+def numeric_rank(a: np.ndarray) -> int:
+    """Rank by SVD with :data:`RANK_RTOL` relative to the largest singular value."""
+    if a.size == 0:
+        return 0
+    s = np.linalg.svd(a, compute_uv=False)
+    return int(np.sum(s > RANK_RTOL * max(s[0], 1e-300))) if s.size and s[0] > 0 else 0
+
+
+def null_space(a: np.ndarray, n: int) -> np.ndarray:
+    """Orthonormal basis (columns) of the null space of ``a`` with ``n`` columns."""
+    if a.shape[0] == 0:
+        return np.eye(n)
+    _, s, vt = np.linalg.svd(a)
+    rank = int(np.sum(s > RANK_RTOL * max(s[0], 1e-300))) if s.size and s[0] > 0 else 0
+    return vt[rank:].T.copy()
+
+
+@dataclass(frozen=True)
+class Combination:
+    """Kinematic facts of one combination of engaged shift elements.
+
+    ``ratio`` is input speed / output speed (negative: reverse) where determined, else ``None``.
+    ``floating`` names links whose speed is not fixed by the input speed (in a gear) .
+    ``detail`` explains ``other`` (e.g. "output held").
+    """
+
+    engaged: tuple[str, ...]
+    dof: int
+    ratio: float | None
+    kind: str
+    floating: tuple[str, ...] = ()
+    detail: str = ""
+
+
+def _rel_tol(x: np.ndarray) -> float:
+    return 1e-9 * max(1.0, float(np.max(np.abs(x))) if x.size else 1.0)
+
+
+def analyze(mech: Mechanism, engaged=(), graph: nx.DiGraph | None = None) -> Combination:
+    """Degrees of freedom, ratio and kind of ``mech`` with the elements ``engaged``."""
+    g = build_graph(mech) if graph is None else graph
+    links = link_nodes(g)
+    a = constraint_matrix(g, engaged)
+    basis = null_space(a, len(links))
+    dof = basis.shape[1]
+    engaged = tuple(engaged)
+    if dof == 0:
+        return Combination(engaged, 0, None, "tie-up")
+    i_in, i_out = links.index(mech.input), links.index(mech.output)
+    v_in, v_out = basis[i_in], basis[i_out]
+    tol = 1e-9
+    in_moves, out_moves = np.linalg.norm(v_in) > tol, np.linalg.norm(v_out) > tol
+    if in_moves and out_moves and numeric_rank(np.vstack([v_in, v_out])) == 1:
+        ratio = float(np.dot(v_in, v_out) / np.dot(v_out, v_out))
+        # links not fixed by the input speed: null space with the input held
+        held = null_space(np.vstack([a, np.eye(len(links))[i_in]]), len(links))
+        floating = tuple(name for name, row in zip(links, held) if np.linalg.norm(row) > tol)
+        return Combination(engaged, dof, ratio, "gear", floating)
+    if in_moves and out_moves:
+        return Combination(engaged, dof, None, "neutral")
+    detail = "input and output held" if not (in_moves or out_moves) else ("output held" if in_moves else "input held")
+    return Combination(engaged, dof, None, "other", detail=detail)
+
+
+def combinations(mech: Mechanism, max_engaged: int | None = None) -> list[Combination]:
+    """Every combination of engaged shift elements (all 2^k, or up to ``max_engaged``)."""
+    g = build_graph(mech)
+    names = element_nodes(g)
+    top = len(names) if max_engaged is None else min(max_engaged, len(names))
+    return [analyze(mech, combo, g) for r in range(top + 1) for combo in itertools.combinations(names, r)]
+
+
+def gear_ratios(mech: Mechanism) -> dict[str, float | None]:
+    """Input/output speed ratio of every declared gear (``None`` where not determined)."""
+    g = build_graph(mech)
+    return {gear.name: analyze(mech, gear.engaged, g).ratio for gear in mech.gears if gear.kind == "gear"}
+
+
+@dataclass(frozen=True)
+class GearRow:
+    """A declared gear (or neutral) with its computed kinematics.
+
+    ``step`` is this gear's ratio over the next forward gear's (``None`` for the last one and for
+    reverse gears and neutrals); ``published`` is the ratio written in the file.
+    """
+
+    name: str
+    kind: str
+    engaged: tuple[str, ...]
+    combination: Combination
+    step: float | None = None
+    published: str | None = None
+
+    @property
+    def dof(self) -> int:
+        return self.combination.dof
+
+    @property
+    def ratio(self) -> float | None:
+        return self.combination.ratio
+
+    @property
+    def matches_published(self) -> bool | None:
+        """Whether the computed ratio rounds to the published one at its printed precision."""
+        if self.published is None or self.ratio is None:
+            return None
+        return abs(self.ratio - float(self.published)) <= _half_unit(self.published) + 1e-12
+
+
+def _half_unit(text: str) -> float:
+    mantissa = text.lower().split("e")[0]
+    decimals = len(mantissa.split(".")[1]) if "." in mantissa else 0
+    exponent = int(text.lower().split("e")[1]) if "e" in text.lower() else 0
+    return 0.5 * 10.0 ** (exponent - decimals)
+
+
+@dataclass(frozen=True)
+class GearTable:
+    """The declared gears with ratios and steps, and every combination of engaged elements."""
+
+    mechanism: Mechanism
+    gears: tuple[GearRow, ...]
+    combinations: tuple[Combination, ...]
+
+    @property
+    def spread(self) -> float | None:
+        """Overall spread: lowest over highest forward ratio."""
+        forward = [r.ratio for r in self.gears if r.kind == "gear" and r.ratio is not None and r.ratio > 0]
+        return max(forward) / min(forward) if len(forward) >= 2 else None
+
+    def to_dict(self) -> dict:
+        """The JSON form of ``transgen ratios --json``."""
+        m = self.mechanism
+        return {
+            "mechanism": m.name,
+            "input": m.input,
+            "output": m.output,
+            "gears": [
+                {"name": r.name, "kind": r.kind, "engaged": list(r.engaged), "dof": r.dof, "ratio": r.ratio,
+                 "step": r.step, "published": r.published, "floating": list(r.combination.floating)}
+                for r in self.gears
+            ],
+            "spread": self.spread,
+            "combinations": [
+                {"engaged": list(c.engaged), "dof": c.dof, "ratio": c.ratio, "kind": c.kind,
+                 "floating": list(c.floating), "detail": c.detail}
+                for c in self.combinations
+            ],
+        }
+
+
+def gear_table(mech: Mechanism, all_combinations: bool = True) -> GearTable:
+    """Analyse the declared gears and (optionally) every combination of engaged elements."""
+    g = build_graph(mech)
+    rows = [GearRow(gear.name, gear.kind, gear.engaged, analyze(mech, gear.engaged, g), None, gear.ratio)
+            for gear in mech.gears]
+    forward = [i for i, r in enumerate(rows) if r.kind == "gear" and r.ratio is not None and r.ratio > 0]
+    for i, j in zip(forward, forward[1:]):
+        rows[i] = GearRow(rows[i].name, rows[i].kind, rows[i].engaged, rows[i].combination,
+                          rows[i].ratio / rows[j].ratio, rows[i].published)
+    combos = tuple(combinations(mech)) if all_combinations else ()
+    return GearTable(mech, tuple(rows), combos)
+
+
+def check_gears(mech: Mechanism) -> list[Diagnostic]:
+    """Errors for declared gears that tie up, have no determined ratio, or miss their published
+    ratio, and for neutrals that are not neutral; each located at the gear's name."""
+    problems = []
+    for row in gear_table(mech, all_combinations=False).gears:
+        gear = mech.gear(row.name)
+        c = row.combination
+        message = None
+        if row.kind == "gear":
+            if c.kind == "tie-up":
+                message = f"gear {row.name} ({' '.join(row.engaged)}) ties up the mechanism: no degree of freedom is left"
+            elif c.ratio is None:
+                message = (f"gear {row.name} ({' '.join(row.engaged)}) does not determine the input/output ratio "
+                           f"({c.dof} degrees of freedom, {c.kind}{': ' + c.detail if c.detail else ''})")
+            elif row.matches_published is False:
+                message = f"gear {row.name}: computed ratio {row.ratio:.6g} does not match the declared ratio={row.published}"
+        elif c.kind != "neutral":
+            message = f"neutral {row.name} ({' '.join(row.engaged)}) is not a neutral: it is {c.kind}" + (
+                f" with ratio {c.ratio:.6g}" if c.ratio is not None else "")
+        if message:
+            line = gear.span.line
+            problems.append(Diagnostic(mech.source, line, gear.span.column, message, mech.source_line(line)))
+    return problems

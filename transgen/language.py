@@ -1,0 +1,529 @@
+"""The ``.mech`` language: text -> :class:`~transgen.model.Mechanism`.
+
+Parsing happens in three steps, each a plain function:
+
+1. :func:`parse_tree` parses the text with the lark grammar ``grammars/mech.lark`` (LALR, with
+   positions). A syntax error in one line does not hide those in the others: since every
+   statement is one line, the lines are re-parsed one by one to report them all.
+2. :func:`_read_statements` turns the tree into statement records, checking each statement's
+   parameters (known keys, types, ranges).
+3. :func:`_resolve` builds the frozen :class:`Mechanism`, checking names (unknown names with the
+   closest known one, duplicates) and the rules that need the whole file.
+
+All problems are collected and raised together as one :class:`~transgen.errors.MechError`.
+Parsing never evaluates code: numbers are read with :func:`float` / :func:`int`.
+"""
+from __future__ import annotations
+
+import difflib
+import functools
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+
+from lark import Lark, Token, Tree
+from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
+
+from .errors import Diagnostic, MechSyntaxError, MechValidationError
+from .model import (
+    HOUSING,
+    ExternalTorque,
+    Gear,
+    GearPair,
+    Link,
+    Mechanism,
+    ModeDecl,
+    Planetary,
+    ShiftElement,
+    Span,
+)
+
+__all__ = ["parse_mechanism", "load_mechanism", "parse_tree", "grammar_text", "format_mechanism"]
+
+RESERVED = frozenset(
+    {
+        "transmission", "link", "planetary", "gears", "clutch", "brake", "oneway", "input",
+        "output", "torque", "gear", "neutral", "mode", "coordinates", "none", HOUSING,
+    }
+)
+
+
+def grammar_text() -> str:
+    """The text of ``mech.lark`` as installed with the package."""
+    return resources.files("transgen.grammars").joinpath("mech.lark").read_text(encoding="utf-8")
+
+
+@functools.lru_cache(maxsize=1)
+def _parser() -> Lark:
+    return Lark(grammar_text(), parser="lalr", propagate_positions=True, maybe_placeholders=False)
+
+
+# ---------------------------------------------------------------------------------------------
+# Step 1: syntax
+
+_TERMINAL_NAMES = {
+    "NAME": "a name",
+    "GEARNAME": "a gear name",
+    "NUMBER": "a number",
+    "STRING": 'a quoted string ("...")',
+    "EQUAL": "'='",
+    "_NL": "end of line",
+    "$END": "end of file",
+}
+
+
+def _describe_expected(expected: set[str]) -> str:
+    words = []
+    for name in sorted(expected):
+        if name in _TERMINAL_NAMES:
+            words.append(_TERMINAL_NAMES[name])
+        elif name.isupper() and name.lower() in RESERVED:
+            words.append(f"'{name.lower()}'")
+        else:
+            words.append(name)
+    words = sorted(set(words))
+    if len(words) > 6:
+        return "a statement keyword (link, planetary, gears, clutch, brake, oneway, input, ...)"
+    return ", ".join(words)
+
+
+def _syntax_diagnostic(exc: UnexpectedInput, filename: str, lines: list[str], line_offset: int) -> Diagnostic:
+    line = (exc.line if exc.line and exc.line > 0 else len(lines)) + line_offset
+    column = exc.column if exc.column and exc.column > 0 else 1
+    if isinstance(exc, UnexpectedCharacters):
+        char = lines[line - 1][column - 1] if 0 < line <= len(lines) and column <= len(lines[line - 1]) else "?"
+        message = f"unexpected character {char!r}"
+        if exc.allowed:
+            message += f"; expected {_describe_expected(set(exc.allowed))}"
+    elif isinstance(exc, UnexpectedToken):
+        token = exc.token
+        what = "end of line" if token.type == "_NL" else ("end of file" if token.type == "$END" else repr(str(token)))
+        message = f"unexpected {what}; expected {_describe_expected(set(exc.expected))}"
+    elif isinstance(exc, UnexpectedEOF):
+        message = f"unexpected end of file; expected {_describe_expected(set(exc.expected))}"
+    else:  # pragma: no cover - lark has no other kinds
+        message = str(exc)
+    source = lines[line - 1] if 0 < line <= len(lines) else ""
+    return Diagnostic(filename, line, column, message, source)
+
+
+def parse_tree(text: str, filename: str = "<string>") -> Tree:
+    """Parse ``.mech`` text into a lark tree; raise :class:`MechSyntaxError` with every bad line."""
+    if not text.endswith("\n"):
+        text += "\n"
+    try:
+        return _parser().parse(text)
+    except UnexpectedInput:
+        pass
+    lines = text.splitlines()
+    diagnostics = []
+    for number, line in enumerate(lines, start=1):
+        try:
+            _parser().parse(line + "\n")
+        except UnexpectedInput as exc:
+            diagnostics.append(_syntax_diagnostic(exc, filename, lines, number - 1))
+    if not diagnostics:  # pragma: no cover - a file is valid iff all its lines are
+        diagnostics.append(Diagnostic(filename, 1, 1, "syntax error", lines[0] if lines else ""))
+    raise MechSyntaxError(diagnostics)
+
+
+# ---------------------------------------------------------------------------------------------
+# Step 2: statements and their parameters
+
+
+@dataclass(frozen=True)
+class _Word:
+    """A token with its position: a name or a value as written."""
+
+    text: str
+    span: Span
+
+
+@dataclass
+class _Statement:
+    keyword: str
+    span: Span
+    words: list[_Word]
+    params: dict[str, tuple[_Word, bool]] = field(default_factory=dict)  # key -> (value, is_number)
+    elements: list[_Word] = field(default_factory=list)
+
+
+def _word(token: Token) -> _Word:
+    return _Word(str(token), Span(token.line, token.column))
+
+
+class _Reporter:
+    """Collects diagnostics for one file."""
+
+    def __init__(self, filename: str, text: str):
+        self.filename = filename
+        self.text = text
+        self.lines = text.splitlines()
+        self.diagnostics: list[Diagnostic] = []
+
+    def error(self, span: Span, message: str) -> None:
+        line = max(span.line, 1)
+        source = self.lines[line - 1] if line <= len(self.lines) else ""
+        self.diagnostics.append(Diagnostic(self.filename, line, max(span.column, 1), message, source))
+
+
+def _statements(tree: Tree, report: _Reporter) -> list[_Statement]:
+    statements = []
+    for node in tree.children:
+        if not isinstance(node, Tree):
+            continue
+        stmt = _Statement(str(node.data), Span(node.meta.line, node.meta.column), [])
+        for child in node.children:
+            if isinstance(child, Token):
+                stmt.words.append(_word(child))
+            elif child.data == "param":
+                key, value = child.children
+                if str(key) in stmt.params:
+                    report.error(_word(key).span, f"parameter '{key}' is given twice")
+                stmt.params[str(key)] = (_word(value), value.type == "NUMBER")
+                # keep the key position for messages about the key itself
+                stmt.params[str(key) + "@key"] = (_word(key), False)
+            elif child.data == "element":
+                stmt.elements.append(_word(child.children[0]))
+            elif child.data == "none":
+                stmt.elements = []
+        statements.append(stmt)
+    return statements
+
+
+# Allowed parameters per statement: key -> kind ("float>=0", "float>0", "int>0", "name", or a
+# tuple of allowed words).
+_PARAMS: dict[str, dict[str, object]] = {
+    "link": {"J": "float>=0"},
+    "planetary": {"sun": "name", "ring": "name", "carrier": "name", "Ns": "int>0", "Nr": "int>0", "pinions": ("1", "2")},
+    "gears": {"N1": "int>0", "N2": "int>0", "r1": "float>0", "r2": "float>0", "mesh": ("external", "internal")},
+    "clutch": {"static": "float>=0", "dynamic": "float>=0"},
+    "brake": {"static": "float>=0", "dynamic": "float>=0", "type": ("plate", "band")},
+    "oneway": {"free": ("positive", "negative")},
+    "gear": {"ratio": "float"},
+}
+_REQUIRED: dict[str, tuple[str, ...]] = {
+    "link": ("J",),
+    "planetary": ("sun", "ring", "carrier", "Ns", "Nr"),
+    "clutch": ("static", "dynamic"),
+    "brake": ("static", "dynamic"),
+    "oneway": ("free",),
+}
+
+
+def _suggest(name: str, known) -> str:
+    close = difflib.get_close_matches(name, list(known), n=1, cutoff=0.5)
+    return f"; did you mean '{close[0]}'?" if close else ""
+
+
+def _check_params(stmt: _Statement, report: _Reporter) -> dict[str, object]:
+    """Validate the key=value parameters of a statement; return their converted values."""
+    allowed = _PARAMS.get(stmt.keyword, {})
+    values: dict[str, object] = {}
+    for key, (word, is_number) in stmt.params.items():
+        if key.endswith("@key"):
+            continue
+        key_span = stmt.params[key + "@key"][0].span
+        if key not in allowed:
+            known = ", ".join(allowed) if allowed else "none"
+            report.error(key_span, f"unknown parameter '{key}' for '{stmt.keyword}'{_suggest(key, allowed)} (known: {known})")
+            continue
+        kind = allowed[key]
+        if isinstance(kind, tuple):
+            if word.text not in kind:
+                report.error(word.span, f"{key} must be one of {', '.join(kind)}, not '{word.text}'")
+                continue
+            values[key] = word.text
+        elif kind == "name":
+            if is_number:
+                report.error(word.span, f"{key} must name a link, not the number {word.text}")
+                continue
+            values[key] = word
+        else:
+            if not is_number:
+                report.error(word.span, f"{key} must be a number, not '{word.text}'")
+                continue
+            number = float(word.text)
+            if kind == "int>0":
+                if number != int(number) or number <= 0:
+                    report.error(word.span, f"{key} is a tooth count: a positive whole number, not {word.text}")
+                    continue
+                number = int(number)
+            elif kind == "float>0" and number <= 0:
+                report.error(word.span, f"{key} must be positive, not {word.text}")
+                continue
+            elif kind == "float>=0" and number < 0:
+                report.error(word.span, f"{key} must not be negative, not {word.text}")
+                continue
+            values[key] = word.text if stmt.keyword == "gear" and key == "ratio" else number
+    for key in _REQUIRED.get(stmt.keyword, ()):
+        if key not in stmt.params:
+            report.error(stmt.span, f"'{stmt.keyword}' needs {key}=...")
+    return values
+
+
+# ---------------------------------------------------------------------------------------------
+# Step 3: names and whole-file rules
+
+
+def _resolve(statements: list[_Statement], report: _Reporter, filename: str) -> Mechanism | None:
+    declared: dict[str, tuple[str, Span]] = {}  # link/planetary/gears/element/torque names
+
+    def declare(word: _Word, what: str) -> bool:
+        if word.text in RESERVED:
+            report.error(word.span, f"'{word.text}' is a reserved word and cannot name a {what}")
+            return False
+        if word.text in declared:
+            other_what, other = declared[word.text]
+            report.error(word.span, f"duplicate name '{word.text}' (already a {other_what} at line {other.line})")
+            return False
+        declared[word.text] = (what, word.span)
+        return True
+
+    title = ""
+    links: list[Link] = []
+    planetaries, pairs, elements, loads = [], [], [], []
+    gears: list[Gear] = []
+    modes: list[ModeDecl] = []
+    coordinates: list[_Word] = []
+    inputs: list[_Word] = []
+    outputs: list[_Word] = []
+    link_refs: list[tuple[_Word, bool]] = []  # (reference, housing allowed)
+    element_refs: list[_Word] = []
+
+    for stmt in statements:
+        params = _check_params(stmt, report)
+        kw = stmt.keyword
+        words = stmt.words
+        if kw == "transmission":
+            title = words[0].text[1:-1]
+        elif kw == "link":
+            if declare(words[0], "link") and "J" in params:
+                links.append(Link(words[0].text, float(params["J"]), words[0].span))
+        elif kw == "planetary":
+            name = words[0]
+            ok = declare(name, "planetary")
+            members = [params.get(k) for k in ("sun", "ring", "carrier")]
+            for m in members:
+                if m is not None:
+                    link_refs.append((m, True))
+            present = [m for m in members if m is not None]
+            texts = [m.text for m in present]
+            for m in present:
+                if texts.count(m.text) > 1 and m is present[texts.index(m.text)]:
+                    report.error(m.span, f"planetary {name.text}: member '{m.text}' is used twice (sun, ring and carrier must be different links)")
+            ns, nr = params.get("Ns"), params.get("Nr")
+            if ns is not None and nr is not None and nr <= ns:
+                report.error(stmt.params["Nr"][0].span, f"planetary {name.text}: ring teeth Nr={nr} must exceed sun teeth Ns={ns}")
+            if ok and None not in members and ns is not None and nr is not None and len(set(texts)) == 3 and nr > ns:
+                planetaries.append(Planetary(name.text, texts[0], texts[1], texts[2], ns, nr, int(params.get("pinions", "1")), name.span))
+        elif kw == "gears":
+            name, w1, w2 = words
+            ok = declare(name, "gear pair")
+            link_refs.extend([(w1, False), (w2, False)])
+            if w1.text == w2.text:
+                report.error(w2.span, f"gear pair {name.text} connects link '{w1.text}' to itself")
+                ok = False
+            by_teeth = "N1" in stmt.params or "N2" in stmt.params
+            by_radius = "r1" in stmt.params or "r2" in stmt.params
+            if by_teeth and by_radius:
+                report.error(stmt.span, f"gear pair {name.text}: give tooth counts N1, N2 or radii r1, r2, not both")
+                ok = False
+            elif not by_teeth and not by_radius:
+                report.error(stmt.span, f"gear pair {name.text} needs N1=... N2=... (tooth counts) or r1=... r2=... (radii in m)")
+                ok = False
+            keys = ("N1", "N2") if by_teeth else ("r1", "r2")
+            for key in keys:
+                if key not in stmt.params:
+                    report.error(stmt.span, f"gear pair {name.text} needs {key}=...")
+                    ok = False
+            if ok and all(k in params for k in keys):
+                pairs.append(GearPair(name.text, w1.text, w2.text, params[keys[0]], params[keys[1]],
+                                      "teeth" if by_teeth else "radius", params.get("mesh", "external"), name.span))
+        elif kw in ("clutch", "brake", "oneway"):
+            name = words[0]
+            ok = declare(name, kw if kw != "oneway" else "one-way clutch")
+            w1 = words[1]
+            w2 = words[2] if len(words) > 2 else _Word(HOUSING, stmt.span)
+            link_refs.append((w1, False))
+            if kw != "brake":
+                link_refs.append((w2, True))
+            if w1.text == w2.text:
+                report.error(w2.span, f"{kw} {name.text} connects '{w1.text}' to itself")
+                ok = False
+            if ok and all(k in params for k in _REQUIRED[kw]):
+                if kw == "oneway":
+                    static, dynamic = float("inf"), 0.0
+                else:
+                    static, dynamic = float(params["static"]), float(params["dynamic"])
+                    if dynamic > static:
+                        report.error(stmt.params["dynamic"][0].span,
+                                     f"{kw} {name.text}: dynamic capacity {dynamic:g} N*m exceeds static capacity {static:g} N*m")
+                elements.append(ShiftElement(name.text, kw, w1.text, w2.text, static, dynamic,
+                                             params.get("free"), params.get("type"), name.span))
+        elif kw == "input":
+            inputs.append(words[0])
+            link_refs.append((words[0], False))
+        elif kw == "output":
+            outputs.append(words[0])
+            link_refs.append((words[0], False))
+        elif kw == "torque":
+            name, w = words
+            if declare(name, "torque"):
+                loads.append(ExternalTorque(name.text, w.text, "load", name.span))
+            link_refs.append((w, False))
+        elif kw in ("gear", "neutral", "mode"):
+            name = words[0]
+            table = modes if kw == "mode" else gears
+            if any(g.name == name.text for g in table):
+                report.error(name.span, f"duplicate {kw} name '{name.text}'")
+            engaged = [w.text for w in stmt.elements]
+            for w in stmt.elements:
+                element_refs.append(w)
+                if engaged.count(w.text) > 1 and w is stmt.elements[engaged.index(w.text)]:
+                    report.error(w.span, f"{kw} {name.text} lists '{w.text}' twice")
+            if kw == "mode":
+                modes.append(ModeDecl(name.text, tuple(dict.fromkeys(engaged)), name.span))
+            else:
+                if not engaged:  # pragma: no cover - the grammar needs one element
+                    report.error(name.span, f"{kw} {name.text} engages no element")
+                gears.append(Gear(name.text, tuple(dict.fromkeys(engaged)), kw, params.get("ratio"), name.span))
+        elif kw == "coordinates":
+            if coordinates:
+                report.error(stmt.span, "coordinates are given twice")
+            coordinates = list(words)
+            link_refs.extend((w, False) for w in words)
+
+    link_names = {n for n, (what, _) in declared.items() if what == "link"}
+    for ref, housing_ok in link_refs:
+        if ref.text == HOUSING and housing_ok:
+            continue
+        if ref.text not in link_names:
+            what = declared.get(ref.text, (None,))[0]
+            if ref.text == HOUSING:
+                report.error(ref.span, "the housing cannot be used here: name a link")
+            elif what:
+                report.error(ref.span, f"'{ref.text}' is a {what}, not a link")
+            else:
+                report.error(ref.span, f"unknown link '{ref.text}'{_suggest(ref.text, link_names)}")
+    element_names = {n for n, (what, _) in declared.items() if what in ("clutch", "brake", "one-way clutch")}
+    for ref in element_refs:
+        if ref.text not in element_names:
+            report.error(ref.span, f"unknown shift element '{ref.text}'{_suggest(ref.text, element_names)}")
+    for role, found in (("input", inputs), ("output", outputs)):
+        if not found:
+            last = len(report.lines) or 1
+            report.error(Span(last, 1), f"missing '{role}' statement: name the {role} link, e.g. '{role} L1'")
+        for extra in found[1:]:
+            report.error(extra.span, f"the {role} is given twice")
+    if inputs and outputs and inputs[0].text == outputs[0].text:
+        report.error(outputs[0].span, f"input and output are the same link '{inputs[0].text}'")
+    coord_texts = [w.text for w in coordinates]
+    for w in coordinates:
+        if coord_texts.count(w.text) > 1 and w is coordinates[coord_texts.index(w.text)]:
+            report.error(w.span, f"coordinate '{w.text}' is given twice")
+    if not links:
+        report.error(Span(1, 1), "no links: declare the rigid members with 'link NAME J=...'")
+    if report.diagnostics:
+        return None
+    return Mechanism(
+        name=title or Path(filename).stem,
+        links=tuple(links),
+        planetaries=tuple(planetaries),
+        gear_pairs=tuple(pairs),
+        elements=tuple(elements),
+        input=inputs[0].text,
+        output=outputs[0].text,
+        loads=tuple(loads),
+        gears=tuple(gears),
+        modes=tuple(modes),
+        coordinates=tuple(coord_texts),
+        source=filename,
+        text=report.text,
+    )
+
+
+def parse_mechanism(text: str, filename: str = "<string>") -> Mechanism:
+    """Parse and validate ``.mech`` text.
+
+    Raises
+    ------
+    MechSyntaxError, MechValidationError
+        With every problem found, each as ``FILE:LINE:COL: error: message``.
+
+    Examples
+    --------
+    >>> m = parse_mechanism('''
+    ... link A J=1
+    ... link B J=2
+    ... gears G A B N1=20 N2=40
+    ... input A
+    ... output B
+    ... ''')
+    >>> [link.name for link in m.links], m.gear_pairs[0].mesh
+    (['A', 'B'], 'external')
+    """
+    tree = parse_tree(text, filename)
+    report = _Reporter(filename, text)
+    mechanism = _resolve(_statements(tree, report), report, filename)
+    if report.diagnostics:
+        raise MechValidationError(report.diagnostics)
+    assert mechanism is not None
+    return mechanism
+
+
+def load_mechanism(path: str | Path) -> Mechanism:
+    """Read and parse a ``.mech`` file.
+
+    A bare name such as ``"ht740"`` or ``"ht740.mech"`` that is not an existing file is looked
+    up in the bundled library (:mod:`transgen.library`).
+    """
+    path = Path(path)
+    if not path.exists():
+        from .library import bundled_path
+
+        found = bundled_path(path.name)
+        if found is not None:
+            path = found
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise MechSyntaxError([Diagnostic(str(path), 1, 1, f"not a text file ({exc.reason})")]) from None
+    except OSError as exc:
+        raise MechSyntaxError([Diagnostic(str(path), 1, 1, f"cannot read file: {exc.strerror}")]) from None
+    return parse_mechanism(text, str(path))
+
+
+def _number(x: float) -> str:
+    return f"{x:.12g}"
+
+
+def format_mechanism(m: Mechanism) -> str:
+    """Write a mechanism back as ``.mech`` text (canonical form; parses to an equal mechanism)."""
+    out = [f'transmission "{m.name}"']
+    out += [f"link {k.name} J={_number(k.inertia)}" for k in m.links]
+    for p in m.planetaries:
+        pin = " pinions=2" if p.pinions == 2 else ""
+        out.append(f"planetary {p.name} sun={p.sun} ring={p.ring} carrier={p.carrier} Ns={p.n_sun} Nr={p.n_ring}{pin}")
+    for g in m.gear_pairs:
+        k1, k2 = ("N1", "N2") if g.by == "teeth" else ("r1", "r2")
+        v1, v2 = (int(g.n1), int(g.n2)) if g.by == "teeth" else (_number(g.n1), _number(g.n2))
+        out.append(f"gears {g.name} {g.link1} {g.link2} {k1}={v1} {k2}={v2} mesh={g.mesh}")
+    for e in m.elements:
+        if e.kind == "clutch":
+            out.append(f"clutch {e.name} {e.link1} {e.link2} static={_number(e.static)} dynamic={_number(e.dynamic)}")
+        elif e.kind == "brake":
+            typ = f" type={e.brake_type}" if e.brake_type else ""
+            out.append(f"brake {e.name} {e.link1} static={_number(e.static)} dynamic={_number(e.dynamic)}{typ}")
+        else:
+            out.append(f"oneway {e.name} {e.link1} {e.link2} free={e.free}")
+    out += [f"input {m.input}", f"output {m.output}"]
+    out += [f"torque {t.name} {t.link}" for t in m.loads]
+    for g in m.gears:
+        ratio = f" ratio={g.ratio}" if g.ratio is not None else ""
+        out.append(f"{g.kind} {g.name} = {' '.join(g.engaged)}{ratio}")
+    for d in m.modes:
+        out.append(f"mode {d.name} = {' '.join(d.locked) or 'none'}")
+    if m.coordinates:
+        out.append("coordinates " + " ".join(m.coordinates))
+    return "\n".join(out) + "\n"

@@ -1,0 +1,236 @@
+"""The parsed mechanism: immutable objects with their source positions.
+
+A :class:`Mechanism` is what a ``.mech`` file describes. It knows nothing of how equations are
+formed (see :mod:`transgen.constraints` and :mod:`transgen.equations`).
+
+Sign conventions (used throughout transgen):
+
+* Speeds are in rad/s, positive in the input's positive direction of rotation. The housing
+  (:data:`HOUSING`) has speed 0.
+* A shift element between ``link1`` and ``link2`` has slip speed ``w1 - w2`` and transmits the
+  torque ``t`` from ``link1`` to ``link2``: it acts as ``-t`` on ``link1`` and ``+t`` on ``link2``.
+  A brake is an element whose ``link2`` is the housing. A slipping element transmits
+  ``t = T_dynamic * apply * sign(slip)`` and dissipates ``t * slip >= 0``.
+* The input torque drives the input link (``+T_in``); the output torque is what the output link
+  delivers to the driveline (it acts as ``-T_out`` on the output link). Named extra torques drive
+  their link (``+T``).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal
+
+__all__ = [
+    "HOUSING",
+    "Span",
+    "Link",
+    "Planetary",
+    "GearPair",
+    "ShiftElement",
+    "ExternalTorque",
+    "Gear",
+    "ModeDecl",
+    "Mechanism",
+]
+
+HOUSING = "housing"
+"""Name of the fixed transmission case (speed 0); usable wherever a link is expected."""
+
+
+@dataclass(frozen=True)
+class Span:
+    """Where something stands in its source file (1-based line and column)."""
+
+    line: int = 0
+    column: int = 0
+
+
+def _span() -> Span:
+    return field(default=Span(), compare=False, repr=False)
+
+
+@dataclass(frozen=True)
+class Link:
+    """A rigid rotating member with its inertia ``inertia`` [kg*m^2] (0 = massless)."""
+
+    name: str
+    inertia: float
+    span: Span = _span()
+
+
+@dataclass(frozen=True)
+class Planetary:
+    """A planetary gearset.
+
+    ``pinions=1``: simple set, ``Ns*w_s + Nr*w_r = (Ns + Nr)*w_c`` (thesis eq. 3.37).
+    ``pinions=2``: double-pinion set, ``Nr*w_r - Ns*w_s = (Nr - Ns)*w_c``.
+    Members are link names or :data:`HOUSING`.
+    """
+
+    name: str
+    sun: str
+    ring: str
+    carrier: str
+    n_sun: int
+    n_ring: int
+    pinions: Literal[1, 2] = 1
+    span: Span = _span()
+
+    @property
+    def members(self) -> tuple[str, str, str]:
+        """(sun, ring, carrier)."""
+        return (self.sun, self.ring, self.carrier)
+
+
+@dataclass(frozen=True)
+class GearPair:
+    """A fixed gear mesh: size ``n1`` on ``link1`` meshes with size ``n2`` on ``link2``.
+
+    Sizes are tooth counts (``by="teeth"``) or pitch radii in m (``by="radius"``).
+    External mesh: ``n1*w1 = -n2*w2``; internal mesh (``link2`` carries the ring gear):
+    ``n1*w1 = n2*w2``.
+    """
+
+    name: str
+    link1: str
+    link2: str
+    n1: float
+    n2: float
+    by: Literal["teeth", "radius"] = "teeth"
+    mesh: Literal["external", "internal"] = "external"
+    span: Span = _span()
+
+    @property
+    def sign(self) -> int:
+        """-1 for an external mesh (direction reverses), +1 for an internal one."""
+        return -1 if self.mesh == "external" else 1
+
+
+@dataclass(frozen=True)
+class ShiftElement:
+    """A clutch, brake or one-way clutch between ``link1`` and ``link2``.
+
+    ``kind`` is ``"clutch"``, ``"brake"`` (``link2`` is the housing) or ``"oneway"``.
+    ``static`` and ``dynamic`` are torque capacities at full apply [N*m] (infinite static
+    capacity for a one-way clutch). ``free`` is the sign of the slip ``w1 - w2`` in which a
+    one-way clutch overruns (``"positive"`` or ``"negative"``); it locks against the other sign.
+    """
+
+    name: str
+    kind: Literal["clutch", "brake", "oneway"]
+    link1: str
+    link2: str
+    static: float
+    dynamic: float
+    free: Literal["positive", "negative"] | None = None
+    brake_type: Literal["plate", "band"] | None = None
+    span: Span = _span()
+
+    @property
+    def links(self) -> tuple[str, str]:
+        return (self.link1, self.link2)
+
+
+@dataclass(frozen=True)
+class ExternalTorque:
+    """An external torque input on ``link``; ``role`` is ``"input"``, ``"output"`` or ``"load"``.
+
+    The input and named loads drive their link (``+T``); the output torque is delivered by the
+    output link to the driveline (``-T`` on the link).
+    """
+
+    name: str
+    link: str
+    role: Literal["input", "output", "load"]
+    span: Span = _span()
+
+    @property
+    def sign(self) -> int:
+        """Sign with which the torque acts on its link."""
+        return -1 if self.role == "output" else 1
+
+
+@dataclass(frozen=True)
+class Gear:
+    """A row of the gear table: a named gear (or neutral) and its engaged shift elements.
+
+    ``ratio`` is the published input/output speed ratio as written in the file (a string, so
+    that its precision is known), or ``None``.
+    """
+
+    name: str
+    engaged: tuple[str, ...]
+    kind: Literal["gear", "neutral"] = "gear"
+    ratio: str | None = None
+    span: Span = _span()
+
+
+@dataclass(frozen=True)
+class ModeDecl:
+    """An explicitly declared mode: its name and locked shift elements."""
+
+    name: str
+    locked: tuple[str, ...]
+    span: Span = _span()
+
+
+@dataclass(frozen=True)
+class Mechanism:
+    """A transmission mechanism as described by a ``.mech`` file."""
+
+    name: str
+    links: tuple[Link, ...]
+    planetaries: tuple[Planetary, ...] = ()
+    gear_pairs: tuple[GearPair, ...] = ()
+    elements: tuple[ShiftElement, ...] = ()
+    input: str = ""
+    output: str = ""
+    loads: tuple[ExternalTorque, ...] = ()
+    gears: tuple[Gear, ...] = ()
+    modes: tuple[ModeDecl, ...] = ()
+    coordinates: tuple[str, ...] = ()
+    source: str = field(default="<string>", compare=False)
+    text: str = field(default="", compare=False, repr=False)
+
+    def source_line(self, line: int) -> str:
+        """Line ``line`` (1-based) of the source text, or ``""``."""
+        lines = self.text.splitlines()
+        return lines[line - 1] if 0 < line <= len(lines) else ""
+
+    @property
+    def link_names(self) -> tuple[str, ...]:
+        return tuple(link.name for link in self.links)
+
+    @property
+    def element_names(self) -> tuple[str, ...]:
+        return tuple(e.name for e in self.elements)
+
+    @property
+    def torques(self) -> tuple[ExternalTorque, ...]:
+        """External torque inputs in order: T_in, T_out, then the named loads."""
+        return (
+            ExternalTorque("T_in", self.input, "input"),
+            ExternalTorque("T_out", self.output, "output"),
+        ) + self.loads
+
+    def link(self, name: str) -> Link:
+        for link in self.links:
+            if link.name == name:
+                return link
+        raise KeyError(name)
+
+    def element(self, name: str) -> ShiftElement:
+        for e in self.elements:
+            if e.name == name:
+                return e
+        raise KeyError(name)
+
+    def gear(self, name: str) -> Gear:
+        for g in self.gears:
+            if g.name == name:
+                return g
+        raise KeyError(name)
+
+    @property
+    def neutrals(self) -> tuple[Gear, ...]:
+        return tuple(g for g in self.gears if g.kind == "neutral")
