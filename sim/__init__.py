@@ -1,0 +1,1 @@
+"""transgen.sim — the powertrain simulator (installed from the top-level ``sim/`` folder)."""

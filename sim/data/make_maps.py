@@ -1,0 +1,22 @@
+"""Regenerate the shipped example maps from the published Wahlström & Eriksson fits.
+
+Usage::
+
+    python sim/data/make_maps.py            # writes we_compressor.toml and we_turbine.toml here
+
+The maps are computed by :func:`transgen.sim.maps.generate_compressor_map` and
+:func:`transgen.sim.maps.generate_turbine_map`; each file carries its provenance header.
+"""
+from pathlib import Path
+
+from transgen.sim.maps import generate_compressor_map, generate_turbine_map, save_map
+
+
+def main(folder: Path = Path(__file__).resolve().parent) -> None:
+    for name, m in (("we_compressor.toml", generate_compressor_map()),
+                    ("we_turbine.toml", generate_turbine_map())):
+        print("wrote", save_map(m, folder / name))
+
+
+if __name__ == "__main__":
+    main()

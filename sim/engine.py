@@ -1,0 +1,516 @@
+"""Mean-value turbocharged diesel engine: a torque source on the crank link.
+
+Structure (thesis 2.4.6 and chapter 4; equations of Wahlström & Eriksson):
+
+    ambient --compressor(flow)--> intake manifold (control volume) --cylinders(flow)-->
+    exhaust manifold (control volume) --turbine(flow)--> ambient;  compressor + turbine on the
+    turbo shaft (inertial).
+
+States ``x = (p_im [Pa], p_em [Pa], omega_tc [rad/s])``.  The engine speed is an *input*: the
+crank/flywheel inertia is a link of the simulator's mechanism, and this model only gives the
+torque applied to it (positive drives the crank).
+
+Equations (W&E with the EGR valve closed and the VGT frozen, i.e. a fixed-geometry turbine):
+
+* manifolds, isothermal filling and emptying (the intercooler is ideal, T_im constant)::
+
+      dp_im/dt = R_a*T_im*(W_c - W_ei)/V_im,     dp_em/dt = R_e*T_em*(W_ei + W_f - W_t)/V_em
+
+* cylinder air flow from the volumetric efficiency (n_e in rpm)::
+
+      eta_vol = c_vol1*sqrt(p_im) + c_vol2*sqrt(n_e) + c_vol3
+      W_ei = eta_vol*p_im*n_e*V_d/(120*R_a*T_im),   W_f = u_f*n_e*n_cyl/120
+
+* torque ("mean torque" model): indicated work of an ideal cycle times a factor, minus pumping
+  and friction (FMEP polynomial)::
+
+      W_ig = eta_igch*min(1, lambda)*(1 - r_c^(1-gamma_cyl))*u_f*n_cyl*q_HV
+      M_e  = (W_ig - V_d*(p_em - p_im) - V_d*1e5*FMEP(n_e))/(4*pi)
+
+* exhaust temperature: W&E's ideal-cycle (Seiliger) model, solved for the residual gas fraction
+  and charge temperature by a bounded fixed point, plus the pipe heat loss.
+
+Parameters and their sources (:class:`EngineParams`): every number of the air path, the
+cylinder, the torque and the exhaust-temperature models is W&E's published parameter set
+(12.74 L, 6 cylinders, r_c = 17) [WE-pkg, via shared/reference/turbo_engine.md 1.1].  What this
+project chose to meet an M915-class rating (Cummins NTC-400: 298 kW at 2100 rpm, about
+1.4-1.7 kN*m peak torque, boost pressure ratio 2.5-2.9 at rated) is:
+
+* the frozen vane position of the turbine map (``maps.DEFAULT_VGT_POSITION``);
+* the full-load fuel curve ``full_load_fuel`` (fuel per cycle and cylinder over engine speed),
+  which also contains the max-speed governor run-out from rated speed (2100 rpm) to high idle;
+* a minimum firing speed and a standstill regularisation of friction and pumping (the W&E fits
+  are valid for 500-2000 rpm).
+
+Fuel command: ``rack(t)`` in [0, 1] scales the full-load fuel at the current speed (a pump rack
+or pedal); an optional :class:`SpeedGovernor` raises the rack to hold idle speed.
+
+Robustness: a NaN or infinity in the state or in any computed quantity raises
+:class:`NonFiniteError` naming the component, the time and the state.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import ClassVar, Mapping
+
+import numpy as np
+from scipy.integrate import solve_ivp
+from scipy.optimize import root
+
+from transgen.errors import SimulationError
+
+from .causality import Block, Causality, ports
+from .maps import AIR, EXHAUST, RPM, Gas
+from .turbocharger import BasicTurbo, TurboShaft, make_turbo
+
+__all__ = [
+    "EngineParams",
+    "SpeedGovernor",
+    "TurbochargedDiesel",
+    "SteadyState",
+    "FullLoadCurve",
+    "EngineRating",
+    "full_load_curve",
+    "rate",
+    "NonFiniteError",
+    "SteadyStateError",
+    "exhaust_temperature",
+]
+
+
+class NonFiniteError(SimulationError):
+    """A NaN or infinity appeared in the engine model; the message names where."""
+
+
+class SteadyStateError(SimulationError):
+    """No steady operating point was found."""
+
+
+_MG = 1e-6  # kg per mg
+
+
+@dataclass(frozen=True)
+class EngineParams:
+    """Parameters of the mean-value engine (SI units; sources in the module docstring).
+
+    Ambient and air path: ``p_amb`` [Pa], ``T_amb`` [K], ``T_im`` intake-manifold temperature
+    [K], ``V_im``/``V_em`` manifold volumes [m^3].  Cylinders: ``V_d`` displacement [m^3],
+    ``n_cyl``, ``r_c``, ``c_vol`` volumetric-efficiency coefficients (p in Pa, n in rpm).
+    Torque: ``q_HV`` [J/kg], ``AFs`` stoichiometric air/fuel ratio, ``eta_igch``, ``gamma_cyl``,
+    ``c_fric`` FMEP polynomial [bar] in (n/1000 rpm).  Exhaust temperature: ``eta_sc``, ``x_cv``,
+    ``h_tot`` [W/(m^2 K)], pipe ``d_pipe``, ``l_pipe`` [m], ``n_pipe``, wall ``T_w`` [K].
+    Fuel: ``full_load_speed`` [rad/s] and ``full_load_fuel`` [kg per cycle per cylinder].
+    ``firing_speed`` [rad/s]: no injection below it (no starter is modelled).
+    ``friction_blend_speed`` [rad/s]: friction and pumping torque fade linearly to zero at
+    standstill below it, so that a stopped engine does not drive itself backwards.
+    """
+
+    # -- W&E published parameters [WE-pkg] (EGR and VGT parameters unused: EGR closed, VGT
+    #    frozen inside the turbine map) ------------------------------------------------------
+    p_amb: float = 101111.34
+    T_amb: float = 298.46
+    T_im: float = 300.62
+    T_w: float = 298.46
+    V_im: float = 0.022
+    V_em: float = 0.020
+    V_d: float = 0.01274
+    n_cyl: int = 6
+    r_c: float = 17.0
+    c_vol: tuple[float, float, float] = (-2.08166198e-04, -3.44651581e-03, 1.14970210)
+    q_HV: float = 4.29e7
+    AFs: float = 14.57
+    eta_igch: float = 0.6893563
+    gamma_cyl: float = 1.35
+    c_fric: tuple[float, float, float] = (0.97272276, -0.67688303, 0.59818913)
+    eta_sc: float = 1.10152946
+    x_cv: float = 2.3e-14
+    h_tot: float = 96.27545984
+    d_pipe: float = 0.1
+    l_pipe: float = 1.0
+    n_pipe: int = 2
+    air: Gas = AIR
+    exhaust: Gas = EXHAUST
+    shaft: TurboShaft = field(default_factory=TurboShaft)          # J_t = 2.0e-4 kg*m^2
+    # -- chosen in this project for the M915-class rating (see the module docstring) -------
+    full_load_speed: tuple[float, ...] = tuple(n * RPM for n in (
+        500, 800, 1000, 1200, 1400, 1600, 1800, 2000, 2100, 2300))
+    full_load_fuel: tuple[float, ...] = tuple(u * _MG for u in (
+        110, 150, 180, 195, 200, 200, 203, 207, 210, 0))
+    firing_speed: float = 300.0 * RPM
+    friction_blend_speed: float = 100.0 * RPM
+    rated_speed: float = 2100.0 * RPM
+
+    def full_load_fuel_at(self, omega_engine: float) -> float:
+        """Full-load fuel [kg per cycle per cylinder] at an engine speed [rad/s]."""
+        if omega_engine < self.firing_speed:
+            return 0.0
+        return float(np.interp(omega_engine, self.full_load_speed, self.full_load_fuel))
+
+
+@dataclass(frozen=True)
+class SpeedGovernor:
+    """Idle governor: ``rack = max(rack_demand, clamp(gain*(idle - omega)/idle, 0, 1))``.
+
+    ``idle_speed`` [rad/s]; ``gain`` [rack per unit relative speed error].  The max-speed
+    governor is the run-out of the full-load fuel curve above rated speed.
+    """
+
+    idle_speed: float = 600.0 * RPM
+    gain: float = 20.0
+
+    def rack(self, rack_demand: float, omega_engine: float) -> float:
+        """Governed rack position [0, 1]."""
+        g = self.gain * (self.idle_speed - omega_engine) / self.idle_speed
+        return max(rack_demand, min(max(g, 0.0), 1.0))
+
+
+def exhaust_temperature(p: EngineParams, p_im: float, p_em: float, fuel_air: float,
+                        W_eo: float, tol: float = 1e-13,
+                        maxiter: int = 60) -> tuple[float, float, float, float]:
+    """W&E exhaust-temperature model: ``(T_em, T_e, x_r, T_1)``.
+
+    Parameters
+    ----------
+    p : EngineParams
+    p_im, p_em : float
+        Manifold pressures [Pa].
+    fuel_air : float
+        Fuel/air mass ratio of the charge [-].
+    W_eo : float
+        Exhaust mass flow [kg/s] (for the pipe heat loss).
+
+    Notes
+    -----
+    The fixed point on the residual gas fraction ``x_r`` and the charge temperature ``T_1``
+    starts from ``x_r = 0``, ``T_1 = T_im`` at every call and is converged tightly, so that the
+    result is a smooth function of the inputs (no history, clean finite-difference Jacobians).
+
+    Raises
+    ------
+    SimulationError
+        If the fixed point does not converge within ``maxiter``.
+    """
+    g = p.air.gamma
+    cv = p.air.cp - p.air.R
+    rcg = p.r_c ** (g - 1.0)
+    pi_e = p_em / p_im
+    x_r, T_1 = 0.0, p.T_im
+    for _ in range(maxiter):
+        q_in = p.q_HV * (1.0 - x_r) * fuel_air / (1.0 + fuel_air)
+        x_p = 1.0 + q_in * p.x_cv / (cv * T_1 * rcg)
+        x_v = 1.0 + q_in * (1.0 - p.x_cv) / (p.air.cp * (q_in * p.x_cv / cv + T_1 * rcg))
+        x_r_new = min(max(pi_e ** (1.0 / g) * x_p ** (-1.0 / g) / (p.r_c * x_v), 0.0), 1.0)
+        T_e = (p.eta_sc * pi_e ** (1.0 - 1.0 / g) * p.r_c ** (1.0 - g) * x_p ** (1.0 / g - 1.0)
+               * (q_in * ((1.0 - p.x_cv) / p.air.cp + p.x_cv / cv) + T_1 * rcg))
+        T_1_new = max(273.0, x_r_new * T_e + (1.0 - x_r_new) * p.T_im)
+        done = abs(T_1_new - T_1) <= tol * T_1 and abs(x_r_new - x_r) <= tol
+        x_r, T_1 = x_r_new, T_1_new
+        if done:
+            break
+    else:
+        raise SimulationError(f"exhaust temperature: residual-gas fixed point did not converge "
+                              f"in {maxiter} iterations (p_im = {p_im:.6g} Pa, "
+                              f"p_em = {p_em:.6g} Pa, fuel/air = {fuel_air:.4g})")
+    if W_eo > 0.0:
+        hA = p.h_tot * math.pi * p.d_pipe * p.l_pipe * p.n_pipe
+        T_em = p.T_w + (T_e - p.T_w) * math.exp(-hA / (W_eo * p.exhaust.cp))
+    else:
+        T_em = p.T_w
+    return T_em, T_e, x_r, T_1
+
+
+def _check_finite(component: str, t: float, x, values: Mapping[str, float]) -> None:
+    for k, v in values.items():
+        if not math.isfinite(v):
+            raise NonFiniteError(
+                f"engine: non-finite {k} = {v} in the {component} at t = {t:.6g} s, state "
+                f"p_im = {x[0]:.6g} Pa, p_em = {x[1]:.6g} Pa, omega_tc = {x[2]:.6g} rad/s")
+
+
+@dataclass(frozen=True)
+class SteadyState:
+    """A steady operating point.
+
+    ``engine_speed`` [rad/s], ``fuel`` [kg per cycle per cylinder], ``state`` (p_im [Pa],
+    p_em [Pa], omega_tc [rad/s]), ``torque`` [N*m], ``power`` [W], ``boost_pressure_ratio``
+    p_im/p_amb [-], ``turbo_speed`` [rad/s], ``signals`` (all named quantities).
+    """
+
+    engine_speed: float
+    fuel: float
+    state: tuple[float, float, float]
+    torque: float
+    power: float
+    boost_pressure_ratio: float
+    turbo_speed: float
+    signals: Mapping[str, float]
+
+
+class TurbochargedDiesel:
+    """Mean-value turbocharged diesel; the torque source of the crank link.
+
+    Parameters
+    ----------
+    params : EngineParams
+    turbo : {"basic", "iterative"} or BasicTurbo
+        Turbocharger algorithm (:class:`~transgen.sim.turbocharger.BasicTurbo` or
+        :class:`~transgen.sim.turbocharger.IterativeTurbo`) built with ``params.shaft`` and the
+        shipped maps, or an instance (which keeps its own maps and shaft).
+    rack : float or callable
+        Rack position in [0, 1], constant or a function of time [s].
+    governor : SpeedGovernor, optional
+        Idle governor acting on the rack.
+
+    Notes
+    -----
+    The interface the simulator calls (duck-typed): ``state_names``, ``initial_state``,
+    ``derivatives``, ``torque``, ``signals``.  Results of the last evaluation are cached, so
+    ``torque`` and ``signals`` after ``derivatives`` at the same arguments cost nothing.
+    """
+
+    state_names: ClassVar[tuple[str, ...]] = ("p_im", "p_em", "omega_tc")
+    causality: ClassVar[Mapping[str, Causality]] = ports(crank=Causality.RESISTIVE)
+
+    def __init__(self, params: EngineParams = EngineParams(), turbo: str | BasicTurbo = "basic",
+                 rack: float | Callable[[float], float] = 1.0,
+                 governor: SpeedGovernor | None = None):
+        self.params = params
+        self.turbo = make_turbo(turbo, shaft=params.shaft) if isinstance(turbo, str) else turbo
+        self.rack = rack if callable(rack) else (lambda t, r=float(rack): r)
+        self.governor = governor
+        self._cache_key: tuple | None = None
+        self._cache: tuple[np.ndarray, float, dict] | None = None
+
+    # ---------------------------------------------------------------- inputs
+    def fuel(self, t: float, omega_engine: float) -> float:
+        """Injected fuel [kg per cycle per cylinder] at time t [s] and engine speed [rad/s]."""
+        r = self.rack(t)
+        if self.governor is not None:
+            r = self.governor.rack(r, omega_engine)
+        return self.params.full_load_fuel_at(omega_engine) * min(max(r, 0.0), 1.0)
+
+    # ---------------------------------------------------------------- model
+    def _evaluate(self, t: float, x, omega_e: float, u_f: float):
+        p = self.params
+        p_im, p_em, w_tc = float(x[0]), float(x[1]), float(x[2])
+        _check_finite("engine state", t, (p_im, p_em, w_tc),
+                      {"p_im": p_im, "p_em": p_em, "omega_tc": w_tc, "omega_engine": omega_e})
+        if p_im <= 0.0 or p_em <= 0.0:
+            raise SimulationError(f"engine: non-physical manifold pressure at t = {t:.6g} s "
+                                  f"(p_im = {p_im:.6g} Pa, p_em = {p_em:.6g} Pa)")
+        n_e = abs(omega_e) / RPM
+        # cylinders (flow block)
+        eta_vol = p.c_vol[0] * math.sqrt(p_im) + p.c_vol[1] * math.sqrt(n_e) + p.c_vol[2]
+        m_air = eta_vol * p_im * p.V_d / (p.air.R * p.T_im)          # kg per cycle
+        m_fuel = u_f * p.n_cyl                                      # kg per cycle
+        W_ei, W_f = m_air * n_e / 120.0, m_fuel * n_e / 120.0
+        W_eo = W_ei + W_f
+        lam = m_air / (m_fuel * p.AFs) if m_fuel > 0.0 else math.inf
+        blend = min(max(omega_e / p.friction_blend_speed, -1.0), 1.0)
+        W_ig = (p.eta_igch * min(1.0, lam) * (1.0 - p.r_c ** (1.0 - p.gamma_cyl))
+                * m_fuel * p.q_HV)
+        n_k = n_e / 1000.0
+        fmep = p.c_fric[0] * n_k * n_k + p.c_fric[1] * n_k + p.c_fric[2]
+        torque = (W_ig - blend * (p.V_d * (p_em - p_im) + p.V_d * 1e5 * fmep)) / (4.0 * math.pi)
+        cyl = {"eta_vol": eta_vol, "m_dot_air_cyl": W_ei, "m_dot_fuel": W_f,
+               "torque_engine": torque}
+        _check_finite("cylinders", t, x, cyl)
+        # exhaust temperature (algebraic loop hidden inside the block, thesis 2.4.3)
+        T_em, T_e, x_r, T_1 = exhaust_temperature(p, p_im, p_em, m_fuel / m_air, W_eo)
+        _check_finite("exhaust-temperature model", t, x,
+                      {"T_em": T_em, "T_e": T_e, "x_r": x_r, "T_1": T_1})
+        # turbocharger (flow blocks + shaft)
+        tp = self.turbo.evaluate(p.p_amb, p.T_amb, p_im, p_em, T_em, p.p_amb, w_tc)
+        c, tu = tp.compressor, tp.turbine
+        _check_finite("compressor", t, x, {"m_dot": c.m_dot, "T_out": c.T_out,
+                                           "torque": c.torque, "chi": c.chi})
+        _check_finite("turbine", t, x, {"m_dot": tu.m_dot, "T_out": tu.T_out,
+                                        "torque": tu.torque})
+        # manifolds (control volumes)
+        dx = np.array([p.air.R * p.T_im * (c.m_dot - W_ei) / p.V_im,
+                       p.exhaust.R * T_em * (W_eo - tu.m_dot) / p.V_em,
+                       tp.omega_dot])
+        _check_finite("manifold and shaft derivatives", t, x,
+                      dict(zip(("dp_im/dt", "dp_em/dt", "domega_tc/dt"), dx)))
+        sig = {"p_im": p_im, "p_em": p_em, "boost_pressure_ratio": p_im / p.p_amb,
+               "turbo_speed": w_tc, "turbo_speed_rpm": w_tc / RPM, "engine_speed": omega_e,
+               "fuel_per_cycle": u_f, "lambda": lam, "T_em": T_em, "T_e": T_e,
+               "residual_gas_fraction": x_r, "power_engine": torque * omega_e}
+        sig.update(cyl)
+        sig.update(tp.signals())
+        return dx, torque, sig
+
+    def _cached(self, t: float, x, omega_engine: float):
+        key = (t, float(x[0]), float(x[1]), float(x[2]), omega_engine)
+        if key != self._cache_key:
+            self._cache = self._evaluate(t, x, omega_engine, self.fuel(t, omega_engine))
+            self._cache_key = key
+        return self._cache
+
+    # ---------------------------------------------------------------- simulator interface
+    def initial_state(self, omega_engine: float) -> np.ndarray:
+        """Steady state at the engine speed [rad/s] and the fuel of t = 0 (p_im, p_em, omega_tc).
+
+        Below the firing speed (an engine at rest, no starter modelled) there is no steady
+        state; the rest state (ambient manifolds, turbo at its floor speed) is returned.
+        """
+        if abs(omega_engine) < self.params.firing_speed:
+            p_amb = self.params.p_amb
+            return np.array([p_amb, p_amb, self.turbo.shaft.omega_floor])
+        return np.array(self.steady_state(omega_engine, self.fuel(0.0, omega_engine)).state)
+
+    def derivatives(self, t: float, x: np.ndarray, omega_engine: float) -> np.ndarray:
+        """``dx/dt`` = (dp_im/dt [Pa/s], dp_em/dt [Pa/s], domega_tc/dt [rad/s^2])."""
+        return self._cached(t, x, omega_engine)[0].copy()
+
+    def torque(self, t: float, x: np.ndarray, omega_engine: float) -> float:
+        """Torque [N*m] delivered to the crank link; positive drives it."""
+        return self._cached(t, x, omega_engine)[1]
+
+    def signals(self, t: float, x: np.ndarray, omega_engine: float) -> dict[str, float]:
+        """Named quantities (SI units): turbo speed, chi, mass flows, PR, ER, temperatures,
+        boost, torque, lambda, ..."""
+        return dict(self._cached(t, x, omega_engine)[2])
+
+    # ---------------------------------------------------------------- steady state
+    def steady_state(self, engine_speed: float, fuel: float | None = None,
+                     guess: Sequence[float] | None = None) -> SteadyState:
+        """Steady operating point at an engine speed [rad/s] and fuel [kg per cycle per
+        cylinder] (default: full load).
+
+        A pseudo-transient (stiff integration) brings a default or given guess near the
+        equilibrium, and a Newton-type solve (``scipy.optimize.root``) polishes it.
+
+        Raises
+        ------
+        SteadyStateError
+            If no equilibrium is found.
+        """
+        u_f = self.params.full_load_fuel_at(engine_speed) if fuel is None else fuel
+        scale = np.array([1e5, 1e5, 1e4])
+
+        def f(z):
+            return self._evaluate(0.0, z * scale, engine_speed, u_f)[0] / scale
+
+        def fz(_t, z):
+            return f(z)
+
+        p_amb = self.params.p_amb
+        z0 = np.asarray(guess if guess is not None else (p_amb * 1.1, p_amb * 1.2, 6000.0))
+        z0 = z0 / scale
+        sol = None
+        ok = lambda s: s is not None and np.max(np.abs(f(s.x))) < 1e-6  # noqa: E731
+        # The search passes through points that are not operating points: keep it from using
+        # up the maps' single out-of-data warning (the final point is checked below).
+        tables = (self.turbo.compressor.table, self.turbo.turbine.table)
+        warned = [tab.warned for tab in tables]
+        try:
+            for tab in tables:
+                tab.warned = True
+            if guess is not None:
+                sol = root(f, z0, method="hybr", options={"xtol": 1e-12})
+            if not ok(sol):
+                ivp = solve_ivp(fz, (0.0, 30.0), z0, method="BDF", rtol=1e-8, atol=1e-8)
+                sol = root(f, ivp.y[:, -1], method="hybr", options={"xtol": 1e-12})
+        finally:
+            for tab, w in zip(tables, warned):
+                tab.warned = w
+        if not ok(sol):
+            raise SteadyStateError(f"engine: no steady state at {engine_speed / RPM:.0f} rpm and "
+                                   f"{u_f / _MG:.1f} mg/cycle ({sol.message}; scaled residual "
+                                   f"{f(sol.x)})")
+        x = sol.x * scale
+        _, torque, sig = self._evaluate(0.0, x, engine_speed, u_f)
+        return SteadyState(engine_speed, u_f, tuple(map(float, x)), torque,
+                           torque * engine_speed, sig["boost_pressure_ratio"], float(x[2]), sig)
+
+    # ---------------------------------------------------------------- structure
+    def causal_structure(self) -> tuple[list[Block], list[tuple[str, str]]]:
+        """Blocks and joints of the engine air path, for
+        :func:`~transgen.sim.causality.check_connections`."""
+        cv = ports(port_a=Causality.CONTROL_VOLUME, port_b=Causality.CONTROL_VOLUME)
+        blocks = [Block("ambient_in", ports(port=Causality.CONTROL_VOLUME)),
+                  Block.of("compressor", self.turbo.compressor),
+                  Block("intake_manifold", cv),
+                  Block("cylinders", ports(intake=Causality.FLOW, exhaust=Causality.FLOW,
+                                           crank=Causality.RESISTIVE)),
+                  Block("exhaust_manifold", cv),
+                  Block.of("turbine", self.turbo.turbine),
+                  Block("ambient_out", ports(port=Causality.CONTROL_VOLUME)),
+                  Block.of("turbo_shaft", self.turbo.shaft),
+                  Block("crank", ports(shaft=Causality.INERTIAL))]
+        joints = [("ambient_in", "compressor.inlet"),
+                  ("compressor.outlet", "intake_manifold.port_a"),
+                  ("intake_manifold.port_b", "cylinders.intake"),
+                  ("cylinders.exhaust", "exhaust_manifold.port_a"),
+                  ("exhaust_manifold.port_b", "turbine.inlet"), ("turbine.outlet", "ambient_out"),
+                  ("compressor.shaft", "turbo_shaft"), ("turbine.shaft", "turbo_shaft"),
+                  ("cylinders.crank", "crank")]
+        return blocks, joints
+
+
+@dataclass(frozen=True)
+class FullLoadCurve:
+    """Full-load curve: ``engine_speed`` [rad/s], ``torque`` [N*m], ``power`` [W],
+    ``boost_pressure_ratio`` [-], ``turbo_speed`` [rad/s], ``fuel`` [kg/cycle/cylinder],
+    ``chi`` compressor map coordinate [-] (1 = surge line)."""
+
+    engine_speed: np.ndarray
+    torque: np.ndarray
+    power: np.ndarray
+    boost_pressure_ratio: np.ndarray
+    turbo_speed: np.ndarray
+    fuel: np.ndarray
+    chi: np.ndarray
+
+
+def full_load_curve(engine: TurbochargedDiesel,
+                    engine_speeds: Sequence[float] = tuple(n * RPM for n in range(800, 2101, 100))
+                    ) -> FullLoadCurve:
+    """Steady full-load points over engine speeds [rad/s] (each warm-starts the next)."""
+    pts, guess = [], None
+    for w in engine_speeds:
+        s = engine.steady_state(w, guess=guess)
+        pts.append(s)
+        guess = s.state
+    arr = lambda name: np.array([getattr(s, name) for s in pts])  # noqa: E731
+    return FullLoadCurve(arr("engine_speed"), arr("torque"), arr("power"),
+                         arr("boost_pressure_ratio"), arr("turbo_speed"), arr("fuel"),
+                         np.array([s.signals["chi"] for s in pts]))
+
+
+@dataclass(frozen=True)
+class EngineRating:
+    """Rating summary: ``rated_power`` [W] and ``rated_torque`` [N*m] at ``rated_speed``
+    [rad/s]; ``peak_torque`` [N*m] at ``peak_torque_speed`` [rad/s]; boost pressure ratio and
+    turbo speed [rad/s] at rated; the full-load curve."""
+
+    rated_speed: float
+    rated_power: float
+    rated_torque: float
+    peak_torque: float
+    peak_torque_speed: float
+    rated_boost_pressure_ratio: float
+    rated_turbo_speed: float
+    curve: FullLoadCurve
+
+    def __str__(self) -> str:
+        return (f"rated {self.rated_power / 1e3:.1f} kW at {self.rated_speed / RPM:.0f} rpm "
+                f"({self.rated_torque:.0f} N*m), peak torque {self.peak_torque:.0f} N*m at "
+                f"{self.peak_torque_speed / RPM:.0f} rpm, boost PR at rated "
+                f"{self.rated_boost_pressure_ratio:.2f}, turbo speed at rated "
+                f"{self.rated_turbo_speed / RPM / 1e3:.1f} krpm")
+
+
+def rate(engine: TurbochargedDiesel) -> EngineRating:
+    """Full-load curve from 800 rpm to rated speed (100 rpm steps) and its rating summary."""
+    rated = engine.params.rated_speed
+    speeds = [n * RPM for n in range(800, int(round(rated / RPM)), 100)] + [rated]
+    curve = full_load_curve(engine, speeds)
+    k = int(np.argmax(curve.torque))
+    return EngineRating(rated, float(curve.power[-1]), float(curve.torque[-1]),
+                        float(curve.torque[k]), float(curve.engine_speed[k]),
+                        float(curve.boost_pressure_ratio[-1]), float(curve.turbo_speed[-1]),
+                        curve)

@@ -1,0 +1,382 @@
+"""Turbocharger: compressor and turbine on one shaft, with two interchangeable algorithms.
+
+Both algorithms have the same causality (thesis 4.5: "the modified algorithm block can directly
+replace the basic algorithm block"): they take the static pressures and temperatures of the
+control volumes on either side of the compressor and the turbine plus the turbo speed, and give
+mass flows, outlet temperatures, shaft torques, chi, PR and ER (:class:`TurboPoint`).
+
+* :class:`BasicTurbo` (thesis 4.4): no kinetic energy; the static values are used as totals.
+* :class:`IterativeTurbo` (thesis 4.5, eqs 4.34-4.41): each device port is a duct of known area.
+  The manifold values are the *static* state at the ports (as in the thesis), the Mach numbers
+  follow from eq. 4.36 and the totals from eqs 4.34-4.35; the maps are read with totals.  The
+  unknown of each device is its mass flow ``m``, solved from ``m = m_map(m)`` by Brent's method on
+  a bracket (warm-started from the previous call's solution, with a narrow bracket tried first).
+  Inside, the outlet total temperature (which sets the outlet Mach number) is converged by a
+  bounded fixed point.  A choke check comes first: if the map flow exceeds what a port duct can
+  pass at Mach 1 (static-state choking, ``m* = p*A*sqrt(gamma/(R*T))`` at the inlet and
+  ``p*A*sqrt(gamma/(R*T0))*sqrt((gamma+1)/2)`` at the outlet) :class:`ChokedFlowError` is raised;
+  if the solve does not converge :class:`TurboConvergenceError` is raised.  No silent value is
+  ever returned.
+
+Shaft dynamics (eqs 4.32-4.33)::
+
+    J * domega/dt = t_turb - t_comp - c(omega),    c(omega) = c1*omega + c2*omega*|omega|
+
+Guard at low turbo speed: torques are ``power / max(omega, omega_floor)`` with ``omega_floor``
+= 100 rpm, and the speed is held at the floor while the net torque would decelerate it below
+(the saturated integrator of Wahlström & Eriksson).
+
+About ``c(omega)``: the shipped turbine map's efficiency is W&E's ``eta_tm``, which already
+contains the bearing losses; the default damping is therefore zero so as not to count friction
+twice.  With an aerodynamic turbine map, use e.g. ``c2 = 4.9e-9 N*m*s^2`` (the ECOSM'12 model's
+``J*w_fric`` for a 12.7 L engine).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import ClassVar, Mapping
+
+from scipy.optimize import brentq
+
+from transgen.errors import SimulationError
+
+from .causality import Causality, ports
+from .compressor import Compressor, CompressorPoint
+from .maps import (OMEGA_FLOOR, Gas, default_compressor_table, default_turbine_table)
+from .turbine import Turbine, TurbinePoint
+
+__all__ = [
+    "TurboShaft",
+    "PortAreas",
+    "TurboPoint",
+    "BasicTurbo",
+    "IterativeTurbo",
+    "make_turbo",
+    "TurboSolveError",
+    "ChokedFlowError",
+    "TurboConvergenceError",
+    "mach_number",
+    "mach_from_total_temperature",
+    "total_temperature",
+    "total_pressure",
+]
+
+
+class TurboSolveError(SimulationError):
+    """The iterative (kinetic-energy) turbocharger algorithm found no valid solution."""
+
+
+class ChokedFlowError(TurboSolveError):
+    """A port duct would have to pass more than its choked (Mach 1) mass flow."""
+
+
+class TurboConvergenceError(TurboSolveError):
+    """The bracketed solve or the inner fixed point did not converge within its bound."""
+
+
+# --------------------------------------------------------------------------------------------
+# Compressible-flow relations (thesis eqs 4.34-4.37)
+# --------------------------------------------------------------------------------------------
+def total_temperature(T: float, M: float, gas: Gas) -> float:
+    """Total temperature [K] from static temperature [K] and Mach number (eq. 4.34)."""
+    return T * (1.0 + 0.5 * (gas.gamma - 1.0) * M * M)
+
+
+def total_pressure(p: float, M: float, gas: Gas) -> float:
+    """Total pressure [Pa] from static pressure [Pa] and Mach number (eq. 4.35)."""
+    return p * (1.0 + 0.5 * (gas.gamma - 1.0) * M * M) ** (1.0 / gas.kappa)
+
+
+def mach_number(m_dot: float, p: float, T: float, area: float, gas: Gas) -> float:
+    """Mach number from mass flow [kg/s], static pressure [Pa], static temperature [K] and duct
+    area [m^2] (eq. 4.36)."""
+    return m_dot / (p * area) * math.sqrt(gas.R * T / gas.gamma)
+
+
+def mach_from_total_temperature(m_dot: float, p: float, T0: float, area: float,
+                                gas: Gas) -> float:
+    """Mach number from mass flow, static pressure, *total* temperature and area.
+
+    Eq. 4.36 with ``T = T0/(1 + (gamma-1)/2*M^2)`` (eq. 4.34) is a quadratic in ``M^2``, solved
+    here in closed form (the numerically stable root).
+    """
+    q2 = (m_dot / (p * area)) ** 2 * gas.R * T0 / gas.gamma
+    return math.sqrt(2.0 * q2 / (1.0 + math.sqrt(1.0 + 2.0 * (gas.gamma - 1.0) * q2)))
+
+
+# --------------------------------------------------------------------------------------------
+# Parameters and results
+# --------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class TurboShaft:
+    """Turbo rotor (thesis eqs 4.32-4.33).
+
+    Parameters
+    ----------
+    inertia : float
+        ``J_comp + J_turb + J_shaft`` [kg*m^2]; default W&E's J_t = 2.0e-4.
+    c1 : float
+        Linear damping coefficient [N*m*s/rad].
+    c2 : float
+        Quadratic damping coefficient [N*m*s^2/rad^2] (see the module docstring for defaults).
+    omega_floor : float
+        Lowest speed [rad/s]: torque = power/max(omega, floor), and the speed does not
+        decelerate below it.
+    """
+
+    inertia: float = 2.0e-4
+    c1: float = 0.0
+    c2: float = 0.0
+    omega_floor: float = OMEGA_FLOOR
+    causality: ClassVar[Mapping[str, Causality]] = ports(shaft=Causality.INERTIAL)
+
+    def damping(self, omega: float) -> float:
+        """Nonlinear damping torque ``c(omega) = c1*omega + c2*omega*|omega|`` [N*m]."""
+        return self.c1 * omega + self.c2 * omega * abs(omega)
+
+    def acceleration(self, torque_turbine: float, torque_compressor: float,
+                     omega: float) -> float:
+        """``domega/dt`` [rad/s^2] from turbine (driving) and compressor (absorbed) torques."""
+        a = (torque_turbine - torque_compressor - self.damping(omega)) / self.inertia
+        return 0.0 if (omega <= self.omega_floor and a < 0.0) else a
+
+
+@dataclass(frozen=True)
+class PortAreas:
+    """Flow areas [m^2] of the four device ports used by :class:`IterativeTurbo`.
+
+    Defaults are assumed duct sizes of a heavy-duty turbocharger (not sourced): compressor inlet
+    100 mm, compressor outlet 76 mm, turbine inlet 76 mm, turbine outlet 100 mm diameter.
+    """
+
+    compressor_inlet: float = math.pi / 4 * 0.100 ** 2
+    compressor_outlet: float = math.pi / 4 * 0.076 ** 2
+    turbine_inlet: float = math.pi / 4 * 0.076 ** 2
+    turbine_outlet: float = math.pi / 4 * 0.100 ** 2
+
+
+@dataclass(frozen=True)
+class TurboPoint:
+    """Result of one turbocharger evaluation.
+
+    ``compressor`` and ``turbine`` hold the device points (mass flows [kg/s], outlet total
+    temperatures [K], torques [N*m], chi, PR, ER, efficiencies); ``omega`` [rad/s] is the turbo
+    speed, ``omega_dot`` [rad/s^2] its derivative (eq. 4.33), ``damping_torque`` [N*m] is
+    ``c(omega)``; ``mach`` are the Mach numbers at (compressor inlet, compressor outlet, turbine
+    inlet, turbine outlet), zero for the basic algorithm.
+    """
+
+    compressor: CompressorPoint
+    turbine: TurbinePoint
+    omega: float
+    omega_dot: float
+    damping_torque: float
+    mach: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
+
+    def signals(self) -> dict[str, float]:
+        """Flat dict of the named quantities (SI units)."""
+        c, t = self.compressor, self.turbine
+        return {
+            "omega_tc": self.omega, "omega_tc_dot": self.omega_dot,
+            "m_dot_c": c.m_dot, "m_dot_t": t.m_dot, "T_c_out": c.T_out, "T_t_out": t.T_out,
+            "torque_c": c.torque, "torque_t": t.torque, "torque_tc_damping": self.damping_torque,
+            "power_c": c.power, "power_t": t.power, "chi": c.chi, "PR_c": c.pressure_ratio,
+            "ER_t": t.expansion_ratio, "eta_c": c.eta, "eta_t": t.eta,
+            "N_corr_c": c.corrected_speed, "N_corr_t": t.corrected_speed,
+            "mach_c_in": self.mach[0], "mach_c_out": self.mach[1],
+            "mach_t_in": self.mach[2], "mach_t_out": self.mach[3],
+        }
+
+
+# --------------------------------------------------------------------------------------------
+# The two algorithms
+# --------------------------------------------------------------------------------------------
+class BasicTurbo:
+    """Turbocharger without kinetic-energy effects (thesis 4.4).
+
+    Parameters
+    ----------
+    compressor, turbine : Compressor, Turbine, optional
+        Devices; default: the shipped W&E-derived maps.
+    shaft : TurboShaft
+        Rotor inertia and damping.
+    """
+
+    kind: ClassVar[str] = "basic"
+    causality: ClassVar[Mapping[str, Causality]] = ports(
+        compressor_inlet=Causality.FLOW, compressor_outlet=Causality.FLOW,
+        turbine_inlet=Causality.FLOW, turbine_outlet=Causality.FLOW,
+        shaft=Causality.RESISTIVE)
+
+    def __init__(self, compressor: Compressor | None = None, turbine: Turbine | None = None,
+                 shaft: TurboShaft = TurboShaft()):
+        self.compressor = compressor or Compressor(default_compressor_table())
+        self.turbine = turbine or Turbine(default_turbine_table())
+        self.shaft = shaft
+
+    def _devices(self, p_c_in, T_c_in, p_c_out, p_t_in, T_t_in, p_t_out, omega):
+        return (self.compressor.operate(p_c_in, T_c_in, p_c_out, omega),
+                self.turbine.operate(p_t_in, T_t_in, p_t_out, omega), (0.0,) * 4)
+
+    def evaluate(self, p_c_in: float, T_c_in: float, p_c_out: float, p_t_in: float,
+                 T_t_in: float, p_t_out: float, omega: float) -> TurboPoint:
+        """Evaluate the turbocharger.
+
+        Parameters
+        ----------
+        p_c_in, T_c_in : float
+            Static pressure [Pa] and temperature [K] upstream of the compressor (ambient).
+        p_c_out : float
+            Static pressure [Pa] downstream of the compressor (intake manifold).
+        p_t_in, T_t_in : float
+            Static pressure [Pa] and temperature [K] upstream of the turbine (exhaust manifold).
+        p_t_out : float
+            Static pressure [Pa] downstream of the turbine (ambient / exhaust system).
+        omega : float
+            Turbo speed [rad/s].
+        """
+        c, t, mach = self._devices(p_c_in, T_c_in, p_c_out, p_t_in, T_t_in, p_t_out, omega)
+        return TurboPoint(c, t, omega, self.shaft.acceleration(t.torque, c.torque, omega),
+                          self.shaft.damping(omega), mach)
+
+    def reset(self) -> None:
+        """Forget any warm-start information (nothing for the basic algorithm)."""
+
+
+@dataclass(frozen=True)
+class _Where:
+    """Operating point named in error messages (formatted only when an error is raised)."""
+
+    device: str
+    p_in: float
+    T_in: float
+    p_out: float
+    omega: float
+
+    def __str__(self) -> str:
+        return (f"{self.device} (p_in = {self.p_in:.6g} Pa, T_in = {self.T_in:.6g} K, "
+                f"p_out = {self.p_out:.6g} Pa, omega = {self.omega:.6g} rad/s)")
+
+
+class IterativeTurbo(BasicTurbo):
+    """Turbocharger with kinetic-energy effects: Mach numbers and total properties (thesis 4.5).
+
+    Parameters
+    ----------
+    compressor, turbine, shaft
+        As for :class:`BasicTurbo`.
+    ports : PortAreas
+        Duct areas of the four device ports [m^2].
+    xtol : float
+        Absolute tolerance [kg/s] of the mass-flow solve.  It is tight so that the result is a
+        smooth function of the inputs for the finite-difference Jacobians of stiff solvers.
+    maxiter : int
+        Iteration bound of Brent's method.
+    inner_tol : float
+        Relative tolerance of the outlet total-temperature fixed point.
+    inner_maxiter : int
+        Iteration bound of that fixed point.
+    """
+
+    kind: ClassVar[str] = "iterative"
+
+    def __init__(self, compressor: Compressor | None = None, turbine: Turbine | None = None,
+                 shaft: TurboShaft = TurboShaft(), ports: PortAreas = PortAreas(),
+                 xtol: float = 1e-13, maxiter: int = 60, inner_tol: float = 1e-12,
+                 inner_maxiter: int = 50):
+        super().__init__(compressor, turbine, shaft)
+        self.ports = ports
+        self.xtol, self.maxiter = xtol, maxiter
+        self.inner_tol, self.inner_maxiter = inner_tol, inner_maxiter
+        self._warm: dict[str, tuple[float, float]] = {}
+
+    def reset(self) -> None:
+        """Forget the previous solutions used as warm starts."""
+        self._warm.clear()
+
+    def _devices(self, p_c_in, T_c_in, p_c_out, p_t_in, T_t_in, p_t_out, omega):
+        a = self.ports
+        c, mc = self._solve("compressor", self.compressor, p_c_in, T_c_in, p_c_out, omega,
+                            a.compressor_inlet, a.compressor_outlet)
+        t, mt = self._solve("turbine", self.turbine, p_t_in, T_t_in, p_t_out, omega,
+                            a.turbine_inlet, a.turbine_outlet)
+        return c, t, mc + mt
+
+    def _bracket(self, residual, guess, hi, m_basic, where):
+        """A bracket [a, b] with residual(a) < 0 < residual(b), grown from +-2 % around the
+        guess towards [0, hi] (residual(0) = -m_basic < 0); evaluations stay near the root."""
+        guess = min(max(guess, 1e-6 * hi), 0.99 * hi)
+        a, b = 0.98 * guess, min(1.02 * guess, hi)
+        ra, rb = residual(a), residual(b)
+        for _ in range(40):
+            if ra < 0.0 < rb:
+                return a, b
+            w = 2.0 * (b - a)
+            if ra >= 0.0:
+                a = max(0.0, a - w)
+                ra = residual(a) if a > 0.0 else -m_basic
+            if rb <= 0.0:
+                if b >= hi:
+                    raise ChokedFlowError(f"{where}: no subsonic solution; the ports would "
+                                          f"choke below the map flow (bracket up to {hi:.4g} "
+                                          "kg/s)")
+                b = min(hi, b + w)
+                rb = residual(b)
+        raise TurboConvergenceError(f"{where}: no bracket of the mass-flow solution found")
+
+    def _solve(self, name, device, p1, T1, p2, omega, area_in, area_out):
+        """Solve ``m = m_map(m)`` for one device between static states (p1, T1) and p2."""
+        gas = device.gas
+        where = _Where(name, p1, T1, p2, omega)
+        basic = device.operate(p1, T1, p2, omega)
+        if basic.m_dot <= 0.0:
+            return basic, (0.0, 0.0)
+        # Choke check before the iteration (static-state choking of the port ducts).
+        m_star = min(p1 * area_in * math.sqrt(gas.gamma / (gas.R * T1)),
+                     p2 * area_out * math.sqrt(gas.gamma * (gas.gamma + 1.0)
+                                               / (2.0 * gas.R * basic.T_out)))
+        if basic.m_dot >= m_star:
+            raise ChokedFlowError(f"{where}: map flow {basic.m_dot:.4g} kg/s exceeds the "
+                                  f"choked flow {m_star:.4g} kg/s of its port ducts")
+        m_warm, T02 = self._warm.get(name, (basic.m_dot, basic.T_out))
+        last: dict = {"T02": T02}
+
+        def residual(m: float) -> float:
+            M1 = mach_number(m, p1, T1, area_in, gas)
+            p01, T01 = total_pressure(p1, M1, gas), total_temperature(T1, M1, gas)
+            T02 = last["T02"]
+            for _ in range(self.inner_maxiter):
+                M2 = mach_from_total_temperature(m, p2, T02, area_out, gas)
+                pt = device.operate(p01, T01, total_pressure(p2, M2, gas), omega)
+                if abs(pt.T_out - T02) <= self.inner_tol * T02:
+                    break
+                T02 = pt.T_out
+            else:
+                raise TurboConvergenceError(f"{where}: outlet total temperature did not "
+                                            f"converge in {self.inner_maxiter} iterations")
+            last.update(T02=pt.T_out, point=pt, mach=(M1, M2))
+            return m - pt.m_dot
+
+        a, b = self._bracket(residual, m_warm, 0.999 * m_star, basic.m_dot, where)
+        m, info = brentq(residual, a, b, xtol=self.xtol, maxiter=self.maxiter,
+                         full_output=True, disp=False)
+        if not info.converged:
+            raise TurboConvergenceError(f"{where}: mass-flow solve did not converge in "
+                                        f"{self.maxiter} iterations ({info.flag})")
+        residual(m)
+        M1, M2 = last["mach"]
+        if not (M1 < 1.0 and M2 < 1.0):
+            raise ChokedFlowError(f"{where}: solution is not subsonic (M_in = {M1:.3f}, "
+                                  f"M_out = {M2:.3f})")
+        self._warm[name] = (m, last["T02"])
+        return last["point"], (M1, M2)
+
+
+def make_turbo(kind: str = "basic", compressor: Compressor | None = None,
+               turbine: Turbine | None = None, shaft: TurboShaft = TurboShaft()) -> BasicTurbo:
+    """A turbocharger by algorithm name, ``"basic"`` or ``"iterative"``."""
+    classes = {"basic": BasicTurbo, "iterative": IterativeTurbo}
+    if kind not in classes:
+        raise ValueError(f"unknown turbocharger algorithm {kind!r}; use 'basic' or 'iterative'")
+    return classes[kind](compressor, turbine, shaft)
