@@ -160,8 +160,8 @@ def assemble(g: nx.DiGraph, locked=(), symbolic: bool = False) -> ModeEquations:
     return ModeEquations(locked, z, u, E, F, len(links), len(locked))
 
 
-def solve(eq: ModeEquations, g: nx.DiGraph, simplify: bool = True) -> ModeEquations:
-    """``G = -E^-1 F``: LU with partial pivoting (numeric) or exact LU (symbolic).
+def solve(eq: ModeEquations, g: nx.DiGraph) -> ModeEquations:
+    """``G = -E^-1 F``: LU with partial pivoting (numeric) or exact sparse elimination (symbolic).
 
     Raises :class:`ModeError` naming the massless links whose motion is undetermined or the
     locked elements whose torques are not unique when ``E`` is singular.
@@ -173,13 +173,10 @@ def solve(eq: ModeEquations, g: nx.DiGraph, simplify: bool = True) -> ModeEquati
         G = -scipy.linalg.lu_solve(scipy.linalg.lu_factor(eq.E), eq.F)
         G[np.abs(G) < 1e-13 * max(1.0, np.abs(G).max(initial=0.0))] = 0.0
     else:
-        import sympy
-
-        if diagnose_singular(g, eq.locked):
-            raise ModeError(diagnose_singular(g, eq.locked))
-        G = -eq.E.LUsolve(eq.F)
-        if simplify:
-            G = G.applyfunc(lambda x: sympy.factor(sympy.cancel(x)))
+        problem = diagnose_singular(g, eq.locked)
+        if problem:
+            raise ModeError(problem)
+        G = _sparse_exact_solve(eq.E, eq.F)
     return ModeEquations(eq.locked, eq.z, eq.u, eq.E, eq.F, eq.n_links, eq.n_locked, G)
 
 
@@ -213,3 +210,73 @@ def diagnose_singular(g: nx.DiGraph, locked=()) -> str:
     if not problems:
         return ""
     return f"mode with {', '.join(locked) or 'no element'} locked: " + "; ".join(problems)
+
+
+def _sparse_exact_solve(E, F):
+    """``G = -E^-1 F`` exactly, for sympy matrices ``E`` (square, regular) and ``F``.
+
+    Gauss-Jordan elimination on the sparse rows of ``[E | -F]`` over the field of rational
+    functions of the mechanism's symbols (every entry kept as a reduced fraction). Pivots are
+    chosen among numeric entries first, then by the Markowitz count, which keeps the fill-in and
+    the expression swell of the bond-graph structure small (a dense ``LUsolve`` does not finish
+    for the HT-740).
+    """
+    import sympy
+    from sympy import QQ
+    from sympy.polys.fields import field as fraction_field
+
+    n, m = E.shape[0], F.shape[1]
+    symbols = sorted(E.free_symbols | F.free_symbols, key=str)
+    K = fraction_field(symbols, QQ)[0] if symbols else None
+
+    def convert(x):
+        return K.from_expr(x) if K is not None else sympy.Rational(x)
+
+    rows = []
+    for i in range(n):
+        row = {j: convert(E[i, j]) for j in range(n) if E[i, j] != 0}
+        row.update({n + j: convert(-F[i, j]) for j in range(m) if F[i, j] != 0})
+        rows.append(row)
+
+    def is_number(a) -> bool:
+        return K is None or (a.numer.is_ground and a.denom.is_ground)
+
+    free_rows, free_cols, pivot_row = set(range(n)), set(range(n)), {}
+    while free_rows:
+        col_count: dict[int, int] = {}
+        for i in free_rows:
+            for j in rows[i]:
+                if j in free_cols:
+                    col_count[j] = col_count.get(j, 0) + 1
+        best = None
+        for i in free_rows:
+            in_row = sum(1 for j in rows[i] if j in free_cols)
+            for j, a in rows[i].items():
+                if j in free_cols:
+                    cost = (not is_number(a), (in_row - 1) * (col_count[j] - 1))
+                    if best is None or cost < best[0]:
+                        best = (cost, i, j)
+        if best is None:
+            raise ModeError("the mode's equations are singular")
+        _, p, c = best
+        pivot = rows[p][c]
+        prow = {j: a / pivot for j, a in rows[p].items()}
+        rows[p] = prow
+        for i in range(n):
+            if i != p and c in rows[i]:
+                factor, row = rows[i][c], rows[i]
+                for j, a in prow.items():
+                    value = row.get(j, 0) - factor * a
+                    if value == 0:
+                        row.pop(j, None)
+                    else:
+                        row[j] = value
+        free_rows.discard(p)
+        free_cols.discard(c)
+        pivot_row[c] = p
+    G = sympy.zeros(n, m)
+    for c, p in pivot_row.items():
+        for j, a in rows[p].items():
+            if j >= n:
+                G[c, j - n] = sympy.factor(a.as_expr() if K is not None else a)
+    return G

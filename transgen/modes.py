@@ -1,0 +1,246 @@
+"""Modes of operation, their degrees of freedom, and generalized coordinates
+(thesis sections 3.2.3, 3.2.5, 3.3.2 and 3.4.2).
+
+A *mode* is a set of locked shift elements; every other element slips (or is open) and its
+torque is an input. :func:`select_modes` chooses which modes to model:
+
+* ``"default"``: the declared forward gears, then the one-element-less modes a single-swap shift
+  between consecutive forward gears passes through (the speed phase), then the neutrals
+  (declared with ``neutral``, or else the elements shared by the first gear and a reverse gear),
+  then the reverse gears — for the HT-740 exactly the thesis' seven modes M1-M7;
+* ``"declared"``: the ``mode`` statements of the file (the default when there are any);
+* ``"all"``: every combination of locked elements.
+
+:func:`mode_model` solves a mode's equations (:mod:`transgen.equations`); its DOF is
+``rank(G_accel)`` (eq. 3.12 context), cross-checked with the kinematic DOF.
+
+Generalized coordinates ``q`` (link speeds) are valid when, for every mode,
+``rank(G_accel,gc) == rank(G_accel)`` (eq. 3.12), with ``len(q)`` equal to the largest DOF; a mode
+with fewer DOF uses the first subset of ``q`` (in the given order) whose rows span its
+``G_accel``, so the coordinates of lower-DOF modes are subsets of ``q`` (the nesting rule of 3.2.3).
+"""
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass, field
+
+import networkx as nx
+import numpy as np
+
+from .equations import ModeEquations, assemble, diagnose_singular, solve
+from .errors import ModeError
+from .graph import build_graph, element_nodes, link_nodes
+from .kinematics import analyze, numeric_rank
+from .model import Mechanism
+
+__all__ = [
+    "Mode",
+    "ModeModel",
+    "select_modes",
+    "mode_model",
+    "mode_models",
+    "coordinate_subset",
+    "check_coordinates",
+    "valid_coordinate_sets",
+    "default_coordinates",
+]
+
+
+@dataclass(frozen=True)
+class Mode:
+    """A mode of operation: ``locked`` shift elements; ``label`` says why it is modelled."""
+
+    name: str
+    locked: tuple[str, ...]
+    label: str = ""
+
+    @property
+    def key(self) -> frozenset:
+        return frozenset(self.locked)
+
+
+@dataclass(frozen=True)
+class ModeModel:
+    """A mode with its kinematics and (when they exist) its solved equations.
+
+    ``dof`` is ``rank(G_accel)`` when the equations solve, else the kinematic DOF;
+    ``kinematic_dof`` is ``n_links - rank(A)``; ``problem`` explains a mode that cannot be
+    modelled (non-unique locked torques, undetermined massless links), else ``""``.
+    """
+
+    mode: Mode
+    kind: str
+    dof: int
+    kinematic_dof: int
+    equations: ModeEquations | None = field(default=None, repr=False)
+    problem: str = ""
+    symbolic_equations: ModeEquations | None = field(default=None, repr=False)
+
+    @property
+    def name(self) -> str:
+        return self.mode.name
+
+    @property
+    def locked(self) -> tuple[str, ...]:
+        return self.mode.locked
+
+
+def _one_swap_common(a: tuple[str, ...], b: tuple[str, ...]) -> tuple[str, ...] | None:
+    common = [e for e in a if e in b]
+    if len(common) == len(a) - 1 == len(b) - 1:
+        return tuple(common)
+    return None
+
+
+def select_modes(mech: Mechanism, which: str = "auto") -> list[Mode]:
+    """The modes to model: ``"auto"`` (declared modes if any, else default), ``"default"``,
+    ``"declared"`` or ``"all"``; named M1, M2, ... unless declared with names."""
+    if which == "auto":
+        which = "declared" if mech.modes else "default"
+    if which == "declared":
+        return [Mode(d.name, d.locked, "declared") for d in mech.modes]
+    if which == "all":
+        names = list(mech.element_names)
+        combos = [c for r in range(len(names) + 1) for c in itertools.combinations(names, r)]
+        return [Mode(f"M{i + 1}", c, "") for i, c in enumerate(combos)]
+    if which != "default":
+        raise ValueError(f"unknown mode selection {which!r}")
+    g = build_graph(mech)
+    forward, reverse = [], []
+    for gear in mech.gears:
+        if gear.kind != "gear":
+            continue
+        ratio = analyze(mech, gear.engaged, g).ratio
+        (reverse if ratio is not None and ratio < 0 else forward).append(gear)
+    chosen: list[tuple[str, tuple[str, ...]]] = [(f"gear {gear.name}", gear.engaged) for gear in forward]
+    for a, b in zip(forward, forward[1:]):
+        common = _one_swap_common(a.engaged, b.engaged)
+        if common is not None:
+            chosen.append((f"speed phase {a.name}-{b.name}", common))
+    neutrals = [(f"neutral {n.name}", n.engaged) for n in mech.neutrals]
+    if not neutrals and forward:
+        for r in reverse:
+            common = _one_swap_common(forward[0].engaged, r.engaged)
+            if common:
+                neutrals.append((f"neutral {forward[0].name}-{r.name}", common))
+    chosen += neutrals
+    chosen += [(f"reverse {gear.name}", gear.engaged) for gear in reverse]
+    labels: dict[frozenset, list[str]] = {}
+    order: list[tuple[str, ...]] = []
+    for label, locked in chosen:
+        key = frozenset(locked)
+        if key not in labels:
+            labels[key] = []
+            order.append(tuple(locked))
+        labels[key].append(label)
+    return [Mode(f"M{i + 1}", locked, _join_labels(labels[frozenset(locked)])) for i, locked in enumerate(order)]
+
+
+def _join_labels(labels: list[str]) -> str:
+    """'speed phase 1-2', 'speed phase 2-3' -> 'speed phase 1-2, 2-3'."""
+    out: list[str] = []
+    for label in labels:
+        head, _, tail = label.rpartition(" ")
+        if out and out[-1].startswith(head + " "):
+            out[-1] += f", {tail}"
+        else:
+            out.append(label)
+    return "; ".join(out)
+
+
+def mode_model(mech: Mechanism, mode: Mode, graph: nx.DiGraph | None = None, symbolic: bool = False) -> ModeModel:
+    """Kinematics and solved equations of ``mode``; a mode that cannot be solved keeps
+    ``equations=None`` and says why in ``problem``."""
+    g = build_graph(mech) if graph is None else graph
+    combo = analyze(mech, mode.locked, g)
+    problem = diagnose_singular(g, mode.locked)
+    if problem:
+        return ModeModel(mode, combo.kind, combo.dof, combo.dof, None, problem)
+    eq = solve(assemble(g, mode.locked), g)
+    dof = numeric_rank(eq.G_accel)
+    problem = "" if dof == combo.dof else (
+        f"{combo.dof - dof} degree(s) of freedom receive no input torque (rank(G_accel) = {dof} < {combo.dof})")
+    symbolic_eq = solve(assemble(g, mode.locked, symbolic=True), g) if symbolic else None
+    return ModeModel(mode, combo.kind, dof, combo.dof, eq, problem, symbolic_eq)
+
+
+def mode_models(mech: Mechanism, which: str = "auto", symbolic: bool = False) -> list[ModeModel]:
+    """:func:`mode_model` of every mode of :func:`select_modes`."""
+    g = build_graph(mech)
+    return [mode_model(mech, m, g, symbolic) for m in select_modes(mech, which)]
+
+
+def coordinate_subset(model: ModeModel, links: list[str], coords) -> tuple[str, ...]:
+    """The coordinates mode ``model`` uses: greedily, in the order of ``coords``, those whose
+    ``G_accel`` rows add to the rank, until the mode's DOF is reached."""
+    G = model.equations.G_accel
+    chosen: list[str] = []
+    for c in coords:
+        rows = [links.index(x) for x in chosen + [c]]
+        if numeric_rank(G[rows]) == len(rows):
+            chosen.append(c)
+        if len(chosen) == model.dof:
+            break
+    return tuple(chosen)
+
+
+def check_coordinates(models: list[ModeModel], links: list[str], coords) -> None:
+    """Raise :class:`ModeError` if ``coords`` are not valid generalized coordinates for every
+    mode (eq. 3.12), naming the mode that breaks them and why."""
+    coords = tuple(coords)
+    unknown = [c for c in coords if c not in links]
+    if unknown:
+        raise ModeError(f"unknown link(s) {', '.join(unknown)} in the coordinates (links: {', '.join(links)})")
+    solvable = [m for m in models if m.equations is not None]
+    needed = max((m.dof for m in solvable), default=0)
+    if len(coords) != needed:
+        raise ModeError(f"{len(coords)} coordinate(s) given but the modelled modes need {needed} "
+                        f"(the largest number of degrees of freedom, L_n in thesis 3.2.3)")
+    for m in solvable:
+        used = coordinate_subset(m, links, coords)
+        if len(used) < m.dof:
+            raise ModeError(
+                f"coordinates {', '.join(coords)} are not valid for mode {m.name} ({_locked_text(m)}): "
+                f"their rows of G_accel have rank {len(used)} but the mode has {m.dof} degree(s) of freedom "
+                f"(rank(G_accel,gc) != rank(G_accel), eq. 3.12): {_why(m, links, coords)}")
+
+
+def _locked_text(m: ModeModel) -> str:
+    return (", ".join(m.locked) + " locked") if m.locked else "nothing locked"
+
+
+def _why(m: ModeModel, links: list[str], coords) -> str:
+    G = m.equations.G_accel
+    rows = G[[links.index(c) for c in coords]]
+    if np.allclose(rows, 0):
+        return "none of them moves in this mode"
+    for a, b in itertools.combinations(coords, 2):
+        ra, rb = G[links.index(a)], G[links.index(b)]
+        if numeric_rank(np.vstack([ra, rb])) < 2:
+            return f"{a} and {b} move in a fixed ratio in this mode"
+    return "they do not span the mode's motions"
+
+
+def valid_coordinate_sets(models: list[ModeModel], links: list[str]) -> list[tuple[str, ...]]:
+    """Every valid set of generalized coordinates (as the thesis asks a computer to find)."""
+    solvable = [m for m in models if m.equations is not None]
+    needed = max((m.dof for m in solvable), default=0)
+    valid = []
+    for combo in itertools.combinations(links, needed):
+        if all(len(coordinate_subset(m, links, combo)) == m.dof for m in solvable):
+            valid.append(combo)
+    return valid
+
+
+def default_coordinates(models: list[ModeModel], links: list[str], input_link: str, output_link: str) -> tuple[str, ...]:
+    """A valid set preferring the input and the output link (as the thesis does), input first."""
+    sets = valid_coordinate_sets(models, links)
+    if not sets:
+        raise ModeError("no valid set of generalized coordinates exists for the modelled modes")
+
+    def score(s):
+        return (input_link not in s, output_link not in s, [links.index(x) for x in s])
+
+    best = min(sets, key=score)
+    order = [input_link, output_link] + [x for x in links if x not in (input_link, output_link)]
+    return tuple(sorted(best, key=order.index))

@@ -1,0 +1,173 @@
+"""Per-mode state-space matrices (thesis eqs. 3.6-3.7 and 3.11-3.15).
+
+For a mode with generalized coordinates ``q_gc`` (link speeds; the states ``x``):
+
+* ``A = 0``;
+* ``B = G_accel,gc`` (eq. 3.14): ``dx/dt = B u``;
+* ``C_speeds`` from ``G_accel,gc^T C_speeds^T = G_accel^T`` (eq. 3.13), a rank-revealing
+  least-squares solve (numeric) or an exact solve on independent columns (symbolic): every link
+  speed ``w = C_speeds x``;
+* ``D_torques = G_clutches`` (eq. 3.15): locked element torques ``t = D_torques u``.
+
+Inputs ``u`` are the same for every mode (:func:`transgen.equations.input_names`).
+"""
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import ModeError
+from .graph import build_graph, link_nodes
+from .kinematics import numeric_rank
+from .model import Mechanism
+from .modes import (
+    ModeModel,
+    check_coordinates,
+    coordinate_subset,
+    default_coordinates,
+    mode_models,
+)
+
+__all__ = ["ModeStateSpace", "StateSpaceSet", "state_space"]
+
+
+@dataclass(frozen=True)
+class ModeStateSpace:
+    """State-space matrices of one mode (numpy arrays, or sympy matrices when symbolic)."""
+
+    name: str
+    locked: tuple[str, ...]
+    label: str
+    kind: str
+    dof: int
+    states: tuple[str, ...]
+    inputs: tuple[str, ...]
+    B: object = field(repr=False)
+    C: object = field(repr=False)
+    D: object = field(repr=False)
+    speed_outputs: tuple[str, ...] = ()
+    torque_outputs: tuple[str, ...] = ()
+
+    @property
+    def A(self) -> np.ndarray:
+        """Always zero for a linear inertial field (eq. 3.6)."""
+        return np.zeros((self.dof, self.dof))
+
+    def to_control(self):
+        """A ``control.StateSpace`` (python-control, optional) with outputs [speeds; torques]."""
+        import control  # optional dependency
+
+        B = np.asarray(self.B, dtype=float)
+        C = np.asarray(self.C, dtype=float)
+        D = np.asarray(self.D, dtype=float)
+        Cy = np.vstack([C, np.zeros((D.shape[0], self.dof))])
+        Dy = np.vstack([np.zeros((C.shape[0], len(self.inputs))), D])
+        return control.ss(self.A, B, Cy, Dy, inputs=list(self.inputs), states=list(self.states),
+                          outputs=[f"w_{s}" for s in self.speed_outputs] + list(self.torque_outputs))
+
+
+@dataclass(frozen=True)
+class StateSpaceSet:
+    """The state-space matrices of every modelled mode, for one choice of coordinates."""
+
+    mechanism: str
+    coordinates: tuple[str, ...]
+    inputs: tuple[str, ...]
+    modes: tuple[ModeStateSpace, ...]
+    symbolic: bool = False
+
+    def mode(self, name: str) -> ModeStateSpace:
+        for m in self.modes:
+            if m.name == name:
+                return m
+        raise KeyError(name)
+
+    def to_dict(self) -> dict:
+        """JSON form: matrices as nested lists of numbers (or of expression strings)."""
+
+        def mat(x):
+            if self.symbolic:
+                return [[str(v) for v in x.row(i)] for i in range(x.rows)]
+            return np.asarray(x, dtype=float).tolist()
+
+        return {
+            "mechanism": self.mechanism,
+            "coordinates": list(self.coordinates),
+            "inputs": list(self.inputs),
+            "symbolic": self.symbolic,
+            "modes": [
+                {"name": m.name, "label": m.label, "locked": list(m.locked), "kind": m.kind, "dof": m.dof,
+                 "states": list(m.states), "B": mat(m.B), "C": mat(m.C), "D": mat(m.D),
+                 "speed_outputs": list(m.speed_outputs), "torque_outputs": list(m.torque_outputs)}
+                for m in self.modes
+            ],
+        }
+
+
+def _numeric_C(G_accel: np.ndarray, rows: list[int]) -> np.ndarray:
+    G_gc = G_accel[rows]
+    if not rows:
+        return np.zeros((G_accel.shape[0], 0))
+    Ct, *_ = np.linalg.lstsq(G_gc.T, G_accel.T, rcond=None)  # eq. 3.13
+    C = Ct.T
+    C[np.abs(C) < 1e-12 * max(1.0, np.abs(C).max())] = 0.0
+    return C
+
+
+def _symbolic_C(G_accel, rows: list[int]):
+    import sympy
+
+    if not rows:
+        return sympy.zeros(G_accel.rows, 0)
+    G_gc = G_accel.extract(rows, list(range(G_accel.cols)))
+    numeric = np.array(G_gc.evalf(subs={s: 1.37 + 0.11 * i for i, s in enumerate(sorted(G_gc.free_symbols, key=str))}), dtype=float)
+    cols: list[int] = []
+    for j in range(numeric.shape[1]):
+        if numeric_rank(numeric[:, cols + [j]]) == len(cols) + 1:
+            cols.append(j)
+        if len(cols) == len(rows):
+            break
+    square = G_gc.extract(list(range(len(rows))), cols)
+    C = G_accel.extract(list(range(G_accel.rows)), cols) * square.inv()
+    return C.applyfunc(lambda x: sympy.factor(sympy.cancel(x)))
+
+
+def _mode_state_space(model: ModeModel, links: list[str], coords, symbolic: bool) -> ModeStateSpace:
+    eq = model.symbolic_equations if symbolic else model.equations
+    states = coordinate_subset(model, links, coords)
+    rows = [links.index(s) for s in states]
+    G_accel = eq.G_accel
+    if symbolic:
+        B = G_accel.extract(rows, list(range(G_accel.cols)))
+        C = _symbolic_C(G_accel, rows)
+    else:
+        B = G_accel[rows].copy()
+        C = _numeric_C(G_accel, rows)
+    D = eq.G_clutches
+    return ModeStateSpace(model.name, model.locked, model.mode.label, model.kind, model.dof, states, eq.u,
+                          B, C, D, tuple(links), tuple(f"t_{e}" for e in model.locked))
+
+
+def state_space(mech: Mechanism, coordinates=None, which: str = "auto", symbolic: bool = False,
+                models: list[ModeModel] | None = None) -> StateSpaceSet:
+    """State-space matrices of the modelled modes of ``mech``.
+
+    ``coordinates``: link names (default: the file's ``coordinates`` statement, else
+    :func:`~transgen.modes.default_coordinates`). Raises :class:`ModeError` when a mode cannot be
+    modelled or the coordinates are not valid.
+    """
+    g = build_graph(mech)
+    links = link_nodes(g)
+    models = mode_models(mech, which, symbolic) if models is None else models
+    bad = [m for m in models if m.equations is None]
+    if bad:
+        raise ModeError("; ".join(f"{m.name}: {m.problem}" for m in bad))
+    for m in models:
+        if m.problem:
+            warnings.warn(f"mode {m.name}: {m.problem}", stacklevel=2)
+    coords = tuple(coordinates or mech.coordinates) or default_coordinates(models, links, mech.input, mech.output)
+    check_coordinates(models, links, coords)
+    modes = tuple(_mode_state_space(m, links, coords, symbolic) for m in models)
+    return StateSpaceSet(mech.name, coords, models[0].equations.u if models else (), modes, symbolic)
