@@ -422,7 +422,7 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str) -> 
     for w in coordinates:
         if coord_texts.count(w.text) > 1 and w is coordinates[coord_texts.index(w.text)]:
             report.error(w.span, f"coordinate '{w.text}' is given twice")
-    if not links:
+    if not link_names:
         report.error(Span(1, 1), "no links: declare the rigid members with 'link NAME J=...'")
     if report.diagnostics:
         return None

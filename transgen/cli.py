@@ -1,0 +1,320 @@
+"""The ``transgen`` command line: a thin layer over the Python API.
+
+Exit codes: 0 success, 1 failure (a run that could not complete, an output that could not be
+written), 2 bad input (a ``.mech`` or scenario file with errors, invalid options or coordinates).
+Errors are printed without a traceback.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from . import __version__
+from .errors import MechError, MechValidationError, ModeError, ScenarioError, SimulationError, TransgenError
+
+__all__ = ["main", "load_checked"]
+
+
+def load_checked(path: str):
+    """Load a mechanism (a path or a bundled name) and check its declared gears."""
+    from .kinematics import check_gears
+    from .language import load_mechanism
+
+    mech = load_mechanism(path)
+    problems = check_gears(mech)
+    if problems:
+        raise MechValidationError(problems)
+    return mech
+
+
+def _print_json(data) -> None:
+    print(json.dumps(data, indent=2))
+
+
+def _fmt_ratio(r) -> str:
+    return "-" if r is None else f"{r:.4f}"
+
+
+# ------------------------------------------------------------------------------------ commands
+
+
+def cmd_check(args) -> int:
+    mech = load_checked(args.file)
+    if args.json:
+        from .describe import mechanism_to_dict
+
+        _print_json(mechanism_to_dict(mech))
+        return 0
+    from .kinematics import gear_table
+
+    table = gear_table(mech, all_combinations=False)
+    print(f"{mech.source}: ok — {mech.name}")
+    print(f"  {len(mech.links)} links, {len(mech.planetaries)} planetary gearsets, {len(mech.gear_pairs)} gear pairs, "
+          f"{len(mech.elements)} shift elements ({', '.join(e.name for e in mech.elements)})")
+    print(f"  input {mech.input}, output {mech.output}; {sum(1 for g in mech.gears if g.kind == 'gear')} gears, "
+          f"{len(mech.neutrals)} neutral(s)")
+    for row in table.gears:
+        note = ""
+        if row.combination.floating:
+            note = f"  (floating: {', '.join(row.combination.floating)})"
+        print(f"  {row.kind} {row.name:>4}: {' '.join(row.engaged):<14} ratio {_fmt_ratio(row.ratio)}{note}")
+    return 0
+
+
+def cmd_ratios(args) -> int:
+    from .kinematics import gear_table
+
+    mech = load_checked(args.file)
+    table = gear_table(mech, all_combinations=not args.gears_only)
+    if args.json:
+        _print_json(table.to_dict())
+        return 0
+    print(f"{mech.name}: input {mech.input}, output {mech.output} (ratio = input speed / output speed)")
+    print()
+    print(f"  {'gear':>6}  {'engaged':<16} {'DOF':>3}  {'ratio':>9}  {'step':>6}  published")
+    for row in table.gears:
+        step = f"{row.step:.3f}" if row.step else ""
+        pub = (row.published + (" ok" if row.matches_published else " MISMATCH")) if row.published else ""
+        name = row.name if row.kind == "gear" else f"{row.name} (N)"
+        print(f"  {name:>6}  {' '.join(row.engaged):<16} {row.dof:>3}  {_fmt_ratio(row.ratio):>9}  {step:>6}  {pub}")
+    if table.spread:
+        print(f"\n  overall spread {table.spread:.3f}")
+    if args.gears_only:
+        return 0
+    declared = {frozenset(r.engaged) for r in table.gears}
+    print(f"\n  all {len(table.combinations)} combinations of engaged elements (* = declared):")
+    print(f"  {'engaged':<24} {'DOF':>3}  {'ratio':>9}  kind")
+    for c in table.combinations:
+        mark = "*" if frozenset(c.engaged) in declared else " "
+        kind = c.kind + (f" ({c.detail})" if c.detail else "") + (
+            f" (floating: {', '.join(c.floating)})" if c.floating else "")
+        print(f" {mark}{' '.join(c.engaged) or '(none)':<24} {c.dof:>3}  {_fmt_ratio(c.ratio):>9}  {kind}")
+    return 0
+
+
+def cmd_graph(args) -> int:
+    from .drawing import draw_graph, graph_to_dot, graph_to_graphml, save_figure
+    from .export import write_text
+    from .graph import build_graph
+
+    mech = load_checked(args.file)
+    g = build_graph(mech)
+    suffix = Path(args.output).suffix.lower()
+    if suffix == ".dot":
+        write_text(args.output, graph_to_dot(g))
+    elif suffix == ".graphml":
+        write_text(args.output, graph_to_graphml(g))
+    else:
+        save_figure(draw_graph(g), args.output)
+    print(f"wrote {args.output}")
+    return 0
+
+
+def cmd_modes(args) -> int:
+    from .describe import modes_report
+
+    mech = load_checked(args.file)
+    report = modes_report(mech, "all" if args.all else "auto")
+    if args.json:
+        _print_json(report)
+        return 0
+    print(f"{mech.name}: {len(report['modes'])} modes ({report['selection']})")
+    print(f"  {'mode':<5} {'locked':<18} {'DOF':>3}  {'kind':<8} label / problem")
+    for m in report["modes"]:
+        extra = m["label"] + (f"  !! {m['problem']}" if m["problem"] else "")
+        print(f"  {m['name']:<5} {' '.join(m['locked']) or '(none)':<18} {m['dof']:>3}  {m['kind']:<8} {extra}")
+    diag = report["diagnosis"]
+    print(f"\n  static diagnosis over all {diag['combinations']} combinations:")
+    print(f"    tie-ups (bindup, no DOF): {len(diag['tie_ups'])}: " + "; ".join(" ".join(x) for x in diag["tie_ups"]))
+    print(f"    locked torques not unique: {len(diag['non_unique_torques'])}: "
+          + "; ".join(" ".join(x) for x in diag["non_unique_torques"]))
+    if diag["undetermined_massless"]:
+        print(f"    undetermined massless members: {len(diag['undetermined_massless'])}: "
+              + "; ".join(" ".join(x) for x in diag["undetermined_massless"]))
+    return 0
+
+
+def cmd_matrices(args) -> int:
+    from .export import write_state_space
+    from .graph import build_graph, link_nodes
+    from .modes import mode_models, valid_coordinate_sets
+    from .statespace import state_space
+
+    mech = load_checked(args.file)
+    which = {"auto": "auto", "all": "all", "declared": "declared", "default": "default"}[args.modes]
+    models = mode_models(mech, which, symbolic=args.symbolic)
+    if args.list_coordinates:
+        sets = valid_coordinate_sets(models, link_nodes(build_graph(mech)))
+        if args.json:
+            _print_json({"mechanism": mech.name, "valid_coordinates": [list(s) for s in sets]})
+        else:
+            print(f"{len(sets)} valid sets of generalized coordinates:")
+            for s in sets:
+                print("  " + ",".join(s))
+        return 0
+    coords = [c.strip() for c in args.coords.split(",") if c.strip()] if args.coords else None
+    ss = state_space(mech, coords, which, args.symbolic, models=models)
+    if args.output is None:
+        if args.format not in (None, "json"):
+            raise ModeError("-o OUT is needed for npz, mat and latex output")
+        _print_json(ss.to_dict())
+        return 0
+    write_state_space(ss, args.output, args.format)
+    print(f"wrote {args.output}: {len(ss.modes)} modes, coordinates {', '.join(ss.coordinates)}")
+    return 0
+
+
+def cmd_std(args) -> int:
+    from .std import state_transition_diagram
+
+    mech = load_checked(args.file)
+    modes = None
+    if args.all:
+        from .modes import select_modes
+
+        modes = select_modes(mech, "all")
+    std = state_transition_diagram(mech, modes)
+    if args.output:
+        from .drawing import draw_std, save_figure, std_to_dot
+        from .export import write_text
+
+        if Path(args.output).suffix.lower() == ".dot":
+            write_text(args.output, std_to_dot(std))
+        else:
+            save_figure(draw_std(std), args.output)
+        if not args.json:
+            print(f"wrote {args.output}: {len(std.modes)} modes, {len(std.internal)} transitions")
+    if args.json:
+        _print_json(std.to_dict())
+    elif not args.output:
+        for t in std.internal:
+            print(f"  {t.source} -> {t.target}: {t.event} {t.element}: {t.condition}")
+        for t in std.external:
+            print(f"  {t.source} -> (not modelled: {' '.join(t.reaches) or 'none'}): {t.event} {t.element}")
+    return 0
+
+
+def cmd_list(args) -> int:
+    from .library import bundled_mechanisms
+    from .language import load_mechanism
+
+    items = []
+    for name, path in bundled_mechanisms().items():
+        mech = load_mechanism(path)
+        items.append({"name": name, "title": mech.name, "path": str(path),
+                      "gears": [g.name for g in mech.gears if g.kind == "gear"]})
+    if args.json:
+        _print_json(items)
+    else:
+        for it in items:
+            print(f"  {it['name']:<24} {it['title']}  (gears {' '.join(it['gears'])})")
+    return 0
+
+
+# ---------------------------------------------------------------------------------- the parser
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="transgen", description=(
+        "Equations of motion, modes and shift simulation of automatic transmissions from .mech files. "
+        "FILE is a path or the name of a bundled mechanism (see 'transgen list')."))
+    p.add_argument("--version", action="version", version=f"transgen {__version__}")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND", required=True)
+
+    s = sub.add_parser("check", help="validate a .mech file and summarise it",
+                       description="Validate a .mech file (syntax, names, gear ratios) and summarise it.")
+    s.add_argument("file", metavar="FILE")
+    s.add_argument("--json", action="store_true", help="dump the parsed model as JSON")
+    s.set_defaults(func=cmd_check)
+
+    s = sub.add_parser("ratios", help="gear table: DOF and ratio of every combination",
+                       description="The declared gears (ratio, step, spread) and every combination of engaged elements.")
+    s.add_argument("file", metavar="FILE")
+    s.add_argument("--gears-only", action="store_true", help="only the declared gears")
+    s.add_argument("--json", action="store_true", help="machine-readable output")
+    s.set_defaults(func=cmd_ratios)
+
+    s = sub.add_parser("graph", help="draw the bond-graph-like mechanism graph",
+                       description="Draw the mechanism graph (.png/.svg/.pdf) or export it (.dot, .graphml).")
+    s.add_argument("file", metavar="FILE")
+    s.add_argument("-o", "--output", required=True, help="output file: .png .svg .pdf .dot .graphml")
+    s.set_defaults(func=cmd_graph)
+
+    s = sub.add_parser("modes", help="modes with locked elements, DOF and kind",
+                       description="List the modelled modes (or all combinations) and diagnose tie-ups and non-unique torques.")
+    s.add_argument("file", metavar="FILE")
+    s.add_argument("--all", action="store_true", help="every combination of locked elements")
+    s.add_argument("--json", action="store_true", help="machine-readable output")
+    s.set_defaults(func=cmd_modes)
+
+    s = sub.add_parser("matrices", help="per-mode state-space matrices",
+                       description="State-space matrices B, C, D of every modelled mode (thesis eqs. 3.6-3.15).")
+    s.add_argument("file", metavar="FILE")
+    s.add_argument("--coords", help="generalized coordinates, e.g. L1,L6 (default: from the file, else input and output)")
+    s.add_argument("--symbolic", action="store_true", help="symbolic matrices in the mechanism's own symbols")
+    s.add_argument("--modes", choices=("auto", "default", "declared", "all"), default="auto",
+                   help="which modes (default: declared in the file, else the default choice)")
+    s.add_argument("--format", choices=("json", "npz", "mat", "latex"), help="output format (default: from -o suffix)")
+    s.add_argument("-o", "--output", help="output file (default: JSON on standard output)")
+    s.add_argument("--list-coordinates", action="store_true", help="list every valid set of generalized coordinates")
+    s.add_argument("--json", action="store_true", help="with --list-coordinates: JSON output")
+    s.set_defaults(func=cmd_matrices)
+
+    s = sub.add_parser("std", help="the state-transition diagram of mode switching",
+                       description="Draw (.png/.svg/.pdf) or export (.dot) the state-transition diagram; --json for the simulator.")
+    s.add_argument("file", metavar="FILE")
+    s.add_argument("-o", "--output", help="output picture or .dot file")
+    s.add_argument("--all", action="store_true", help="all combinations as modes")
+    s.add_argument("--json", action="store_true", help="modes and transitions with conditions as JSON")
+    s.set_defaults(func=cmd_std)
+
+    s = sub.add_parser("list", help="list the bundled mechanisms", description="List the bundled mechanisms.")
+    s.add_argument("--json", action="store_true", help="machine-readable output")
+    s.set_defaults(func=cmd_list)
+
+    _add_sim_commands(sub)
+    return p
+
+
+def _add_sim_commands(sub) -> None:
+    """Commands of the simulator (``transgen.sim``)."""
+    try:
+        from .sim.cli import add_commands
+    except ImportError:  # pragma: no cover - the simulator is part of the package
+        return
+    add_commands(sub)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the command line; return the exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args)
+    except (MechError, ScenarioError, ModeError) as exc:
+        print(str(exc), file=sys.stderr)
+        return 2
+    except SimulationError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
+    except TransgenError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
+    except ValueError as exc:  # invalid option values found by the library (e.g. output format)
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:
+        print(f"error: {exc.strerror or exc}" + (f": {exc.filename}" if exc.filename else ""), file=sys.stderr)
+        return 1
+    except BrokenPipeError:  # output piped into e.g. head
+        sys.stderr.close()
+        return 0
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

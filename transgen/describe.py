@@ -1,0 +1,74 @@
+"""Plain-data (JSON-ready) descriptions of a mechanism and of its modes."""
+from __future__ import annotations
+
+import itertools
+
+from .equations import diagnose_singular
+from .graph import build_graph
+from .kinematics import analyze
+from .model import Mechanism
+from .modes import mode_models
+
+__all__ = ["mechanism_to_dict", "modes_report"]
+
+
+def _capacity(x: float):
+    return None if x == float("inf") else x
+
+
+def mechanism_to_dict(m: Mechanism) -> dict:
+    """The parsed model as JSON-ready data (``transgen check --json``)."""
+    return {
+        "name": m.name,
+        "source": m.source,
+        "links": [{"name": k.name, "J": k.inertia} for k in m.links],
+        "planetaries": [
+            {"name": p.name, "type": "double-pinion" if p.pinions == 2 else "simple", "sun": p.sun, "ring": p.ring,
+             "carrier": p.carrier, "Ns": p.n_sun, "Nr": p.n_ring}
+            for p in m.planetaries
+        ],
+        "gear_pairs": [
+            {"name": g.name, "link1": g.link1, "link2": g.link2, "by": g.by, "n1": g.n1, "n2": g.n2, "mesh": g.mesh}
+            for g in m.gear_pairs
+        ],
+        "elements": [
+            {"name": e.name, "kind": e.kind, "links": [e.link1, e.link2], "static": _capacity(e.static),
+             "dynamic": e.dynamic, "free": e.free, "brake_type": e.brake_type}
+            for e in m.elements
+        ],
+        "input": m.input,
+        "output": m.output,
+        "torques": [{"name": t.name, "link": t.link, "role": t.role} for t in m.torques],
+        "gears": [{"name": g.name, "kind": g.kind, "engaged": list(g.engaged), "ratio": g.ratio} for g in m.gears],
+        "modes": [{"name": d.name, "locked": list(d.locked)} for d in m.modes],
+        "coordinates": list(m.coordinates),
+    }
+
+
+def modes_report(mech: Mechanism, which: str = "auto") -> dict:
+    """Modes with locked elements, DOF, kind and problems, and a static diagnosis of every
+    combination: tie-ups, non-unique locked torques, undetermined massless members."""
+    models = mode_models(mech, which)
+    g = build_graph(mech)
+    names = list(mech.element_names)
+    tie_ups, non_unique, massless = [], [], []
+    combos = [c for r in range(len(names) + 1) for c in itertools.combinations(names, r)]
+    for combo in combos:
+        if analyze(mech, combo, g).kind == "tie-up":
+            tie_ups.append(list(combo))
+        problem = diagnose_singular(g, combo)
+        if "not unique" in problem:
+            non_unique.append(list(combo))
+        if "massless" in problem:
+            massless.append(list(combo))
+    return {
+        "mechanism": mech.name,
+        "selection": "all combinations" if which == "all" else ("declared" if mech.modes else "default"),
+        "modes": [
+            {"name": m.name, "locked": list(m.locked), "dof": m.dof, "kinematic_dof": m.kinematic_dof,
+             "kind": m.kind, "label": m.mode.label, "problem": m.problem}
+            for m in models
+        ],
+        "diagnosis": {"combinations": len(combos), "tie_ups": tie_ups, "non_unique_torques": non_unique,
+                      "undetermined_massless": massless},
+    }

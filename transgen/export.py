@@ -1,0 +1,157 @@
+"""Writing results to files: atomically, in JSON, NumPy ``.npz``, MATLAB ``.mat`` and LaTeX.
+
+Every writer goes through :func:`atomic_path`: the data is written to a temporary file in the
+target's folder and renamed over the target only when complete, so a failed run never leaves a
+half-written file.
+"""
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from .statespace import StateSpaceSet
+
+__all__ = ["atomic_path", "write_text", "write_json", "write_state_space", "state_space_latex", "FORMATS"]
+
+FORMATS = ("json", "npz", "mat", "latex")
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | Path, suffix: str | None = None):
+    """Yield a temporary path next to ``path``; on success rename it to ``path``, else delete it."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix if suffix is not None else path.suffix, dir=path.parent)
+    os.close(fd)
+    try:
+        yield Path(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
+def write_text(path: str | Path, text: str) -> None:
+    """Write ``text`` to ``path`` atomically (UTF-8)."""
+    with atomic_path(path) as tmp:
+        tmp.write_text(text, encoding="utf-8")
+
+
+def write_json(path: str | Path, data) -> None:
+    """Write ``data`` as indented JSON atomically."""
+    write_text(path, json.dumps(data, indent=2) + "\n")
+
+
+def _mat_name(name: str) -> str:
+    """A valid MATLAB identifier for a mode name."""
+    out = "".join(ch if ch.isalnum() or ch == "_" else "_" for ch in name)
+    return out if out[:1].isalpha() else f"m_{out}"
+
+
+def _float(x) -> np.ndarray:
+    return np.asarray(x.evalf() if hasattr(x, "evalf") else x, dtype=float)
+
+
+def write_state_space(ss: StateSpaceSet, path: str | Path, fmt: str | None = None) -> None:
+    """Write a :class:`StateSpaceSet` as ``json``, ``npz``, ``mat`` or ``latex`` (by suffix).
+
+    * ``json``: ``{"mechanism", "coordinates", "inputs", "modes": [{"name", "locked", "dof",
+      "states", "B", "C", "D", "speed_outputs", "torque_outputs"}]}``;
+    * ``npz``: arrays ``<mode>_B``, ``<mode>_C``, ``<mode>_D`` and JSON metadata in ``meta``;
+    * ``mat``: a MATLAB struct per mode (``M1.B``, ``M1.C``, ``M1.D``, ``M1.states``, ...) and the
+      cell arrays ``inputs``, ``coordinates``, ``modes`` — ``scipy.io.loadmat`` reads it back;
+    * ``latex``: one ``align`` block per mode, ``\\dot x = B u``, ``w = C x``, ``t = D u``.
+
+    Symbolic matrices are written as expressions in JSON and LaTeX; ``npz`` and ``mat`` need
+    numbers and refuse symbolic input.
+    """
+    path = Path(path)
+    fmt = fmt or {".json": "json", ".npz": "npz", ".mat": "mat", ".tex": "latex"}.get(path.suffix.lower())
+    if fmt not in FORMATS:
+        raise ValueError(f"unknown format for {path.name!r}: choose one of {', '.join(FORMATS)} (or a .json/.npz/.mat/.tex name)")
+    if ss.symbolic and fmt in ("npz", "mat"):
+        raise ValueError(f"{fmt} holds numbers only: write symbolic matrices as json or latex")
+    if fmt == "json":
+        write_json(path, ss.to_dict())
+    elif fmt == "latex":
+        write_text(path, state_space_latex(ss))
+    elif fmt == "npz":
+        arrays = {}
+        for m in ss.modes:
+            key = _mat_name(m.name)
+            arrays.update({f"{key}_B": _float(m.B), f"{key}_C": _float(m.C), f"{key}_D": _float(m.D)})
+        meta = {k: v for k, v in ss.to_dict().items() if k != "modes"}
+        meta["modes"] = [{k: v for k, v in d.items() if k not in ("B", "C", "D")} for d in ss.to_dict()["modes"]]
+        with atomic_path(path) as tmp:
+            with open(tmp, "wb") as f:
+                np.savez(f, meta=np.array(json.dumps(meta)), **arrays)
+    else:
+        import scipy.io
+
+        data = {
+            "mechanism": ss.mechanism,
+            "coordinates": np.array(ss.coordinates, dtype=object),
+            "inputs": np.array(ss.inputs, dtype=object),
+            "modes": np.array([m.name for m in ss.modes], dtype=object),
+        }
+        for m in ss.modes:
+            data[_mat_name(m.name)] = {
+                "name": m.name, "label": m.label, "kind": m.kind, "dof": m.dof,
+                "locked": np.array(m.locked, dtype=object), "states": np.array(m.states, dtype=object),
+                "A": np.zeros((m.dof, m.dof)), "B": _float(m.B), "C": _float(m.C), "D": _float(m.D),
+                "speed_outputs": np.array(m.speed_outputs, dtype=object),
+                "torque_outputs": np.array(m.torque_outputs, dtype=object),
+            }
+        with atomic_path(path) as tmp:
+            scipy.io.savemat(str(tmp), data, oned_as="column")
+
+
+def _latex_matrix(x, symbolic: bool) -> str:
+    if symbolic:
+        import sympy
+
+        return sympy.latex(x, mat_delim="(", mat_str="matrix")
+    a = _float(x)
+    if a.size == 0:
+        return r"\emptyset"
+    rows = [" & ".join(f"{v:.6g}" for v in row) for row in a]
+    return r"\begin{pmatrix}" + r" \\ ".join(rows) + r"\end{pmatrix}"
+
+
+def _vec(names) -> str:
+    return r"\begin{pmatrix}" + r" \\ ".join(_tex_name(n) for n in names) + r"\end{pmatrix}"
+
+
+def _tex_name(name: str) -> str:
+    head, _, tail = name.partition("_")
+    if not tail:
+        return rf"\mathrm{{{head}}}"
+    tail = tail.replace("_", r"\_")
+    return rf"\mathrm{{{head}}}_{{\mathrm{{{tail}}}}}"
+
+
+def state_space_latex(ss: StateSpaceSet) -> str:
+    """LaTeX (``align*`` per mode) of the state-space matrices, for reports."""
+    out = [f"% state-space matrices of {ss.mechanism}, generated by transgen",
+           f"% coordinates: {', '.join(ss.coordinates)}; inputs u = ({', '.join(ss.inputs)})"]
+    for m in ss.modes:
+        locked = ", ".join(m.locked) or "none"
+        out.append(f"\\paragraph{{Mode {m.name} ({m.label or 'mode'}; locked: {locked}; {m.dof} DOF)}}")
+        out.append(r"\begin{align*}")
+        x = [f"w_{s}" for s in m.states]
+        u = list(m.inputs)
+        lines = []
+        if x:
+            lines.append(rf"\frac{{d}}{{dt}}{_vec(x)} &= {_latex_matrix(m.B, ss.symbolic)} {_vec(u)}")
+            lines.append(rf"{_vec([f'w_{s}' for s in m.speed_outputs])} &= {_latex_matrix(m.C, ss.symbolic)} {_vec(x)}")
+        if m.torque_outputs:
+            lines.append(rf"{_vec(m.torque_outputs)} &= {_latex_matrix(m.D, ss.symbolic)} {_vec(u)}")
+        out.append(" \\\\\n".join(lines) if lines else r"\text{no state, no locked element}")
+        out.append(r"\end{align*}")
+    return "\n".join(out) + "\n"
