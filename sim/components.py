@@ -1,0 +1,319 @@
+"""Components that apply torques to the transmission's links: the input torque source, external
+loads, the driveline and vehicle.
+
+Causality (thesis 2.4): the transmission links are inertial (they take torques, give speeds);
+every component here takes the link speeds and gives torques, and may have states of its own.
+The simulator calls, with ``w`` the array of all link speeds [rad/s] (``link_index`` maps names
+to positions):
+
+``state_names``                    names of the component's states
+``initial_state(w)``               their values at the start
+``derivatives(t, x, w)``           d/dt of the states
+``torques(t, x, w)``               ``{input name: torque}`` for the mechanism inputs it drives
+                                   (``T_in``, ``T_out`` or a named load), sign as in the model:
+                                   ``T_in`` and loads drive, ``T_out`` is delivered by the output
+``power_in(t, x, w)``              power it feeds into the mechanism from outside [W]
+``dissipation(t, x, w)``           power it dissipates internally [W] (energy balance)
+``energy(x, w)``                   energy stored in its own states [J] (energy balance)
+``load_power(t, x, w)``            power it passes to an external load (the road) [W]
+``signals(t, x, w)``               named outputs for the result
+``breakpoints()``                  times where its inputs are not smooth
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .signals import Constant, Signal
+
+__all__ = [
+    "Component",
+    "InputTorque",
+    "EngineMap",
+    "EngineOnLink",
+    "EngineWithConverter",
+    "LinkLoad",
+    "Driveline",
+    "GRAVITY",
+]
+
+GRAVITY = 9.81
+
+
+class Component:
+    """Base class with no states and no torques."""
+
+    name: str = ""
+    state_names: tuple[str, ...] = ()
+
+    def initial_state(self, w: np.ndarray) -> np.ndarray:
+        return np.zeros(len(self.state_names))
+
+    def derivatives(self, t: float, x: np.ndarray, w: np.ndarray) -> np.ndarray:
+        return np.zeros(len(self.state_names))
+
+    def torques(self, t: float, x: np.ndarray, w: np.ndarray) -> dict[str, float]:
+        return {}
+
+    def power_in(self, t: float, x: np.ndarray, w: np.ndarray) -> float:
+        return 0.0
+
+    def dissipation(self, t: float, x: np.ndarray, w: np.ndarray) -> float:
+        return 0.0
+
+    def energy(self, x: np.ndarray, w: np.ndarray) -> float:
+        return 0.0
+
+    def load_power(self, t: float, x: np.ndarray, w: np.ndarray) -> float:
+        return 0.0
+
+    def signals(self, t: float, x: np.ndarray, w: np.ndarray) -> dict[str, float]:
+        return {}
+
+    def breakpoints(self) -> tuple[float, ...]:
+        return ()
+
+
+@dataclass
+class InputTorque(Component):
+    """A prescribed torque on the input link [N*m], positive drives: ``T_in = signal(t)``."""
+
+    signal: Signal
+    link: int
+    name: str = "input"
+
+    def torques(self, t, x, w):
+        return {"T_in": self.signal.value(t)}
+
+    def power_in(self, t, x, w):
+        return self.signal.value(t) * w[self.link]
+
+    def signals(self, t, x, w):
+        return {"T_in": self.signal.value(t)}
+
+    def breakpoints(self):
+        return self.signal.breakpoints()
+
+
+def _interp2(xs: np.ndarray, ys: np.ndarray, table: np.ndarray, x: float, y: float) -> float:
+    """Bilinear interpolation in ``table[i_y, i_x]``, clamped at the edges."""
+    x = min(max(x, xs[0]), xs[-1])
+    y = min(max(y, ys[0]), ys[-1])
+    i = int(np.clip(np.searchsorted(xs, x) - 1, 0, len(xs) - 2))
+    j = int(np.clip(np.searchsorted(ys, y) - 1, 0, len(ys) - 2))
+    fx = (x - xs[i]) / (xs[i + 1] - xs[i])
+    fy = (y - ys[j]) / (ys[j + 1] - ys[j]) if len(ys) > 1 else 0.0
+    lo = table[j, i] * (1 - fx) + table[j, i + 1] * fx
+    hi = table[j + 1, i] * (1 - fx) + table[j + 1, i + 1] * fx
+    return lo * (1 - fy) + hi * fy
+
+
+@dataclass
+class EngineMap:
+    """Engine torque [N*m] as a table over engine speed [rad/s] and throttle [0-1].
+
+    ``torque[i_throttle][i_speed]``; clamped outside the table. Used by :class:`InputTorque`-like
+    sources directly on a link or behind a torque converter.
+    """
+
+    speeds: tuple[float, ...]
+    throttles: tuple[float, ...]
+    torque: tuple[tuple[float, ...], ...]
+
+    def __post_init__(self):
+        self._x = np.asarray(self.speeds, dtype=float)
+        self._y = np.asarray(self.throttles, dtype=float)
+        self._z = np.asarray(self.torque, dtype=float)
+        if self._z.shape != (len(self._y), len(self._x)):
+            raise ValueError(f"engine torque table must be {len(self._y)} x {len(self._x)} (throttles x speeds)")
+
+    def __call__(self, omega: float, throttle: float) -> float:
+        return _interp2(self._x, self._y, self._z, omega, throttle)
+
+
+@dataclass
+class EngineOnLink(Component):
+    """An engine torque map driving the input link directly (the link carries the crank inertia)."""
+
+    engine: EngineMap
+    throttle: Signal
+    link: int
+    name: str = "engine"
+
+    def _torque(self, t, w):
+        return self.engine(w[self.link], self.throttle.value(t))
+
+    def torques(self, t, x, w):
+        return {"T_in": self._torque(t, w)}
+
+    def power_in(self, t, x, w):
+        return self._torque(t, w) * w[self.link]
+
+    def signals(self, t, x, w):
+        return {"T_in": self._torque(t, w), "throttle": self.throttle.value(t)}
+
+    def breakpoints(self):
+        return self.throttle.breakpoints()
+
+
+@dataclass
+class EngineWithConverter(Component):
+    """An engine (torque map, crank + impeller inertia ``J_engine``) driving the input link
+    (the turbine) through a torque converter.
+
+    State: engine speed ``omega_e`` [rad/s]. ``converter.torques(omega_pump, omega_turbine)``
+    gives (pump torque absorbed, turbine torque delivered) [N*m] (see
+    :mod:`transgen.sim.torque_converter`). ``idle`` is a minimum-speed governor: below it the
+    throttle rises linearly to hold idle. Energy: the engine's combustion work is the work in;
+    the converter's loss is dissipation; the engine inertia's kinetic energy is stored energy.
+    """
+
+    engine: EngineMap
+    throttle: Signal
+    converter: object
+    J_engine: float
+    link: int
+    omega_start: float = 70.0
+    idle: float = 0.0
+    name: str = "engine"
+    state_names: tuple[str, ...] = ("omega_e",)
+
+    def initial_state(self, w):
+        return np.array([self.omega_start])
+
+    def _throttle(self, t, omega_e):
+        thr = self.throttle.value(t)
+        if self.idle > 0 and omega_e < self.idle:
+            thr = max(thr, min(1.0, (self.idle - omega_e) / (0.1 * self.idle)))
+        return thr
+
+    def _engine_torque(self, t, omega_e):
+        return self.engine(omega_e, self._throttle(t, omega_e))
+
+    def derivatives(self, t, x, w):
+        omega_e = x[0]
+        pump, _ = self.converter.torques(omega_e, w[self.link])
+        return np.array([(self._engine_torque(t, omega_e) - pump) / self.J_engine])
+
+    def torques(self, t, x, w):
+        _, turbine = self.converter.torques(x[0], w[self.link])
+        return {"T_in": turbine}
+
+    def power_in(self, t, x, w):
+        return self._engine_torque(t, x[0]) * x[0]
+
+    def dissipation(self, t, x, w):
+        pump, turbine = self.converter.torques(x[0], w[self.link])
+        return pump * x[0] - turbine * w[self.link]
+
+    def energy(self, x, w):
+        return 0.5 * self.J_engine * x[0] ** 2
+
+    def signals(self, t, x, w):
+        pump, turbine = self.converter.torques(x[0], w[self.link])
+        return {"omega_engine": x[0], "T_engine": self._engine_torque(t, x[0]), "T_pump": pump,
+                "T_in": turbine, "throttle": self._throttle(t, x[0]),
+                "converter_speed_ratio": w[self.link] / x[0] if x[0] > 1e-6 else 0.0}
+
+    def breakpoints(self):
+        return self.throttle.breakpoints()
+
+
+@dataclass
+class LinkLoad(Component):
+    """An external torque on a link: ``T = signal(t) - (c0*sign(w) + c1*w + c2*w*|w|)`` [N*m],
+    positive drives the link (the quadratic part is a speed-dependent drag)."""
+
+    input_name: str
+    link: int
+    signal: Signal = field(default_factory=lambda: Constant(0.0))
+    c0: float = 0.0
+    c1: float = 0.0
+    c2: float = 0.0
+    name: str = "load"
+
+    def _torque(self, t, w):
+        s = w[self.link]
+        return self.signal.value(t) - (self.c0 * np.sign(s) + self.c1 * s + self.c2 * s * abs(s))
+
+    def torques(self, t, x, w):
+        return {self.input_name: self._torque(t, w)}
+
+    def power_in(self, t, x, w):
+        return self._torque(t, w) * w[self.link]
+
+    def signals(self, t, x, w):
+        return {self.input_name: self._torque(t, w)}
+
+    def breakpoints(self):
+        return self.signal.breakpoints()
+
+
+@dataclass
+class Driveline(Component):
+    """Driveshaft (spring-damper) from the output link to the vehicle, and the vehicle.
+
+    States: driveshaft twist ``theta`` [rad] (output side minus vehicle side) and the speed of
+    the vehicle side referred to the driveshaft, ``omega_v`` [rad/s]. ``T_out = k*theta +
+    c*(w_out - omega_v)``. The vehicle-side inertia is ``J_out + m*r^2/i^2`` with final drive
+    ``i`` and wheel radius ``r``; the road load at the wheels is rolling resistance
+    ``f_r*m*g*cos(grade)`` (fading in below 0.1 m/s so the vehicle can stand), aerodynamic drag
+    ``0.5*rho*cd_a*v^2`` and grade ``m*g*sin(grade)``; ``v = omega_v*r/i``.
+    """
+
+    output: int
+    stiffness: float
+    damping: float
+    J_out: float = 0.0
+    final_drive: float = 1.0
+    wheel_radius: float = 0.5
+    mass: float = 0.0
+    rolling: float = 0.0
+    cd_a: float = 0.0
+    air_density: float = 1.2
+    grade: float = 0.0
+    name: str = "driveline"
+    state_names: tuple[str, ...] = ("theta_ds", "omega_v")
+
+    def __post_init__(self):
+        self.J_v = self.J_out + self.mass * self.wheel_radius ** 2 / self.final_drive ** 2
+        if self.J_v <= 0:
+            raise ValueError("the driveline needs an output inertia or a vehicle mass")
+
+    def initial_state(self, w):
+        return np.array([0.0, w[self.output]])
+
+    def _speed(self, omega_v):
+        return omega_v * self.wheel_radius / self.final_drive
+
+    def road_torque(self, omega_v: float) -> float:
+        """Road load referred to the driveshaft [N*m] (opposes forward motion)."""
+        v = self._speed(omega_v)
+        mg = self.mass * GRAVITY
+        rolling = self.rolling * mg * np.cos(self.grade) * np.tanh(v / 0.1)
+        force = rolling + 0.5 * self.air_density * self.cd_a * v * abs(v) + mg * np.sin(self.grade)
+        return force * self.wheel_radius / self.final_drive
+
+    def shaft_torque(self, x, w) -> float:
+        return self.stiffness * x[0] + self.damping * (w[self.output] - x[1])
+
+    def derivatives(self, t, x, w):
+        return np.array([w[self.output] - x[1], (self.shaft_torque(x, w) - self.road_torque(x[1])) / self.J_v])
+
+    def torques(self, t, x, w):
+        return {"T_out": self.shaft_torque(x, w)}
+
+    def dissipation(self, t, x, w):
+        return self.damping * (w[self.output] - x[1]) ** 2
+
+    def energy(self, x, w):
+        return 0.5 * self.stiffness * x[0] ** 2 + 0.5 * self.J_v * x[1] ** 2
+
+    def load_power(self, t, x, w):
+        return self.road_torque(x[1]) * x[1]
+
+    def signals(self, t, x, w):
+        v = self._speed(x[1])
+        return {"T_out": self.shaft_torque(x, w), "theta_ds": x[0], "omega_v": x[1], "vehicle_speed": v,
+                "vehicle_speed_mph": v / 0.44704, "road_torque": self.road_torque(x[1])}

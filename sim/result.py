@@ -1,0 +1,88 @@
+"""The result of a simulation: time, named signals, mode history, events, energy balance."""
+from __future__ import annotations
+
+import csv
+import io
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["ModeSpan", "Event", "Result"]
+
+
+@dataclass(frozen=True)
+class ModeSpan:
+    """The transmission was in mode ``name`` (locked elements ``locked``) from ``t0`` to ``t1``."""
+
+    t0: float
+    t1: float
+    name: str
+    locked: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class Event:
+    """A mode change at time ``t``: ``kind`` is ``lock``, ``unlock``, ``reverse`` (a slipping
+    element's slip changed sign) or ``start``; ``elements`` those that changed."""
+
+    t: float
+    kind: str
+    elements: tuple[str, ...]
+    source: str
+    target: str
+    detail: str = ""
+
+
+@dataclass
+class Result:
+    """A simulation result (SI units; see ``units``).
+
+    ``signals`` holds one array per named signal over ``time`` (at a mode change the time
+    appears twice, once for each side). ``success`` is False when the run stopped early;
+    ``message`` says why (time, mode, reason).
+    """
+
+    time: np.ndarray
+    signals: dict[str, np.ndarray]
+    units: dict[str, str]
+    modes: list[ModeSpan]
+    events: list[Event]
+    success: bool
+    message: str
+    energy: dict[str, float] = field(default_factory=dict)
+    stats: dict[str, float] = field(default_factory=dict)
+    meta: dict = field(default_factory=dict)
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.signals[name]
+
+    def csv_text(self, names: list[str] | None = None) -> str:
+        """CSV with a header ``time [s], name [unit], ...``."""
+        names = list(self.signals) if names is None else names
+        buf = io.StringIO()
+        writer = csv.writer(buf, lineterminator="\n")
+        writer.writerow(["time [s]"] + [f"{n} [{self.units.get(n, '')}]" for n in names])
+        columns = [self.time] + [self.signals[n] for n in names]
+        for row in zip(*columns):
+            writer.writerow([f"{v:.9g}" if isinstance(v, (float, np.floating)) else v for v in row])
+        return buf.getvalue()
+
+    def to_csv(self, path, names: list[str] | None = None) -> None:
+        """Write the signals as CSV, atomically."""
+        from transgen.export import write_text
+
+        write_text(path, self.csv_text(names))
+
+    def summary(self) -> dict:
+        """JSON-ready summary: success, message, modes, events, energy balance, run statistics."""
+        return {
+            "success": self.success,
+            "message": self.message,
+            "t_end": float(self.time[-1]) if len(self.time) else 0.0,
+            "modes": [{"t0": m.t0, "t1": m.t1, "name": m.name, "locked": list(m.locked)} for m in self.modes],
+            "events": [{"t": e.t, "kind": e.kind, "elements": list(e.elements), "from": e.source, "to": e.target,
+                        "detail": e.detail} for e in self.events],
+            "energy": self.energy,
+            "stats": self.stats,
+            "meta": self.meta,
+        }

@@ -1,0 +1,115 @@
+"""Time signals: apply fractions, torques and other inputs as functions of time.
+
+Every signal is a frozen object with ``value(t)`` and ``breakpoints()`` — the times where it is
+not smooth, at which the simulator restarts its integrator so that no kink is stepped over.
+
+Kinds (as written in a scenario file, see README "Scenario files"):
+
+``constant``  ``value``
+``step``      ``t``, ``before``, ``after``
+``ramp``      ``t0``, ``t1``, ``v0``, ``v1`` (constant outside ``[t0, t1]``)
+``table``     ``t = [...]``, ``value = [...]``: piecewise linear, constant beyond the ends
+``sine``      ``offset``, ``amplitude``, ``frequency`` [Hz], ``phase`` [rad]
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["Signal", "Constant", "Step", "Ramp", "Table", "Sine", "Sum"]
+
+
+class Signal:
+    """Base class: a scalar function of time [s]."""
+
+    def value(self, t: float) -> float:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def breakpoints(self) -> tuple[float, ...]:
+        return ()
+
+    def __call__(self, t: float) -> float:
+        return self.value(t)
+
+
+@dataclass(frozen=True)
+class Constant(Signal):
+    v: float
+
+    def value(self, t: float) -> float:
+        return self.v
+
+
+@dataclass(frozen=True)
+class Step(Signal):
+    t: float
+    before: float
+    after: float
+
+    def value(self, t: float) -> float:
+        return self.after if t >= self.t else self.before
+
+    def breakpoints(self) -> tuple[float, ...]:
+        return (self.t,)
+
+
+@dataclass(frozen=True)
+class Ramp(Signal):
+    t0: float
+    t1: float
+    v0: float
+    v1: float
+
+    def value(self, t: float) -> float:
+        if t <= self.t0:
+            return self.v0
+        if t >= self.t1:
+            return self.v1
+        return self.v0 + (self.v1 - self.v0) * (t - self.t0) / (self.t1 - self.t0)
+
+    def breakpoints(self) -> tuple[float, ...]:
+        return (self.t0, self.t1)
+
+
+@dataclass(frozen=True)
+class Table(Signal):
+    """Piecewise-linear table; ``times`` strictly increasing."""
+
+    times: tuple[float, ...]
+    values: tuple[float, ...]
+
+    def __post_init__(self):
+        object.__setattr__(self, "_t", np.asarray(self.times, dtype=float))
+        object.__setattr__(self, "_v", np.asarray(self.values, dtype=float))
+
+    def value(self, t: float) -> float:
+        return float(np.interp(t, self._t, self._v))
+
+    def breakpoints(self) -> tuple[float, ...]:
+        return tuple(self.times)
+
+
+@dataclass(frozen=True)
+class Sine(Signal):
+    offset: float
+    amplitude: float
+    frequency: float
+    phase: float = 0.0
+
+    def value(self, t: float) -> float:
+        return self.offset + self.amplitude * math.sin(2 * math.pi * self.frequency * t + self.phase)
+
+
+@dataclass(frozen=True)
+class Sum(Signal):
+    """The sum of several signals (e.g. a base table and a shift-template contribution)."""
+
+    parts: tuple[Signal, ...]
+
+    def value(self, t: float) -> float:
+        return sum(p.value(t) for p in self.parts)
+
+    def breakpoints(self) -> tuple[float, ...]:
+        return tuple(sorted({b for p in self.parts for b in p.breakpoints()}))

@@ -1,0 +1,383 @@
+"""Running a powertrain: Runde's mode-switching method (thesis 3.2) with located events, and the
+compliant (Haessig) clutch model for comparison.
+
+Mode switching: the states are the generalized coordinates of the current mode, the states of
+the components (engine, driveline, ...) and three energy integrals. Between events the mode and
+the slip direction of every slipping element are fixed, so the right-hand side is smooth. The
+integrator (``scipy.integrate.solve_ivp``) locates, by root finding on its dense output:
+
+* a slipping element's slip crossing zero (it may lock, or slip the other way);
+* a locked friction element's torque reaching its static capacity ``T_static * apply(t)``;
+* a locked one-way clutch's torque reversing.
+
+At each event, and at each breakpoint of an input signal, the new mode is decided by
+:meth:`Transmission.decide` (every element at zero slip may lock or slip either way; the unique
+consistent combination is taken, otherwise the run stops naming the elements). The new mode's
+states are the link speeds at the event, so no link speed jumps.
+"""
+from __future__ import annotations
+
+import math
+import time as _time
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from transgen.errors import ModeError, SimulationError
+
+from .components import Component
+from .result import Event, ModeSpan, Result
+from .transmission import ModeData, Transmission
+
+__all__ = ["SolverOptions", "Powertrain", "simulate"]
+
+
+@dataclass(frozen=True)
+class SolverOptions:
+    """Integration settings.
+
+    ``model``: ``"switching"`` (Runde's method) or ``"compliant"`` (Haessig's: a locked
+    element is a spring ``stiffness`` [N*m/rad] with damper ``damping`` [N*m*s/rad]).
+    ``output_dt``: spacing of the output samples [s]. ``slip_tol``: slip speed [rad/s] below
+    which an element counts as at zero slip in the mode decision (relative to the largest link
+    speed, at least 1e-9).
+    """
+
+    t_end: float = 10.0
+    t_start: float = 0.0
+    model: str = "switching"
+    method: str = "DOP853"
+    rtol: float = 1e-8
+    atol: float = 1e-8
+    max_step: float = math.inf
+    output_dt: float = 1e-3
+    slip_tol: float = 1e-7
+    max_events: int = 100000
+    stiffness: float = 1e5
+    damping: float = 100.0
+
+
+@dataclass
+class Powertrain:
+    """A transmission with the components that drive and load it, and its initial link speeds."""
+
+    transmission: Transmission
+    components: list[Component] = field(default_factory=list)
+    initial_speeds: np.ndarray | None = None
+
+
+@dataclass
+class _Segment:
+    t0: float
+    t1: float
+    locked: frozenset
+    directions: np.ndarray
+    mode: ModeData | None
+    sol: object
+    stuck: np.ndarray | None = None  # compliant model: which elements act as springs
+
+
+class _Layout:
+    """Where the component states and the energy integrals sit in the state vector."""
+
+    def __init__(self, components: list[Component], offset: int):
+        self.slices = []
+        pos = offset
+        for c in components:
+            n = len(c.state_names)
+            self.slices.append(slice(pos, pos + n))
+            pos += n
+        self.energy = slice(pos, pos + 3)  # work in, dissipated, work into the load
+        self.size = pos + 3
+
+
+def _breakpoints(pt: Powertrain, t0: float, t1: float) -> list[float]:
+    points = set()
+    for e in pt.transmission.elements:
+        points.update(e.breakpoints())
+    for c in pt.components:
+        points.update(c.breakpoints())
+    return sorted(p for p in points if t0 < p < t1)
+
+
+class _Model:
+    """Shared evaluation for both clutch models: component torques and energy rates."""
+
+    def __init__(self, pt: Powertrain):
+        self.pt = pt
+        self.tr = pt.transmission
+        self.components = pt.components
+        self.n_u = len(self.tr.inputs)
+        self.calls = 0
+
+    def external(self, t: float, y: np.ndarray, w: np.ndarray, layout: _Layout):
+        """External input vector (component torques) and component derivatives."""
+        u = np.zeros(self.n_u)
+        derivs = []
+        p_in = dissipated = p_load = 0.0
+        for c, sl in zip(self.components, layout.slices):
+            x = y[sl]
+            for name, value in c.torques(t, x, w).items():
+                u[self.tr.input_index[name]] += value
+            if sl.stop > sl.start:
+                derivs.append(c.derivatives(t, x, w))
+            p_in += c.power_in(t, x, w)
+            dissipated += c.dissipation(t, x, w)
+            p_load += c.load_power(t, x, w)
+        return u, derivs, p_in, dissipated, p_load
+
+
+def _check_finite(t, y, where: str):
+    if not np.all(np.isfinite(y)):
+        raise SimulationError(f"t={t:.6g} s: non-finite state in {where}")
+
+
+def simulate(pt: Powertrain, options: SolverOptions = SolverOptions(), progress=None) -> Result:
+    """Simulate ``pt`` from ``options.t_start`` to ``options.t_end``.
+
+    ``progress``: optional callable ``progress(t)`` called after every integration segment.
+    Returns a :class:`Result`; on failure ``success`` is False and ``message`` says when, in which
+    mode and why (the samples up to the failure are kept).
+    """
+    if options.model == "compliant":
+        from .compliant import simulate_compliant
+
+        return simulate_compliant(pt, options, progress)
+    if options.model != "switching":
+        raise ValueError(f"unknown clutch model {options.model!r}: choose 'switching' or 'compliant'")
+    return _simulate_switching(pt, options, progress)
+
+
+def _simulate_switching(pt: Powertrain, options: SolverOptions, progress) -> Result:
+    tr = pt.transmission
+    model = _Model(pt)
+    wall = _time.perf_counter()
+    w0 = np.asarray(pt.initial_speeds, dtype=float)
+    comp_states = [c.initial_state(w0) for c in pt.components]
+    t = options.t_start
+    segments: list[_Segment] = []
+    events: list[Event] = []
+    breaks = _breakpoints(pt, options.t_start, options.t_end)
+    message, success = "completed", True
+    locked: frozenset | None = None
+    directions = np.sign(tr.P @ w0).astype(int)
+    energy = np.zeros(3)
+    zeno_time, zeno_count = -math.inf, 0
+    n_events = 0
+    w = w0.copy()
+    forced: dict[int, int] = {}
+
+    def slip_tol(w):
+        return max(1e-9, options.slip_tol * max(1.0, float(np.max(np.abs(w)))))
+
+    while t < options.t_end - 1e-12:
+        # the consistent mode at t
+        dummy_layout = _Layout(pt.components, 0)
+        y_ext = np.concatenate(comp_states + [energy]) if comp_states else energy.copy()
+        u_ext, *_ = model.external(t, y_ext, w, dummy_layout)
+        previous = locked
+        try:
+            locked, directions = tr.decide(t, w, u_ext, slip_tol(w), forced)
+            mode = tr.mode(locked)
+        except (SimulationError, ModeError) as exc:
+            success, message = False, f"{exc} (mode {tr.mode_name(previous) if previous is not None else 'none'})"
+            break
+        if previous is None:
+            events.append(Event(t, "start", tuple(tr.elements[i].name for i in sorted(locked)), "", tr.mode_name(locked)))
+        elif locked != previous:
+            gained = sorted(locked - previous)
+            lost = sorted(previous - locked)
+            kind = "lock" if gained and not lost else ("unlock" if lost and not gained else "switch")
+            events.append(Event(t, kind, tuple(tr.elements[i].name for i in gained + lost),
+                                tr.mode_name(previous), tr.mode_name(locked)))
+        # zeno / chattering guard: many decisions at (nearly) the same instant
+        if t - zeno_time < 1e-9 * max(1.0, abs(t)):
+            zeno_count += 1
+            if zeno_count > 50:
+                names = sorted({x for ev in events[-10:] for x in ev.elements})
+                success, message = False, (f"t={t:.9g} s: mode chattering (Zeno behaviour) between "
+                                           f"{', '.join(names)} in mode {tr.mode_name(locked)}")
+                break
+        else:
+            zeno_time, zeno_count = t, 0
+        w = mode.C @ w[mode.coords]  # project onto the new mode (no jump: slips of locking elements ~0)
+        layout = _Layout(pt.components, mode.dof)
+        y0 = np.concatenate([w[mode.coords]] + comp_states + [energy])
+        t_stop = min([b for b in breaks if b > t + 1e-12] + [options.t_end])
+        seg_dirs = directions.copy()
+        slipping = [i for i in range(len(tr.elements)) if i not in locked]
+
+        cache = {}
+
+        def evaluate(tt, y, mode=mode, layout=layout, locked=locked, seg_dirs=seg_dirs):
+            key = (tt, y.tobytes())
+            if key in cache:
+                return cache[key]
+            model.calls += 1
+            ww = mode.C @ y[: mode.dof]
+            u, derivs, p_in, diss, p_load = model.external(tt, y, ww, layout)
+            slips = tr.P @ ww
+            te = tr.slipping_torques(tt, ww, locked, seg_dirs)
+            u[tr.element_input] += te
+            out = (ww, u, derivs, p_in, diss + float(te @ slips), p_load, slips)
+            cache.clear()
+            cache[key] = out
+            return out
+
+        def rhs(tt, y, mode=mode):
+            ww, u, derivs, p_in, diss, p_load, _ = evaluate(tt, y)
+            return np.concatenate([mode.B @ u] + derivs + [np.array([p_in, diss, p_load])])
+
+        event_funcs = []
+        for i in slipping:
+            e = tr.elements[i]
+
+            def slip_event(tt, y, i=i):
+                return evaluate(tt, y)[6][i]
+
+            slip_event.terminal = True
+            slip_event.direction = -seg_dirs[i] if seg_dirs[i] != 0 else 0
+            slip_event.info = ("slip", i)
+            event_funcs.append(slip_event)
+        for row, i in enumerate(mode.locked_order):
+            e = tr.elements[i]
+
+            def torque_event(tt, y, row=row, e=e, mode=mode):
+                u = evaluate(tt, y)[1]
+                t_e = mode.D[row] @ u
+                if e.kind == "oneway":
+                    return -e.free * t_e
+                return e.static_capacity(tt) - abs(t_e)
+
+            torque_event.terminal = True
+            torque_event.direction = -1
+            torque_event.info = ("torque", i)
+            event_funcs.append(torque_event)
+
+        try:
+            sol = solve_ivp(rhs, (t, t_stop), y0, method=options.method, rtol=options.rtol, atol=options.atol,
+                            max_step=options.max_step, events=event_funcs, dense_output=True)
+        except SimulationError as exc:
+            success, message = False, f"{exc} (mode {tr.mode_name(locked)})"
+            break
+        if sol.status == -1:
+            success, message = False, f"t={sol.t[-1]:.6g} s: integrator failed in mode {tr.mode_name(locked)}: {sol.message}"
+            break
+        t_end = float(sol.t[-1])
+        segments.append(_Segment(t, t_end, locked, seg_dirs, mode, sol.sol))
+        y_end = sol.y[:, -1]
+        _check_finite(t_end, y_end, f"mode {tr.mode_name(locked)}")
+        w = mode.C @ y_end[: mode.dof]
+        comp_states = [y_end[sl] for sl in layout.slices]
+        energy = y_end[layout.energy]
+        forced = {}
+        if sol.status == 1:
+            n_events += 1
+            u_end = evaluate(t_end, y_end)[1]
+            for f, te in zip(event_funcs, sol.t_events):
+                kind, i = f.info
+                if len(te) and kind == "torque":
+                    e = tr.elements[i]
+                    t_e = mode.D[mode.locked_order.index(i)] @ u_end
+                    forced[i] = e.free if e.kind == "oneway" else int(np.sign(t_e))
+            if n_events > options.max_events:
+                success, message = False, f"t={t_end:.6g} s: more than {options.max_events} events"
+                break
+        t = t_end
+        if progress is not None:
+            progress(t)
+
+    result = _collect(pt, options, segments, events, success, message, model, wall)
+    return result
+
+
+def _collect(pt: Powertrain, options: SolverOptions, segments: list[_Segment], events: list[Event], success: bool,
+             message: str, model: _Model, wall: float) -> Result:
+    """Sample every segment on the output grid and compute the named signals."""
+    tr = pt.transmission
+    names_links = [f"w_{k}" for k in tr.links]
+    e_names = [e.name for e in tr.elements]
+    signals: dict[str, list] = {}
+    units: dict[str, str] = {}
+    times: list[float] = []
+    mode_names = []
+    for seg in segments:
+        grid = np.arange(math.ceil((seg.t0 + 1e-12) / options.output_dt) * options.output_dt, seg.t1, options.output_dt)
+        ts = np.concatenate([[seg.t0], grid[grid > seg.t0 + 1e-12], [seg.t1]])
+        for tt in ts:
+            y = seg.sol(tt)
+            row = _sample(pt, seg, tt, y)
+            times.append(float(tt))
+            mode_names.append(tr.mode_name(seg.locked))
+            for k, v in row.items():
+                signals.setdefault(k, []).append(v)
+    for k in names_links:
+        units[k] = "rad/s"
+    for n in e_names:
+        units.update({f"slip_{n}": "rad/s", f"t_{n}": "N*m", f"apply_{n}": "1", f"P_{n}": "W", f"locked_{n}": "1"})
+    units.update({"T_in": "N*m", "T_out": "N*m", "mode": "1", "E_in": "J", "E_dissipated": "J", "E_load": "J",
+                  "E_stored": "J", "theta_ds": "rad", "omega_v": "rad/s", "vehicle_speed": "m/s",
+                  "vehicle_speed_mph": "mph", "road_torque": "N*m", "omega_engine": "rad/s", "T_engine": "N*m",
+                  "T_pump": "N*m", "throttle": "1", "converter_speed_ratio": "1"})
+    arrays = {k: np.asarray(v, dtype=float) for k, v in signals.items()}
+    order = list(dict.fromkeys(mode_names))
+    arrays["mode"] = np.array([order.index(m) + 1 for m in mode_names], dtype=float)
+    time_arr = np.asarray(times)
+    spans = []
+    for seg in segments:
+        name = tr.mode_name(seg.locked)
+        locked = tuple(tr.elements[i].name for i in sorted(seg.locked))
+        if spans and spans[-1].name == name and abs(spans[-1].t1 - seg.t0) < 1e-12:
+            spans[-1] = ModeSpan(spans[-1].t0, seg.t1, name, locked)
+        else:
+            spans.append(ModeSpan(seg.t0, seg.t1, name, locked))
+    energy = {}
+    if len(time_arr):
+        e_in, e_diss, e_load, e_st = (arrays[k] for k in ("E_in", "E_dissipated", "E_load", "E_stored"))
+        d_stored = e_st[-1] - e_st[0]
+        residual = e_in[-1] - (d_stored + e_diss[-1] + e_load[-1])
+        energy = {"work_in": float(e_in[-1]), "stored_change": float(d_stored), "dissipated": float(e_diss[-1]),
+                  "work_to_load": float(e_load[-1]), "residual": float(residual),
+                  "relative_residual": float(abs(residual) / max(abs(e_in[-1]), 1e-12))}
+    stats = {"wall_time": _time.perf_counter() - wall, "rhs_evaluations": model.calls,
+             "events": sum(1 for e in events if e.kind != "start"), "segments": len(segments)}
+    meta = {"mechanism": tr.mech.name, "model": options.model, "links": list(tr.links), "elements": e_names,
+            "mode_names": order, "coordinates": list(tr.coordinates)}
+    return Result(time_arr, arrays, units, spans, events, success, message, energy, stats, meta)
+
+
+def _sample(pt: Powertrain, seg: _Segment, t: float, y: np.ndarray) -> dict[str, float]:
+    tr = pt.transmission
+    mode = seg.mode
+    dof = mode.dof
+    w = mode.C @ y[:dof]
+    layout = _Layout(pt.components, dof)
+    row: dict[str, float] = {}
+    u = np.zeros(len(tr.inputs))
+    stored = 0.5 * float(tr.inertia @ (w * w))
+    for c, sl in zip(pt.components, layout.slices):
+        x = y[sl]
+        for name, value in c.torques(t, x, w).items():
+            u[tr.input_index[name]] += value
+        row.update(c.signals(t, x, w))
+        stored += c.energy(x, w)
+    slips = tr.P @ w
+    te = tr.slipping_torques(t, w, seg.locked, seg.directions)
+    u[tr.element_input] += te
+    torques = te.copy()
+    if mode.locked_order:
+        torques[list(mode.locked_order)] = mode.D @ u
+    for k, name in enumerate(tr.links):
+        row[f"w_{name}"] = w[k]
+    for i, e in enumerate(tr.elements):
+        row[f"slip_{e.name}"] = slips[i]
+        row[f"t_{e.name}"] = torques[i]
+        row[f"apply_{e.name}"] = e.apply_at(t)
+        row[f"P_{e.name}"] = abs(torques[i] * slips[i]) if i not in seg.locked else 0.0
+        row[f"locked_{e.name}"] = 1.0 if i in seg.locked else 0.0
+    row.setdefault("T_in", u[tr.input_index["T_in"]])
+    row.setdefault("T_out", u[tr.input_index["T_out"]])
+    e_in, e_diss, e_load = y[layout.energy]
+    row.update({"E_in": e_in, "E_dissipated": e_diss, "E_load": e_load, "E_stored": stored})
+    return row

@@ -1,0 +1,258 @@
+"""The transmission at run time: per-mode matrices from the mode generator, shift-element
+torques, and the choice of a consistent mode (thesis 3.2.6 and the complementarity view).
+
+Runde's method (thesis 3.2.1-3.2.5): in a mode the states are its generalized coordinates ``q``
+and ``dq/dt = B u``; every link speed is ``w = C q`` and the locked elements transmit
+``t = D u``. The mode matrices come from :func:`transgen.statespace.state_space` for the modes
+of the STD and are computed on demand (and cached) for any other mode the run reaches.
+
+Shift elements (sign convention of :mod:`transgen.model`: slip ``w1 - w2``, torque from link1 to
+link2): a slipping friction element transmits ``T_dyn * apply * friction(|slip|) * gain *
+sign(slip)``; it can hold ``|t| <= T_static * apply`` when locked. A one-way clutch overruns in its
+``free`` direction with no torque and locks against the other.
+"""
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from transgen.errors import ModeError, SimulationError
+from transgen.graph import build_graph, link_nodes
+from transgen.model import HOUSING, Mechanism
+from transgen.modes import Mode, mode_model, mode_models
+from transgen.statespace import _mode_state_space, state_space
+
+from .signals import Constant, Signal
+
+__all__ = ["ElementConfig", "ModeData", "Transmission"]
+
+
+@dataclass
+class ElementConfig:
+    """Run-time data of one shift element.
+
+    ``apply``: fraction of full apply pressure over time (<= 0: open). ``friction``: optional
+    ``(slip [rad/s], factor)`` table multiplying the dynamic capacity. ``gain``, ``energizing``:
+    a band brake transmits ``gain`` times its capacity when the slip has the sign ``energizing``
+    (+1/-1); 1 otherwise.
+    """
+
+    name: str
+    kind: str
+    link1: int | None
+    link2: int | None
+    static: float
+    dynamic: float
+    free: int = 0
+    apply: Signal = field(default_factory=lambda: Constant(0.0))
+    friction: tuple[tuple[float, ...], tuple[float, ...]] | None = None
+    gain: float = 1.0
+    energizing: int = 0
+
+    def apply_at(self, t: float) -> float:
+        return 1.0 if self.kind == "oneway" else max(0.0, self.apply.value(t))
+
+    def static_capacity(self, t: float) -> float:
+        return float("inf") if self.kind == "oneway" else self.static * self.apply_at(t)
+
+    def slip_torque(self, t: float, slip: float, direction: int, capacity: str = "dynamic") -> float:
+        """Torque of the element slipping in ``direction`` (+1/-1) at slip speed ``slip``."""
+        if self.kind == "oneway" or direction == 0:
+            return 0.0
+        a = self.apply_at(t)
+        if a <= 0.0:
+            return 0.0
+        base = self.static if capacity == "static" else self.dynamic
+        factor = 1.0
+        if self.friction is not None and capacity == "dynamic":
+            factor = float(np.interp(abs(slip), self.friction[0], self.friction[1]))
+        if self.energizing and direction == self.energizing:
+            factor *= self.gain
+        return base * a * factor * direction
+
+    def breakpoints(self) -> tuple[float, ...]:
+        return self.apply.breakpoints()
+
+
+@dataclass
+class ModeData:
+    """Matrices of one mode at run time (numeric)."""
+
+    locked: frozenset
+    name: str
+    coords: np.ndarray  # link indices of the states
+    B: np.ndarray  # d x n_u
+    C: np.ndarray  # n_links x d
+    D: np.ndarray  # n_locked x n_u
+    locked_order: tuple[int, ...]  # element indices of the rows of D
+    in_std: bool
+
+    @property
+    def dof(self) -> int:
+        return len(self.coords)
+
+
+class Transmission:
+    """A mechanism with its shift-element configuration and its modes.
+
+    Parameters
+    ----------
+    mech : Mechanism
+    elements : dict
+        element name -> :class:`ElementConfig` fields other than the ones from the model
+        (``apply``, ``friction``, ``gain``, ``energizing``).
+    coordinates : sequence of link names, optional
+        Generalized coordinates (default: those of :func:`transgen.statespace.state_space`).
+    """
+
+    def __init__(self, mech: Mechanism, elements: dict | None = None, coordinates=None, modes: str = "auto"):
+        self.mech = mech
+        self.graph = build_graph(mech)
+        self.links = link_nodes(self.graph)
+        self.link_index = {name: i for i, name in enumerate(self.links)}
+        self.inertia = np.array([self.graph.nodes[k]["J"] for k in self.links])
+        elements = elements or {}
+        self.elements: list[ElementConfig] = []
+        for e in mech.elements:
+            extra = elements.get(e.name, {})
+            free = {"positive": 1, "negative": -1}.get(e.free or "", 0)
+            self.elements.append(ElementConfig(
+                e.name, e.kind, self.link_index.get(e.link1), self.link_index.get(e.link2) if e.link2 != HOUSING else None,
+                e.static, e.dynamic, free, **extra))
+        self.element_index = {e.name: i for i, e in enumerate(self.elements)}
+        # slip = P @ w
+        self.P = np.zeros((len(self.elements), len(self.links)))
+        for i, e in enumerate(self.elements):
+            if e.link1 is not None:
+                self.P[i, e.link1] += 1
+            if e.link2 is not None:
+                self.P[i, e.link2] -= 1
+        models = mode_models(mech, modes)
+        ss = state_space(mech, coordinates, modes, models=[m for m in models if m.equations is not None])
+        self.coordinates = ss.coordinates
+        self.inputs = ss.inputs
+        self.input_index = {name: i for i, name in enumerate(self.inputs)}
+        self.element_input = np.array([self.input_index[f"t_{e.name}"] for e in self.elements], dtype=int)
+        self._modes: dict[frozenset, ModeData] = {}
+        self.std_modes = []
+        for m in ss.modes:
+            data = self._data(m, in_std=True)
+            self._modes[data.locked] = data
+            self.std_modes.append(data)
+
+    # ------------------------------------------------------------------ modes
+    def _data(self, m, in_std: bool) -> ModeData:
+        locked = tuple(self.element_index[x] for x in m.locked)
+        return ModeData(frozenset(locked), m.name, np.array([self.link_index[s] for s in m.states], dtype=int),
+                        np.asarray(m.B, dtype=float), np.asarray(m.C, dtype=float), np.asarray(m.D, dtype=float),
+                        locked, in_std)
+
+    def mode(self, locked) -> ModeData:
+        """Matrices of the mode with the element indices ``locked`` (cached; computed on demand
+        for modes outside the STD, with coordinates taken from the STD's first)."""
+        key = frozenset(locked)
+        if key not in self._modes:
+            names = tuple(self.elements[i].name for i in sorted(key))
+            model = mode_model(self.mech, Mode("+".join(names) or "none", names, "on demand"), self.graph)
+            if model.equations is None:
+                raise ModeError(model.problem)
+            order = list(self.coordinates) + [k for k in self.links if k not in self.coordinates]
+            self._modes[key] = self._data(_mode_state_space(model, self.links, order, False), in_std=False)
+        return self._modes[key]
+
+    def mode_name(self, locked) -> str:
+        data = self._modes.get(frozenset(locked))
+        if data is not None and data.in_std:
+            return data.name
+        return "+".join(self.elements[i].name for i in sorted(locked)) or "none"
+
+    # --------------------------------------------------------- element torques
+    def slipping_torques(self, t: float, w: np.ndarray, locked: frozenset, directions: np.ndarray,
+                         capacity: str = "dynamic") -> np.ndarray:
+        """Torques of every element as inputs (locked ones zero); ``directions`` is the slip
+        direction each slipping element transmits in (+1/-1, 0 for none)."""
+        slips = self.P @ w
+        out = np.zeros(len(self.elements))
+        for i, e in enumerate(self.elements):
+            if i not in locked:
+                out[i] = e.slip_torque(t, slips[i], int(directions[i]), capacity)
+        return out
+
+    # ------------------------------------------------------ mode consistency
+    def decide(self, t: float, w: np.ndarray, external_u: np.ndarray, slip_tol: float,
+               forced: dict[int, int] | None = None) -> tuple[frozenset, np.ndarray]:
+        """The consistent mode at time ``t`` and speeds ``w``: which elements at zero slip lock,
+        and which way the others slip (complementarity, Pfeiffer & Glocker).
+
+        Elements with ``|slip| <= slip_tol`` that can transmit torque (apply > 0, or one-way) may
+        be locked or start slipping either way (a one-way clutch only in its free direction).
+        For every combination the mode's locked torques and slip accelerations are computed —
+        with the static capacity for elements that start to slip, as the sticking test of 3.2.6
+        asks — and the combination is consistent when every locked friction element holds
+        ``|t| <= T_static*apply``, every locked one-way clutch transmits in its locking
+        direction, and every element starting to slip accelerates in its slip direction. The
+        unique consistent combination is returned with the slip directions; none or several
+        raise :class:`SimulationError` naming the elements.
+
+        ``forced`` maps elements whose unlocking condition has just been met (their torque reached
+        the static capacity, or a one-way clutch's torque reversed) to the direction they start
+        to slip in: at that instant locking and slipping are both borderline, and the event has
+        already decided for them.
+        """
+        forced = forced or {}
+        slips = self.P @ w
+        zero = [i for i, e in enumerate(self.elements)
+                if abs(slips[i]) <= slip_tol and (e.kind == "oneway" or e.apply_at(t) > 0)]
+        base_dir = np.sign(slips).astype(int)
+        consistent = []
+        rejected = 0
+        for choice in itertools.product(*[(forced[i],) if i in forced else self._choices(i) for i in zero]):
+            locked = frozenset(i for i, c in zip(zero, choice) if c == 0)
+            try:
+                data = self.mode(locked)
+            except ModeError:
+                rejected += 1
+                continue
+            directions = base_dir.copy()
+            for i, c in zip(zero, choice):
+                directions[i] = c
+            u = external_u.copy()
+            torques = self.slipping_torques(t, w, locked, directions)
+            starting = [i for i in zero if i not in locked]
+            if starting:  # elements leaving zero slip are tested at their static capacity
+                torques[starting] = self.slipping_torques(t, w, locked, directions, "static")[starting]
+            u[self.element_input] += torques
+            alpha = data.C @ (data.B @ u)
+            slip_acc = self.P @ alpha
+            t_locked = data.D @ u
+            ok = True
+            for row, i in enumerate(data.locked_order):
+                e = self.elements[i]
+                if e.kind == "oneway":
+                    # free=+1 overruns with positive slip: locked it transmits t <= 0
+                    if e.free * t_locked[row] > 1e-9 * (1 + abs(t_locked[row])):
+                        ok = False
+                elif abs(t_locked[row]) > e.static_capacity(t) * (1 + 1e-9) + 1e-9:
+                    ok = False
+            for i, c in zip(zero, choice):
+                if c != 0 and i not in forced and not c * slip_acc[i] > 0:
+                    ok = False
+            if ok:
+                consistent.append((locked, directions))
+        if len(consistent) == 1:
+            return consistent[0]
+        names = ", ".join(self.elements[i].name for i in zero) or "none"
+        if not consistent:
+            raise SimulationError(
+                f"t={t:.6g} s: no consistent mode for the elements at zero slip ({names}); "
+                f"{rejected} candidate mode(s) have non-unique locked torques or undetermined members")
+        options = "; ".join("+".join(self.elements[i].name for i in sorted(lk)) or "none" for lk, _ in consistent)
+        raise SimulationError(f"t={t:.6g} s: several consistent modes for the elements at zero slip ({names}): {options}")
+
+    def _choices(self, i: int) -> tuple[int, ...]:
+        e = self.elements[i]
+        if e.kind == "oneway":
+            return (0, e.free)
+        return (0, 1, -1)
