@@ -1,8 +1,95 @@
-"""Simulator commands of the ``transgen`` command line (filled in by the simulator)."""
+"""Simulator commands of the ``transgen`` command line: ``simulate`` (and ``maps``)."""
 from __future__ import annotations
 
-__all__ = ["add_commands"]
+import json
+import sys
+from pathlib import Path
+
+__all__ = ["add_commands", "cmd_simulate"]
 
 
 def add_commands(sub) -> None:
     """Add the simulator's sub-commands to the ``transgen`` parser."""
+    s = sub.add_parser("simulate", help="simulate a scenario (shifts, driveline, vehicle)",
+                       description="Simulate a scenario file (TOML) or a bundled scenario by name "
+                                   "(see 'transgen simulate --list').")
+    s.add_argument("scenario", metavar="SCENARIO", nargs="?", help="scenario .toml file or bundled name")
+    s.add_argument("-o", "--output", help="write the signals as CSV")
+    s.add_argument("--plot", metavar="DIR", help="write the plots into DIR")
+    s.add_argument("--format", default="png", help="plot formats, comma-separated: png,svg,pdf (default png)")
+    s.add_argument("--report", action="store_true", help="print the shift-quality report")
+    s.add_argument("--json", action="store_true", help="machine-readable summary (events, modes, energy, report)")
+    s.add_argument("--model", choices=("switching", "compliant"), help="override the clutch model of the scenario")
+    s.add_argument("--quiet", action="store_true", help="no progress on standard error")
+    s.add_argument("--list", action="store_true", help="list the bundled scenarios")
+    s.set_defaults(func=cmd_simulate)
+
+
+def _progress(t_end: float, quiet: bool):
+    if quiet or not sys.stderr.isatty():
+        return None
+    last = [-1]
+
+    def show(t):
+        pct = int(100 * t / t_end) if t_end > 0 else 100
+        if pct != last[0]:
+            last[0] = pct
+            print(f"\r  simulating: t = {t:7.3f} s ({pct:3d} %)", end="", file=sys.stderr, flush=True)
+    return show
+
+
+def cmd_simulate(args) -> int:
+    import dataclasses
+
+    from transgen.errors import ScenarioError
+
+    from .report import report_dict, report_text, shift_report
+    from .scenario import bundled_scenarios, load_scenario
+
+    if args.list or not args.scenario:
+        if not args.list:
+            raise ScenarioError("name a scenario file (or use --list to see the bundled ones)")
+        items = {name: str(path) for name, path in bundled_scenarios().items()}
+        print(json.dumps(items, indent=2) if args.json else "\n".join(f"  {k:<24} {v}" for k, v in items.items()))
+        return 0
+    scenario = load_scenario(args.scenario)
+    if args.model:
+        scenario.options = dataclasses.replace(scenario.options, model=args.model,
+                                               method="Radau" if args.model == "compliant" else scenario.options.method)
+    progress = _progress(scenario.options.t_end, args.quiet or args.json)
+    if not args.quiet and not args.json:
+        print(f"{scenario.title}: {scenario.mechanism.name}, {scenario.options.model} model, "
+              f"t = {scenario.options.t_start:g}..{scenario.options.t_end:g} s", file=sys.stderr)
+    result = scenario.run(progress)
+    if progress is not None:
+        print(file=sys.stderr)
+    qualities = shift_report(result, scenario.shifts or None) if len(result.time) else []
+    written = []
+    if args.output:
+        result.to_csv(args.output, scenario.outputs or None)
+        written.append(args.output)
+    if args.plot and len(result.time):
+        from .plots import plot_all
+
+        formats = tuple(f.strip() for f in args.format.split(",") if f.strip())
+        written += [str(p) for p in plot_all(result, qualities, Path(args.plot), formats=formats)]
+    if args.json:
+        summary = result.summary()
+        summary["report"] = report_dict(result, qualities)
+        summary["written"] = written
+        print(json.dumps(summary, indent=2, default=float))
+    else:
+        status = "completed" if result.success else "FAILED"
+        print(f"{status}: {result.message}")
+        st = result.stats
+        print(f"  {st.get('wall_time', 0):.3f} s wall, {st.get('rhs_evaluations', 0)} right-hand-side evaluations, "
+              f"{st.get('events', 0)} events, {len(result.modes)} mode spans")
+        for e in result.events:
+            if e.kind != "start":
+                print(f"  t = {e.t:8.4f} s  {e.kind:<7} {' '.join(e.elements):<8} {e.source} -> {e.target} {e.detail}")
+        if args.report:
+            print()
+            print(report_text(result, qualities))
+        for w in written:
+            print(f"  wrote {w}")
+    return 0 if result.success else 1

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Signal", "Constant", "Step", "Ramp", "Table", "Sine", "Sum"]
+__all__ = ["Signal", "Constant", "Step", "Ramp", "Table", "Sine", "Sum", "Spliced"]
 
 
 class Signal:
@@ -113,3 +113,19 @@ class Sum(Signal):
 
     def breakpoints(self) -> tuple[float, ...]:
         return tuple(sorted({b for p in self.parts for b in p.breakpoints()}))
+
+
+@dataclass(frozen=True)
+class Spliced(Signal):
+    """``before`` up to time ``t``, ``after`` from ``t`` on (a controller's new command)."""
+
+    t: float
+    before: Signal
+    after: Signal
+
+    def value(self, t: float) -> float:
+        return self.after.value(t) if t >= self.t else self.before.value(t)
+
+    def breakpoints(self) -> tuple[float, ...]:
+        return tuple(sorted({self.t} | {b for b in self.before.breakpoints() if b < self.t}
+                            | {b for b in self.after.breakpoints() if b > self.t}))

@@ -65,6 +65,7 @@ class Powertrain:
     transmission: Transmission
     components: list[Component] = field(default_factory=list)
     initial_speeds: np.ndarray | None = None
+    controllers: list = field(default_factory=list)  # e.g. schedule.AutoShift
 
 
 @dataclass
@@ -158,7 +159,6 @@ def _simulate_switching(pt: Powertrain, options: SolverOptions, progress) -> Res
     t = options.t_start
     segments: list[_Segment] = []
     events: list[Event] = []
-    breaks = _breakpoints(pt, options.t_start, options.t_end)
     message, success = "completed", True
     locked: frozenset | None = None
     directions = np.sign(tr.P @ w0).astype(int)
@@ -204,6 +204,7 @@ def _simulate_switching(pt: Powertrain, options: SolverOptions, progress) -> Res
         w = mode.C @ w[mode.coords]  # project onto the new mode (no jump: slips of locking elements ~0)
         layout = _Layout(pt.components, mode.dof)
         y0 = np.concatenate([w[mode.coords]] + comp_states + [energy])
+        breaks = _breakpoints(pt, t, options.t_end)
         t_stop = min([b for b in breaks if b > t + 1e-12] + [options.t_end])
         seg_dirs = directions.copy()
         slipping = [i for i in range(len(tr.elements)) if i not in locked]
@@ -255,6 +256,17 @@ def _simulate_switching(pt: Powertrain, options: SolverOptions, progress) -> Res
             torque_event.info = ("torque", i)
             event_funcs.append(torque_event)
 
+        for controller in pt.controllers:
+            for func, kind in controller.event_functions():
+
+                def control_event(tt, y, func=func, mode=mode):
+                    return func(tt, mode.C @ y[: mode.dof])
+
+                control_event.terminal = True
+                control_event.direction = -1
+                control_event.info = ("control", (controller, kind))
+                event_funcs.append(control_event)
+
         try:
             sol = solve_ivp(rhs, (t, t_stop), y0, method=options.method, rtol=options.rtol, atol=options.atol,
                             max_step=options.max_step, events=event_funcs, dense_output=True)
@@ -277,6 +289,11 @@ def _simulate_switching(pt: Powertrain, options: SolverOptions, progress) -> Res
             u_end = evaluate(t_end, y_end)[1]
             for f, te in zip(event_funcs, sol.t_events):
                 kind, i = f.info
+                if len(te) and kind == "control":
+                    controller, what = i
+                    description = controller.fire(what, t_end, {e.name: e for e in tr.elements})
+                    if description:
+                        events.append(Event(t_end, "command", (), tr.mode_name(locked), tr.mode_name(locked), description))
                 if len(te) and kind == "torque":
                     e = tr.elements[i]
                     t_e = mode.D[mode.locked_order.index(i)] @ u_end
@@ -288,12 +305,11 @@ def _simulate_switching(pt: Powertrain, options: SolverOptions, progress) -> Res
         if progress is not None:
             progress(t)
 
-    result = _collect(pt, options, segments, events, success, message, model, wall)
-    return result
+    return _collect(pt, options, segments, events, success, message, model, wall)
 
 
 def _collect(pt: Powertrain, options: SolverOptions, segments: list[_Segment], events: list[Event], success: bool,
-             message: str, model: _Model, wall: float) -> Result:
+             message: str, model: _Model, wall: float, sampler=None) -> Result:
     """Sample every segment on the output grid and compute the named signals."""
     tr = pt.transmission
     names_links = [f"w_{k}" for k in tr.links]
@@ -307,7 +323,7 @@ def _collect(pt: Powertrain, options: SolverOptions, segments: list[_Segment], e
         ts = np.concatenate([[seg.t0], grid[grid > seg.t0 + 1e-12], [seg.t1]])
         for tt in ts:
             y = seg.sol(tt)
-            row = _sample(pt, seg, tt, y)
+            row = (sampler or _sample)(pt, seg, tt, y)
             times.append(float(tt))
             mode_names.append(tr.mode_name(seg.locked))
             for k, v in row.items():

@@ -1,0 +1,191 @@
+"""The compliant clutch model (Haessig et al., thesis 3.2.1-3.2.2), for comparison with Runde's
+mode-switching method.
+
+The transmission keeps one state per independent inertia (the generalized coordinates of the
+mode with nothing locked) and every shift element is a submodel of its own: while it sticks it
+is a stiff torsional spring ``k`` with damper ``c`` (its twist ``phi`` is a state), while it slips
+it transmits ``T_dyn * apply * sign(slip)``. It starts to stick when its slip crosses zero (with
+``phi = 0``) and slips again when the spring-damper torque exceeds the static capacity (a
+one-way clutch: when its torque reverses). The stiff springs make the equations stiff: the
+default integrator is Radau. The same scenario files run with either model.
+"""
+from __future__ import annotations
+
+import math
+import time as _time
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from transgen.errors import ModeError, SimulationError
+
+from .result import Event
+from .simulate import Powertrain, SolverOptions, _breakpoints, _check_finite, _collect, _Layout, _Model, _Segment
+
+__all__ = ["simulate_compliant"]
+
+
+def _spring_torques(tr, k, c, phi, slips, stuck):
+    return np.where(stuck, k * phi + c * slips, 0.0)
+
+
+def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
+    """Simulate with the compliant clutch model (see the module docstring)."""
+    tr = pt.transmission
+    model = _Model(pt)
+    wall = _time.perf_counter()
+    try:
+        mode = tr.mode(frozenset())
+    except ModeError as exc:
+        raise SimulationError(f"the compliant model needs the mode with nothing locked: {exc}") from None
+    n_e = len(tr.elements)
+    k, c = options.stiffness, options.damping
+    w = np.asarray(pt.initial_speeds, dtype=float)
+    comp_states = [cmp.initial_state(w) for cmp in pt.components]
+    energy = np.zeros(3)
+    phi = np.zeros(n_e)
+    slips0 = tr.P @ w
+    tol = max(1e-9, options.slip_tol * max(1.0, float(np.max(np.abs(w)))))
+    stuck = np.array([abs(slips0[i]) <= tol and (e.kind == "oneway" or e.apply_at(options.t_start) > 0)
+                      for i, e in enumerate(tr.elements)])
+    directions = np.sign(slips0).astype(int)
+    t = options.t_start
+    segments, events = [], [Event(t, "start", tuple(e.name for e, s in zip(tr.elements, stuck) if s), "", _name(tr, stuck))]
+    success, message = True, "completed"
+    layout = _Layout(pt.components, mode.dof + n_e)
+    spring = slice(mode.dof, mode.dof + n_e)
+    zeno_time, zeno_count = -math.inf, 0
+    while t < options.t_end - 1e-12:
+        seg_stuck, seg_dirs = stuck.copy(), directions.copy()
+        y0 = np.concatenate([w[mode.coords], phi] + comp_states + [energy])
+        t_stop = min([b for b in _breakpoints(pt, t, options.t_end) if b > t + 1e-12] + [options.t_end])
+        cache = {}
+
+        def evaluate(tt, y, seg_stuck=seg_stuck, seg_dirs=seg_dirs):
+            key = (tt, y.tobytes())
+            if key in cache:
+                return cache[key]
+            model.calls += 1
+            ww = mode.C @ y[: mode.dof]
+            u, derivs, p_in, diss, p_load = model.external(tt, y, ww, layout)
+            slips = tr.P @ ww
+            te = tr.slipping_torques(tt, ww, frozenset(np.flatnonzero(seg_stuck)), seg_dirs)
+            te = np.where(seg_stuck, _spring_torques(tr, k, c, y[spring], slips, seg_stuck), te)
+            u[tr.element_input] += te
+            diss += float(np.sum(np.where(seg_stuck, c * slips ** 2, te * slips)))
+            out = (ww, u, derivs, p_in, diss, p_load, slips, te)
+            cache.clear()
+            cache[key] = out
+            return out
+
+        def rhs(tt, y, seg_stuck=seg_stuck):
+            ww, u, derivs, p_in, diss, p_load, slips, _ = evaluate(tt, y)
+            return np.concatenate([mode.B @ u, np.where(seg_stuck, slips, 0.0)] + derivs + [np.array([p_in, diss, p_load])])
+
+        event_funcs = []
+        for i, e in enumerate(tr.elements):
+            if seg_stuck[i]:
+                def unstick(tt, y, i=i, e=e):
+                    t_e = evaluate(tt, y)[7][i]
+                    return -e.free * t_e if e.kind == "oneway" else e.static_capacity(tt) - abs(t_e)
+                unstick.direction, unstick.info = -1, ("unstick", i)
+                event_funcs.append(unstick)
+            else:
+                def slip_zero(tt, y, i=i):
+                    return evaluate(tt, y)[6][i]
+                slip_zero.direction, slip_zero.info = (-seg_dirs[i] if seg_dirs[i] else 0), ("slip", i)
+                event_funcs.append(slip_zero)
+        for f in event_funcs:
+            f.terminal = True
+        try:
+            sol = solve_ivp(rhs, (t, t_stop), y0, method=options.method, rtol=options.rtol, atol=options.atol,
+                            max_step=options.max_step, events=event_funcs, dense_output=True)
+        except SimulationError as exc:
+            success, message = False, f"{exc} (compliant model, sticking {_name(tr, seg_stuck)})"
+            break
+        if sol.status == -1:
+            success, message = False, f"t={sol.t[-1]:.6g} s: integrator failed (compliant model): {sol.message}"
+            break
+        t_end = float(sol.t[-1])
+        segments.append(_Segment(t, t_end, frozenset(np.flatnonzero(seg_stuck)), seg_dirs, mode, sol.sol, seg_stuck))
+        y_end = sol.y[:, -1]
+        _check_finite(t_end, y_end, "compliant model")
+        w = mode.C @ y_end[: mode.dof]
+        phi = y_end[spring].copy()
+        comp_states = [y_end[sl] for sl in layout.slices]
+        energy = y_end[layout.energy]
+        slips = tr.P @ w
+        if sol.status == 1:
+            for f, te in zip(event_funcs, sol.t_events):
+                if not len(te):
+                    continue
+                kind, i = f.info
+                e = tr.elements[i]
+                before = _name(tr, stuck)
+                if kind == "unstick":
+                    t_e = evaluate(t_end, y_end)[7][i]
+                    stuck[i] = False
+                    directions[i] = e.free if e.kind == "oneway" else int(np.sign(t_e))
+                    # the spring energy is released into the damper: account it as dissipated
+                    energy[1] += 0.5 * k * phi[i] ** 2
+                    phi[i] = 0.0
+                    events.append(Event(t_end, "unlock", (e.name,), before, _name(tr, stuck)))
+                elif e.kind == "oneway" or e.apply_at(t_end) > 0:
+                    stuck[i] = True
+                    phi[i] = 0.0
+                    events.append(Event(t_end, "lock", (e.name,), before, _name(tr, stuck)))
+                else:
+                    directions[i] = -directions[i] if directions[i] else int(np.sign(slips[i]))
+            if t_end - zeno_time < 1e-9 * max(1.0, t_end):
+                zeno_count += 1
+                if zeno_count > 50:
+                    success, message = False, f"t={t_end:.9g} s: chattering in the compliant model"
+                    break
+            else:
+                zeno_time, zeno_count = t_end, 0
+        else:
+            directions = np.where(stuck, directions, np.sign(slips).astype(int))
+        t = t_end
+        if progress is not None:
+            progress(t)
+    return _collect(pt, options, segments, events, success, message, model, wall,
+                    sampler=lambda p, seg, tt, y: _sample(p, seg, tt, y, k, c))
+
+
+def _name(tr, stuck) -> str:
+    return "+".join(e.name for e, s in zip(tr.elements, stuck) if s) or "none"
+
+
+def _sample(pt, seg, t, y, k, c):
+    tr = pt.transmission
+    mode = seg.mode
+    w = mode.C @ y[: mode.dof]
+    n_e = len(tr.elements)
+    phi = y[mode.dof: mode.dof + n_e]
+    layout = _Layout(pt.components, mode.dof + n_e)
+    row = {}
+    u = np.zeros(len(tr.inputs))
+    stored = 0.5 * float(tr.inertia @ (w * w)) + 0.5 * k * float(np.sum(np.where(seg.stuck, phi ** 2, 0.0)))
+    for cmp, sl in zip(pt.components, layout.slices):
+        x = y[sl]
+        for name, value in cmp.torques(t, x, w).items():
+            u[tr.input_index[name]] += value
+        row.update(cmp.signals(t, x, w))
+        stored += cmp.energy(x, w)
+    slips = tr.P @ w
+    te = tr.slipping_torques(t, w, seg.locked, seg.directions)
+    te = np.where(seg.stuck, k * phi + c * slips, te)
+    u[tr.element_input] += te
+    for j, name in enumerate(tr.links):
+        row[f"w_{name}"] = w[j]
+    for i, e in enumerate(tr.elements):
+        row[f"slip_{e.name}"] = slips[i]
+        row[f"t_{e.name}"] = te[i]
+        row[f"apply_{e.name}"] = e.apply_at(t)
+        row[f"P_{e.name}"] = c * slips[i] ** 2 if seg.stuck[i] else abs(te[i] * slips[i])
+        row[f"locked_{e.name}"] = 1.0 if seg.stuck[i] else 0.0
+    row.setdefault("T_in", u[tr.input_index["T_in"]])
+    row.setdefault("T_out", u[tr.input_index["T_out"]])
+    e_in, e_diss, e_load = y[layout.energy]
+    row.update({"E_in": e_in, "E_dissipated": e_diss, "E_load": e_load, "E_stored": stored})
+    return row
