@@ -83,6 +83,9 @@ def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
             return np.concatenate([mode.B @ u, np.where(seg_stuck, slips, 0.0)] + derivs + [np.array([p_in, diss, p_load])])
 
         event_funcs = []
+        _, u0, *_ = evaluate(t, y0)
+        start_acc = tr.P @ (mode.C @ (mode.B @ u0))
+        start_slip = tr.P @ w
         for i, e in enumerate(tr.elements):
             if seg_stuck[i]:
                 def unstick(tt, y, i=i, e=e):
@@ -91,9 +94,13 @@ def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
                 unstick.direction, unstick.info = -1, ("unstick", i)
                 event_funcs.append(unstick)
             else:
+                moving = seg_dirs[i] if abs(start_slip[i]) > tol else int(np.sign(start_acc[i]))
+                if moving == 0:
+                    continue
+
                 def slip_zero(tt, y, i=i):
                     return evaluate(tt, y)[6][i]
-                slip_zero.direction, slip_zero.info = (-seg_dirs[i] if seg_dirs[i] else 0), ("slip", i)
+                slip_zero.direction, slip_zero.info = -moving, ("slip", i)
                 event_funcs.append(slip_zero)
         for f in event_funcs:
             f.terminal = True

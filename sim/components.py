@@ -21,10 +21,12 @@ to positions):
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from .interp import interp2
 from .signals import Constant, Signal
 
 __all__ = [
@@ -96,19 +98,6 @@ class InputTorque(Component):
         return self.signal.breakpoints()
 
 
-def _interp2(xs: np.ndarray, ys: np.ndarray, table: np.ndarray, x: float, y: float) -> float:
-    """Bilinear interpolation in ``table[i_y, i_x]``, clamped at the edges."""
-    x = min(max(x, xs[0]), xs[-1])
-    y = min(max(y, ys[0]), ys[-1])
-    i = int(np.clip(np.searchsorted(xs, x) - 1, 0, len(xs) - 2))
-    j = int(np.clip(np.searchsorted(ys, y) - 1, 0, len(ys) - 2))
-    fx = (x - xs[i]) / (xs[i + 1] - xs[i])
-    fy = (y - ys[j]) / (ys[j + 1] - ys[j]) if len(ys) > 1 else 0.0
-    lo = table[j, i] * (1 - fx) + table[j, i + 1] * fx
-    hi = table[j + 1, i] * (1 - fx) + table[j + 1, i + 1] * fx
-    return lo * (1 - fy) + hi * fy
-
-
 @dataclass
 class EngineMap:
     """Engine torque [N*m] as a table over engine speed [rad/s] and throttle [0-1].
@@ -122,14 +111,14 @@ class EngineMap:
     torque: tuple[tuple[float, ...], ...]
 
     def __post_init__(self):
-        self._x = np.asarray(self.speeds, dtype=float)
-        self._y = np.asarray(self.throttles, dtype=float)
-        self._z = np.asarray(self.torque, dtype=float)
-        if self._z.shape != (len(self._y), len(self._x)):
-            raise ValueError(f"engine torque table must be {len(self._y)} x {len(self._x)} (throttles x speeds)")
+        self.speeds = tuple(float(x) for x in self.speeds)
+        self.throttles = tuple(float(x) for x in self.throttles)
+        self.torque = tuple(tuple(float(x) for x in row) for row in self.torque)
+        if len(self.torque) != len(self.throttles) or any(len(r) != len(self.speeds) for r in self.torque):
+            raise ValueError(f"engine torque table must be {len(self.throttles)} x {len(self.speeds)} (throttles x speeds)")
 
     def __call__(self, omega: float, throttle: float) -> float:
-        return _interp2(self._x, self._y, self._z, omega, throttle)
+        return interp2(omega, throttle, self.speeds, self.throttles, self.torque)
 
 
 @dataclass
@@ -194,7 +183,7 @@ class EngineWithConverter(Component):
     def derivatives(self, t, x, w):
         omega_e = x[0]
         pump, _ = self.converter.torques(omega_e, w[self.link])
-        return np.array([(self._engine_torque(t, omega_e) - pump) / self.J_engine])
+        return [(self._engine_torque(t, omega_e) - pump) / self.J_engine]
 
     def torques(self, t, x, w):
         _, turbine = self.converter.torques(x[0], w[self.link])
@@ -235,7 +224,7 @@ class LinkLoad(Component):
 
     def _torque(self, t, w):
         s = w[self.link]
-        return self.signal.value(t) - (self.c0 * np.sign(s) + self.c1 * s + self.c2 * s * abs(s))
+        return self.signal.value(t) - (math.copysign(self.c0, s) * (s != 0) + self.c1 * s + self.c2 * s * abs(s))
 
     def torques(self, t, x, w):
         return {self.input_name: self._torque(t, w)}
@@ -291,15 +280,15 @@ class Driveline(Component):
         """Road load referred to the driveshaft [N*m] (opposes forward motion)."""
         v = self._speed(omega_v)
         mg = self.mass * GRAVITY
-        rolling = self.rolling * mg * np.cos(self.grade) * np.tanh(v / 0.1)
-        force = rolling + 0.5 * self.air_density * self.cd_a * v * abs(v) + mg * np.sin(self.grade)
+        rolling = self.rolling * mg * math.cos(self.grade) * math.tanh(v / 0.1)
+        force = rolling + 0.5 * self.air_density * self.cd_a * v * abs(v) + mg * math.sin(self.grade)
         return force * self.wheel_radius / self.final_drive
 
     def shaft_torque(self, x, w) -> float:
         return self.stiffness * x[0] + self.damping * (w[self.output] - x[1])
 
     def derivatives(self, t, x, w):
-        return np.array([w[self.output] - x[1], (self.shaft_torque(x, w) - self.road_torque(x[1])) / self.J_v])
+        return [w[self.output] - x[1], (self.shaft_torque(x, w) - self.road_torque(x[1])) / self.J_v]
 
     def torques(self, t, x, w):
         return {"T_out": self.shaft_torque(x, w)}

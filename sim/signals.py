@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numpy as np
+from .interp import interp1
 
 __all__ = ["Signal", "Constant", "Step", "Ramp", "Table", "Sine", "Sum", "Spliced"]
 
@@ -81,11 +81,11 @@ class Table(Signal):
     values: tuple[float, ...]
 
     def __post_init__(self):
-        object.__setattr__(self, "_t", np.asarray(self.times, dtype=float))
-        object.__setattr__(self, "_v", np.asarray(self.values, dtype=float))
+        object.__setattr__(self, "times", tuple(float(x) for x in self.times))
+        object.__setattr__(self, "values", tuple(float(x) for x in self.values))
 
     def value(self, t: float) -> float:
-        return float(np.interp(t, self._t, self._v))
+        return interp1(t, self.times, self.values)
 
     def breakpoints(self) -> tuple[float, ...]:
         return tuple(self.times)

@@ -231,14 +231,22 @@ def _simulate_switching(pt: Powertrain, options: SolverOptions, progress) -> Res
             return np.concatenate([mode.B @ u] + derivs + [np.array([p_in, diss, p_load])])
 
         event_funcs = []
+        # an element starting at zero slip (open, or a one-way clutch) moves off in the direction
+        # of its slip acceleration; the event must only catch it coming back through zero
+        _, u0, *_ = evaluate(t, y0)
+        start_acc = tr.P @ (mode.C @ (mode.B @ u0))
+        start_slip = tr.P @ w
         for i in slipping:
             e = tr.elements[i]
+            moving = seg_dirs[i] if abs(start_slip[i]) > slip_tol(w) else int(np.sign(start_acc[i]))
 
             def slip_event(tt, y, i=i):
                 return evaluate(tt, y)[6][i]
 
             slip_event.terminal = True
-            slip_event.direction = -seg_dirs[i] if seg_dirs[i] != 0 else 0
+            slip_event.direction = -moving
+            if moving == 0:
+                continue
             slip_event.info = ("slip", i)
             event_funcs.append(slip_event)
         for row, i in enumerate(mode.locked_order):

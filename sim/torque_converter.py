@@ -43,6 +43,7 @@ import numpy as np
 from transgen.errors import TransgenError
 
 from .causality import Causality, ports
+from .interp import interp1
 from .maps import DATA_DIR
 
 __all__ = ["TorqueConverter", "TorqueConverterError", "DEFAULT_TORQUE_CONVERTER"]
@@ -106,11 +107,12 @@ class TorqueConverter:
             problems.append("drive: torque ratios must be finite and >= 0")
         if problems:
             raise TorqueConverterError(f"torque converter '{self.name}': " + "; ".join(problems))
-        object.__setattr__(self, "_sr", np.asarray(self.speed_ratio, dtype=float))
-        object.__setattr__(self, "_c", _coefficient(self.capacity_factor))
-        object.__setattr__(self, "_tr", np.asarray(self.torque_ratio, dtype=float))
-        object.__setattr__(self, "_csr", np.asarray(self.coast_speed_ratio, dtype=float))
-        object.__setattr__(self, "_cc", _coefficient(self.coast_capacity_factor))
+        # plain tuples: scalar look-ups in the simulator's right-hand side (see sim/interp.py)
+        object.__setattr__(self, "_sr", tuple(float(x) for x in self.speed_ratio))
+        object.__setattr__(self, "_c", tuple(float(x) for x in _coefficient(self.capacity_factor)))
+        object.__setattr__(self, "_tr", tuple(float(x) for x in self.torque_ratio))
+        object.__setattr__(self, "_csr", tuple(float(x) for x in self.coast_speed_ratio))
+        object.__setattr__(self, "_cc", tuple(float(x) for x in _coefficient(self.coast_capacity_factor)))
 
     @classmethod
     def load(cls, path: str | Path = DEFAULT_TORQUE_CONVERTER) -> "TorqueConverter":
@@ -120,11 +122,11 @@ class TorqueConverter:
 
     def torque_ratio_at(self, speed_ratio: float) -> float:
         """Drive torque ratio TR [-] at a speed ratio (clamped to [0, 1])."""
-        return float(np.interp(speed_ratio, self._sr, self._tr))
+        return interp1(speed_ratio, self._sr, self._tr)
 
     def capacity_factor_at(self, speed_ratio: float) -> float:
         """Drive capacity factor K [rad/s/sqrt(N*m)] at a speed ratio (inf at SR = 1)."""
-        c = float(np.interp(speed_ratio, self._sr, self._c))
+        c = interp1(speed_ratio, self._sr, self._c)
         return math.inf if c == 0.0 else 1.0 / math.sqrt(c)
 
     def efficiency(self, speed_ratio: float) -> float:
@@ -147,9 +149,9 @@ class TorqueConverter:
             if wp == 0.0:
                 return 0.0, 0.0
             sr = max(wt / wp, 0.0)
-            tp = wp * wp * float(np.interp(sr, self._sr, self._c))
-            return s * tp, s * tp * float(np.interp(sr, self._sr, self._tr))
-        t = wt * wt * float(np.interp(wp / wt, self._csr, self._cc))   # coast, wt > wp >= 0
+            tp = wp * wp * interp1(sr, self._sr, self._c)
+            return s * tp, s * tp * interp1(sr, self._sr, self._tr)
+        t = wt * wt * interp1(wp / wt, self._csr, self._cc)   # coast, wt > wp >= 0
         return -s * t, -s * t
 
 

@@ -1,0 +1,719 @@
+"""Shift-quality report of a simulation result (thesis 3.3.1 and 3.4.4).
+
+A clutch-to-clutch shift hands the torque from an *offgoing* shift element to an *oncoming* one.
+The thesis (3.3.1) splits it into two phases:
+
+* the **torque phase**: the oncoming element starts to transmit torque while the offgoing one is
+  still locked; the speeds hardly change, the torque moves from one path to the other and the
+  output torque falls (the **torque hole**, for an upshift);
+* the **inertia (speed) phase**: the offgoing element has let go, the speeds move to the new
+  ratio, and the shift ends when the oncoming element locks.
+
+Shift faults (3.3.1, 3.4.4): **bindup** - the offgoing element is released too late, its torque
+reverses while both transmit (the elements fight, the torque hole deepens and the dissipation
+grows); **flare** - it is released too early, the oncoming capacity cannot hold the input and the
+input speed runs up; a **speed phase past the apply ramp** - the oncoming apply has reached its
+final value before the element locks (no capacity reserve left, 3.4.4); and the **3-4 anomaly**
+of Fig. 3.18 - the oncoming element forces the offgoing one to unlock, so both slip and
+dissipate at once.
+
+Definitions used here (all times in s; ``t_start`` is the shift command, the start of the
+oncoming apply when shifts are inferred):
+
+* pre-shift reference window: ``[t_start - PRE_WINDOW, t_start]`` (0.2 s);
+* torque phase start: the onset of the oncoming element's torque at or after ``t_start`` - the
+  first sample where ``|t_on|`` exceeds ``ONSET_FRACTION`` (1 %) of its peak magnitude during the
+  shift, traced back to the last sample before it where ``|t_on|`` was still (numerically) zero;
+* torque phase end = inertia phase start: the offgoing element unlocks (lock event / its
+  ``locked_`` signal drops); if it was not locked at ``t_start``, the instant the input/output
+  speed ratio leaves its pre-shift value by more than ``RATIO_TOL`` (0.5 %). If the offgoing
+  element lets go before the oncoming one transmits (early release), the torque phase has zero
+  length;
+* inertia phase end = shift end: the oncoming element locks (lock event / ``locked_`` signal);
+  if it never locks the shift is reported as not completed and ends at the end of the run;
+* shift duration: from the torque phase start (or the inertia phase start, if earlier) to the
+  shift end;
+* torque hole: the pre-shift mean output torque ``T_out`` minus its minimum between ``t_start``
+  and the shift end (a positive depth is a dip), also in % of the pre-shift mean; the output
+  torque peak (the inertia torque of the speed phase) is reported the same way;
+* bindup: the offgoing torque takes the sign opposite to its pre-shift torque while both
+  elements transmit (from the torque phase start until the offgoing element unlocks); it is
+  reported when the opposite torque exceeds ``BINDUP_FRACTION`` (1 %) of the pre-shift offgoing
+  torque (at least 1 N*m), with the peak opposite torque and the time it lasts;
+* flare: the input link speed above its pre-shift trajectory, a straight line through the speed
+  at ``t_start`` with the least-squares slope of the pre-shift window (in the input's direction
+  of rotation); reported when the excess passes ``FLARE_FRACTION`` (1 %) of the input speed at
+  ``t_start`` (at least 0.1 rad/s);
+* element energies: the trapezoidal integral of ``P_<e>`` from ``t_start`` to the shift end
+  (repeated time stamps at mode changes add nothing), with the peak power;
+* speed phase past the apply ramp: the oncoming apply reaches its final value (its maximum
+  before it is released again, within ``RAMP_TOL``) before the element locks; the overrun is
+  the time between the two;
+* both slipping and dissipating: ``P_on`` and ``P_off`` both above ``OVERLAP_FRACTION`` (1 %) of
+  the peak element power of the shift at the same time for longer than ``OVERLAP_MIN`` (5 ms):
+  the offgoing element is being forced to unlock by the oncoming one.
+
+The input and output links are ``meta["input_link"]`` / ``meta["output_link"]`` when the run
+recorded them, else the arguments of :func:`shift_report`, else the first two generalized
+coordinates (the mode generator puts the input first and the output second when it can).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from .result import Result
+
+__all__ = [
+    "Shift",
+    "ShiftQuality",
+    "shift_report",
+    "infer_shifts",
+    "energy_balance",
+    "report_text",
+    "report_dict",
+    "RPM_PER_RAD_S",
+]
+
+RPM_PER_RAD_S = 60.0 / (2.0 * math.pi)
+
+PRE_WINDOW = 0.2  # s, pre-shift reference window
+ONSET_FRACTION = 0.01  # of the oncoming element's peak |torque| in the shift
+ZERO_FRACTION = 1e-9  # |t_on| below this fraction of its peak counts as zero (onset trace-back)
+RATIO_TOL = 0.005  # relative departure of the speed ratio that starts the speed phase
+BINDUP_FRACTION = 0.01  # of the pre-shift |t_off|
+BINDUP_MIN = 1.0  # N*m
+FLARE_FRACTION = 0.01  # of |w_in(t_start)|
+FLARE_MIN = 0.1  # rad/s
+RAMP_TOL = 1e-3  # relative, apply at its final value
+OVERLAP_FRACTION = 0.01  # of the shift's peak element power
+OVERLAP_MIN = 0.005  # s
+ENERGY_TOL = 1e-3  # energy residual tolerance, relative to the input work
+APPLY_ZERO = 1e-9  # an apply at or below this is "off"
+
+
+@dataclass(frozen=True)
+class Shift:
+    """A shift to analyse: ``oncoming`` element applied, ``offgoing`` released, commanded at
+    ``t_start`` [s] (the start of the pre-shift reference and of every shift window)."""
+
+    oncoming: str
+    offgoing: str
+    t_start: float
+    name: str = ""
+
+
+@dataclass(frozen=True)
+class ShiftQuality:
+    """Shift-quality numbers of one shift (see the module doc for the definitions). Times in s,
+    torques in N*m, speeds in rad/s (``*_rpm`` in rev/min), energies in J, powers in W; ``None``
+    where a quantity is undefined (e.g. the oncoming element never locked)."""
+
+    name: str
+    oncoming: str
+    offgoing: str
+    t_start: float
+    input_link: str
+    output_link: str
+    completed: bool  # the oncoming element locked
+    # phases
+    torque_phase_start: float | None
+    torque_phase_end: float | None
+    torque_phase_duration: float | None
+    inertia_phase_start: float | None
+    inertia_phase_end: float | None
+    inertia_phase_duration: float | None
+    shift_end: float
+    shift_duration: float | None
+    offgoing_unlock: float | None  # when the offgoing element unlocked
+    oncoming_lock: float | None  # when the oncoming element locked
+    ratio_before: float | None  # input/output speed ratio at t_start
+    ratio_after: float | None  # at the shift end
+    # output torque
+    output_torque_before: float  # mean over the pre-shift window
+    output_torque_min: float
+    output_torque_min_time: float
+    torque_hole: float  # depth [N*m], > 0 is a dip
+    torque_hole_pct: float | None  # depth in % of |output_torque_before|
+    output_torque_max: float
+    output_torque_max_time: float
+    output_torque_overshoot_pct: float | None  # (max - before) / |before| in %
+    # bindup
+    bindup: bool
+    bindup_torque: float  # peak offgoing torque opposite to its pre-shift sign [N*m]
+    bindup_duration: float  # s
+    offgoing_torque_before: float  # mean over the pre-shift window
+    offgoing_torque_at_unlock: float | None
+    # flare
+    flare: bool
+    flare_max: float  # rad/s above the pre-shift trajectory
+    flare_max_rpm: float
+    flare_time: float | None
+    # apply ramp
+    oncoming_ramp_end: float | None  # oncoming apply reaches its final value
+    oncoming_apply_final: float
+    speed_phase_past_ramp: bool
+    speed_phase_overrun: float  # s the speed phase ran on after the ramp end
+    # both elements slipping and dissipating (offgoing forced to unlock)
+    both_dissipating_duration: float
+    forced_unlock: bool
+    # energy
+    energy: dict = field(hash=False)  # element -> J dissipated from t_start to the shift end
+    peak_power: dict = field(hash=False)  # element -> W
+    energy_total: float = 0.0
+    notes: tuple[str, ...] = ()
+
+    def to_dict(self) -> dict:
+        """JSON-ready (floats, NaN/inf as None)."""
+        return _jsonable(asdict(self))
+
+
+# ----------------------------------------------------------------------------- sample helpers
+def _value(t: np.ndarray, y: np.ndarray, x: float, side: str = "left") -> float:
+    """``y`` at time ``x``, linearly interpolated (held constant outside the samples); at a
+    repeated time (a mode change) ``side="left"`` gives the value before the event, ``"right"``
+    the value after it."""
+    i = int(np.searchsorted(t, x, side=side))
+    if side == "left":  # t[i] is the first sample >= x
+        if i >= len(t):
+            return float(y[-1])
+        if t[i] == x or i == 0:
+            return float(y[i])
+    else:  # t[i - 1] is the last sample <= x
+        if i == 0:
+            return float(y[0])
+        if t[i - 1] == x or i >= len(t):
+            return float(y[i - 1])
+    t0, t1 = t[i - 1], t[i]
+    f = (x - t0) / (t1 - t0) if t1 > t0 else 1.0
+    return float(y[i - 1] + f * (y[i] - y[i - 1]))
+
+
+def _window(t: np.ndarray, t0: float, t1: float) -> np.ndarray:
+    """Indices of the samples in ``[t0, t1]``."""
+    return np.nonzero((t >= t0) & (t <= t1))[0]
+
+
+def _cumtrapz(t: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Cumulative trapezoidal integral; a repeated time stamp (dt = 0) adds nothing, so the
+    result is continuous across mode changes."""
+    out = np.zeros(len(t))
+    if len(t) > 1:
+        out[1:] = np.cumsum(0.5 * (y[1:] + y[:-1]) * np.diff(t))
+    return out
+
+
+def integrate(t: np.ndarray, y: np.ndarray, t0: float, t1: float) -> float:
+    """Trapezoidal integral of ``y`` over ``[t0, t1]`` (interpolated at the ends; repeated time
+    stamps at mode changes are handled: a zero-length interval adds nothing)."""
+    if t1 <= t0 or len(t) < 2:
+        return 0.0
+    c = _cumtrapz(t, y)
+    return _value(t, c, t1) - _value(t, c, t0)
+
+
+def _duration_above(t: np.ndarray, z: np.ndarray) -> float:
+    """Total time where ``z > 0``, crossings located by linear interpolation between samples."""
+    if len(t) < 2:
+        return 0.0
+    dt = np.diff(t)
+    a, b = z[:-1], z[1:]
+    total = float(np.sum(dt[(a > 0) & (b > 0)]))
+    cross = (a > 0) != (b > 0)
+    for k in np.nonzero(cross & (dt > 0))[0]:
+        pos, neg = (a[k], b[k]) if a[k] > 0 else (b[k], a[k])
+        total += dt[k] * pos / (pos - neg)
+    return total
+
+
+def _jsonable(x):
+    if isinstance(x, dict):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, (bool, np.bool_)):
+        return bool(x)
+    if isinstance(x, (int, np.integer)):
+        return int(x)
+    if isinstance(x, (float, np.floating)):
+        v = float(x)
+        return v if math.isfinite(v) else None
+    if isinstance(x, np.ndarray):
+        return _jsonable(x.tolist())
+    return x
+
+
+# ------------------------------------------------------------------------------ links, events
+def _links(result: Result, input_link: str | None, output_link: str | None) -> tuple[str, str, list[str]]:
+    notes = []
+    meta = result.meta or {}
+    coords = list(meta.get("coordinates") or [])
+    links = list(meta.get("links") or [k[2:] for k in result.signals if k.startswith("w_")])
+    inp = meta.get("input_link") or input_link
+    out = meta.get("output_link") or output_link
+    if not inp:
+        inp = coords[0] if coords else links[0]
+        notes.append(f"input link not recorded in the result: assumed {inp}")
+    if not out:
+        out = coords[1] if len(coords) > 1 else links[-1]
+        notes.append(f"output link not recorded in the result: assumed {out}")
+    return inp, out, notes
+
+
+def _mode_locked(result: Result) -> dict[str, set]:
+    return {m.name: set(m.locked) for m in result.modes}
+
+
+def _event_time(result: Result, element: str, after: float, before: float, locks: bool) -> float | None:
+    """First event in ``[after, before]`` where ``element`` locks (``locks``) or unlocks."""
+    locked = _mode_locked(result)
+    for e in result.events:
+        if e.kind == "start" or element not in e.elements or not (after <= e.t <= before):
+            continue
+        src, tgt = locked.get(e.source), locked.get(e.target)
+        if src is None or tgt is None:
+            if e.kind == ("lock" if locks else "unlock"):
+                return float(e.t)
+            continue
+        if locks and element in tgt and element not in src:
+            return float(e.t)
+        if not locks and element in src and element not in tgt:
+            return float(e.t)
+    return None
+
+
+def _signal_edge(t: np.ndarray, y: np.ndarray, after: float, before: float, rising: bool) -> float | None:
+    """First time in ``[after, before]`` a 0/1 signal rises (or falls)."""
+    i0 = max(int(np.searchsorted(t, after, side="left")) - 1, 0)
+    s = y > 0.5
+    for i in range(i0, len(t) - 1):
+        if t[i + 1] > before:
+            break
+        if (not s[i] and s[i + 1]) if rising else (s[i] and not s[i + 1]):
+            return float(t[i + 1]) if t[i + 1] >= after else None
+    return None
+
+
+def _lock_time(result: Result, element: str, after: float, before: float, locks: bool) -> float | None:
+    t_ev = _event_time(result, element, after, before, locks)
+    if t_ev is not None:
+        return t_ev
+    key = f"locked_{element}"
+    if key in result.signals:
+        return _signal_edge(result.time, result.signals[key], after, before, rising=locks)
+    return None
+
+
+# ------------------------------------------------------------------------------ inference
+def _rise_onsets(t: np.ndarray, a: np.ndarray) -> list[float]:
+    """Times where an apply signal leaves zero (the last zero sample before it rises)."""
+    on = a > APPLY_ZERO
+    return [float(t[i]) for i in range(len(t) - 1) if not on[i] and on[i + 1]]
+
+
+def _fall_zeros(t: np.ndarray, a: np.ndarray) -> list[tuple[float, float]]:
+    """(release start, time it reaches zero) for every fall of an apply signal to zero."""
+    on = a > APPLY_ZERO
+    out = []
+    for i in range(len(t) - 1):
+        if on[i] and not on[i + 1]:
+            j = i
+            while j > 0 and (a[j - 1] > a[j] + 1e-12 or (t[j - 1] == t[j] and a[j - 1] >= a[j])):
+                j -= 1
+            out.append((float(t[j]), float(t[i + 1])))
+    return out
+
+
+def infer_shifts(result: Result, max_early_release: float = 1.0) -> list[Shift]:
+    """Shifts from the apply signals and the events.
+
+    Every rise of an element's apply from zero is an oncoming apply. The offgoing element is the
+    one whose apply falls to zero nearest after that rise; failing that, one that fell to zero
+    at most ``max_early_release`` s before it (an early release, ``t_start`` is then the start
+    of the release ramp, as it is whenever the release starts before the oncoming apply);
+    failing that, the first other element that unlocks after the rise
+    (a one-way clutch, or an element whose apply stays on). The name is ``source->target`` from
+    the modes before the shift and after the oncoming element locks.
+    """
+    t = result.time
+    elements = list(result.meta.get("elements") or [k[6:] for k in result.signals if k.startswith("apply_")])
+    rises = []
+    falls = {}
+    for e in elements:
+        a = result.signals.get(f"apply_{e}")
+        if a is None:
+            continue
+        rises += [(x, e) for x in _rise_onsets(t, a)]
+        falls[e] = _fall_zeros(t, a)
+    rises.sort()
+    shifts = []
+    for t_on, on in rises:
+        best = None
+        after = [(tz, e, ts) for e, fl in falls.items() if e != on for ts, tz in fl if tz >= t_on]
+        if after:
+            tz, best, ts = min(after)
+            t_start = min(t_on, ts)  # a release that starts before the oncoming apply
+        else:
+            before = [(tz, e, ts) for e, fl in falls.items() if e != on for ts, tz in fl
+                      if t_on - max_early_release <= tz < t_on]
+            if before:
+                tz, best, ts = max(before)
+                t_start = min(t_on, ts)
+        if best is None:
+            t_start = t_on
+            locked = _mode_locked(result)
+            for ev in result.events:
+                if ev.t < t_on or ev.kind == "start":
+                    continue
+                src, tgt = locked.get(ev.source, set()), locked.get(ev.target, set())
+                lost = [x for x in ev.elements if x != on and x in src and x not in tgt]
+                if lost:
+                    best = lost[0]
+                    break
+        if best is None:
+            continue
+        shifts.append(Shift(on, best, t_start, _shift_name(result, on, t_start)))
+    return shifts
+
+
+def _mode_at(result: Result, x: float, side: str) -> str | None:
+    for m in result.modes:
+        if (m.t0 <= x < m.t1) if side == "right" else (m.t0 < x <= m.t1):
+            return m.name
+    if result.modes:
+        return result.modes[0].name if x <= result.modes[0].t0 else result.modes[-1].name
+    return None
+
+
+def _shift_name(result: Result, on: str, t_start: float) -> str:
+    t_end = float(result.time[-1]) if len(result.time) else t_start
+    t_lock = _lock_time(result, on, t_start, t_end, locks=True)
+    a = _mode_at(result, t_start, "left")
+    b = _mode_at(result, t_lock, "right") if t_lock is not None else None
+    return f"{a}->{b}" if a and b else f"{on} on"
+
+
+# ------------------------------------------------------------------------------ one shift
+def _pre_trend(t: np.ndarray, y: np.ndarray, t_start: float) -> tuple[float, float]:
+    """Value at ``t_start`` (before any event there) and least-squares slope over the pre window."""
+    idx = _window(t, t_start - PRE_WINDOW, t_start)
+    y0 = _value(t, y, t_start, "left")
+    if len(idx) < 2 or np.ptp(t[idx]) <= 0:
+        return y0, 0.0
+    slope = float(np.polyfit(t[idx], y[idx], 1)[0])
+    return y0, slope
+
+
+def _pre_mean(t: np.ndarray, y: np.ndarray, t_start: float) -> float:
+    """Time-average of ``y`` over the pre-shift window (value at ``t_start`` if it is empty)."""
+    t0 = max(float(t[0]), t_start - PRE_WINDOW)
+    if t_start - t0 <= 0:
+        return _value(t, y, t_start, "left")
+    return integrate(t, y, t0, t_start) / (t_start - t0)
+
+
+def _analyse(result: Result, shift: Shift, inp: str, out: str, link_notes: list[str]) -> ShiftQuality:
+    t = result.time
+    sig = result.signals
+    t_run_end = float(t[-1])
+    on, off, ts = shift.oncoming, shift.offgoing, float(shift.t_start)
+    notes = list(link_notes)
+    for e in (on, off):
+        if f"t_{e}" not in sig:
+            raise KeyError(f"the result has no signals of element {e!r}")
+
+    # shift end: the oncoming element locks
+    t_lock = _lock_time(result, on, ts, t_run_end, locks=True)
+    completed = t_lock is not None
+    t_end = t_lock if completed else t_run_end
+    if not completed:
+        notes.append(f"{on} never locked: the shift is not completed (analysed to the end of the run)")
+
+    # torque phase start: onset of the oncoming torque
+    t_on = sig[f"t_{on}"]
+    win = _window(t, ts, t_end)
+    peak_on = float(np.max(np.abs(t_on[win]))) if len(win) else 0.0
+    tp_start = None
+    if peak_on > 0:
+        hit = win[np.abs(t_on[win]) > ONSET_FRACTION * peak_on]
+        if len(hit):
+            k = int(hit[0])
+            zero = ZERO_FRACTION * peak_on
+            while k > win[0] and abs(t_on[k - 1]) > zero:
+                k -= 1
+            if k > win[0]:
+                k -= 1  # the last sample with (numerically) no torque
+            tp_start = float(t[k])
+    if tp_start is None:
+        notes.append(f"{on} transmitted no torque during the shift")
+
+    # offgoing release: unlock event / locked_ signal drop
+    locked_off = sig.get(f"locked_{off}")
+    was_locked = bool(locked_off is not None and _value(t, locked_off, ts, "left") > 0.5)
+    t_unlock = _lock_time(result, off, ts, t_end, locks=False) if was_locked else None
+    if was_locked and t_unlock is None:
+        notes.append(f"{off} stayed locked until the shift end")
+
+    # speed ratio
+    w_in, w_out = sig[f"w_{inp}"], sig[f"w_{out}"]
+
+    def ratio(x, side):
+        wo = _value(t, w_out, x, side)
+        return _value(t, w_in, x, side) / wo if abs(wo) > 1e-9 else None
+
+    ratio_before = ratio(ts, "left")
+    ratio_after = ratio(t_end, "right") if completed else None
+
+    # speed (inertia) phase start
+    if t_unlock is not None:
+        sp_start = t_unlock
+    else:
+        sp_start = None
+        if ratio_before is not None:
+            ref = max(abs(_value(t, w_in, ts, "left")), 1e-9)
+            dev = np.abs(w_in[win] - ratio_before * w_out[win]) - RATIO_TOL * ref
+            hit = win[dev > 0]
+            if len(hit):
+                sp_start = float(t[hit[0]])
+        if not was_locked:
+            notes.append(f"{off} was not locked at t_start: speed phase start from the speed ratio")
+    if sp_start is None and completed:
+        sp_start = t_end
+    sp_end = t_lock
+
+    tp_end = sp_start
+    if tp_start is not None and tp_end is not None and tp_end < tp_start:
+        notes.append(f"{off} let go before {on} transmitted torque (early release): no torque phase")
+        tp_end = tp_start
+    tp_dur = (tp_end - tp_start) if tp_start is not None and tp_end is not None else None
+    sp_dur = (sp_end - sp_start) if sp_start is not None and sp_end is not None else None
+    first = min([x for x in (tp_start, sp_start) if x is not None], default=ts)
+    duration = (t_end - first) if completed else None
+
+    # output torque: hole and peak
+    T_out = sig["T_out"]
+    before = _pre_mean(t, T_out, ts)
+    s_out = 1.0 if before >= 0 else -1.0
+    seg = T_out[win] if len(win) else np.array([_value(t, T_out, ts)])
+    tw = t[win] if len(win) else np.array([ts])
+    k_min = int(np.argmin(s_out * seg))
+    k_max = int(np.argmax(s_out * seg))
+    t_min_val, t_max_val = float(seg[k_min]), float(seg[k_max])
+    hole = s_out * (before - t_min_val)
+    hole_pct = 100.0 * hole / abs(before) if abs(before) > 1e-9 else None
+    over_pct = 100.0 * s_out * (t_max_val - before) / abs(before) if abs(before) > 1e-9 else None
+
+    # bindup: offgoing torque reversed while both transmit
+    t_off = sig[f"t_{off}"]
+    off_before = _pre_mean(t, t_off, ts)
+    s_off = 1.0 if off_before >= 0 else -1.0
+    b_end = t_unlock if t_unlock is not None else (sp_start if sp_start is not None else t_end)
+    b_start = tp_start if tp_start is not None else ts
+    bw = _window(t, b_start, b_end)
+    opposite = -s_off * t_off[bw] if len(bw) else np.zeros(1)
+    bindup_torque = max(0.0, float(np.max(opposite)))
+    bindup_duration = _duration_above(t[bw], opposite) if len(bw) > 1 else 0.0
+    bindup = bindup_torque > max(BINDUP_MIN, BINDUP_FRACTION * abs(off_before))
+    off_at_unlock = _value(t, t_off, t_unlock, "left") if t_unlock is not None else None
+
+    # flare: input speed above its pre-shift trajectory
+    w0, slope = _pre_trend(t, w_in, ts)
+    s_in = 1.0 if w0 >= 0 else -1.0
+    excess = s_in * (w_in[win] - (w0 + slope * (t[win] - ts))) if len(win) else np.zeros(1)
+    k_fl = int(np.argmax(excess))
+    flare_max = max(0.0, float(excess[k_fl]))
+    flare_time = float(t[win][k_fl]) if flare_max > 0 and len(win) else None
+    flare = flare_max > max(FLARE_MIN, FLARE_FRACTION * abs(w0))
+
+    # oncoming apply ramp
+    a_on = sig.get(f"apply_{on}")
+    ramp_end, a_final, overrun, past_ramp = None, 0.0, 0.0, False
+    if a_on is not None:
+        aw = _window(t, ts, t_run_end)
+        a = a_on[aw]
+        run_max = np.maximum.accumulate(a)
+        release = np.nonzero(a < (1 - 0.01) * run_max - APPLY_ZERO)[0]
+        stop = int(release[0]) if len(release) else len(a)
+        a_final = float(np.max(a[:stop])) if stop > 0 else float(a[0])
+        if a_final > APPLY_ZERO:
+            reach = np.nonzero(a[:stop] >= a_final * (1 - RAMP_TOL))[0]
+            ramp_end = float(t[aw][reach[0]]) if len(reach) else None
+        if ramp_end is not None:
+            overrun = max(0.0, t_end - ramp_end)
+            past_ramp = overrun > OVERLAP_MIN if completed else t_run_end > ramp_end
+            if past_ramp and completed:
+                notes.append(f"the speed phase ran {overrun:.3g} s past the end of the {on} apply ramp")
+
+    # energies and peak powers per element, from t_start to the shift end
+    elements = list(result.meta.get("elements") or [k[2:] for k in sig if k.startswith("P_")])
+    energy, peak = {}, {}
+    for e in elements:
+        p = sig.get(f"P_{e}")
+        if p is None:
+            continue
+        energy[e] = integrate(t, p, ts, t_end)
+        peak[e] = float(np.max(p[win])) if len(win) else 0.0
+
+    # both elements slipping and dissipating at once
+    both = 0.0
+    p_on, p_off = sig.get(f"P_{on}"), sig.get(f"P_{off}")
+    if p_on is not None and p_off is not None and len(win) > 1:
+        p_ref = max(peak.values(), default=0.0)
+        if p_ref > 0:
+            th = OVERLAP_FRACTION * p_ref
+            both = _duration_above(t[win], np.minimum(p_on[win], p_off[win]) - th)
+    forced = both > OVERLAP_MIN
+    if forced:
+        notes.append(f"{on} and {off} slipped and dissipated together for {both:.3g} s: "
+                     f"{off} was forced to unlock by {on}")
+
+    return ShiftQuality(
+        name=shift.name or _shift_name(result, on, ts), oncoming=on, offgoing=off, t_start=ts,
+        input_link=inp, output_link=out, completed=completed,
+        torque_phase_start=tp_start, torque_phase_end=tp_end, torque_phase_duration=tp_dur,
+        inertia_phase_start=sp_start, inertia_phase_end=sp_end, inertia_phase_duration=sp_dur,
+        shift_end=t_end, shift_duration=duration, offgoing_unlock=t_unlock, oncoming_lock=t_lock,
+        ratio_before=ratio_before, ratio_after=ratio_after,
+        output_torque_before=before, output_torque_min=t_min_val, output_torque_min_time=float(tw[k_min]),
+        torque_hole=hole, torque_hole_pct=hole_pct, output_torque_max=t_max_val,
+        output_torque_max_time=float(tw[k_max]), output_torque_overshoot_pct=over_pct,
+        bindup=bool(bindup), bindup_torque=bindup_torque, bindup_duration=bindup_duration,
+        offgoing_torque_before=off_before, offgoing_torque_at_unlock=off_at_unlock,
+        flare=bool(flare), flare_max=flare_max, flare_max_rpm=flare_max * RPM_PER_RAD_S, flare_time=flare_time,
+        oncoming_ramp_end=ramp_end, oncoming_apply_final=a_final, speed_phase_past_ramp=bool(past_ramp),
+        speed_phase_overrun=overrun, both_dissipating_duration=both, forced_unlock=bool(forced),
+        energy=energy, peak_power=peak, energy_total=float(sum(energy.values())), notes=tuple(notes))
+
+
+def shift_report(result: Result, shifts: list[Shift] | None = None, input_link: str | None = None,
+                 output_link: str | None = None) -> list[ShiftQuality]:
+    """Shift quality of every shift in ``result`` (``shifts``, or :func:`infer_shifts`).
+
+    ``input_link`` / ``output_link``: used when the result's ``meta`` does not name them.
+    """
+    if len(result.time) < 2:
+        return []
+    inp, out, notes = _links(result, input_link, output_link)
+    if shifts is None:
+        shifts = infer_shifts(result)
+    return [_analyse(result, s, inp, out, notes) for s in shifts]
+
+
+# ------------------------------------------------------------------------------ energy, text
+def energy_balance(result: Result, tolerance: float = ENERGY_TOL) -> dict:
+    """The run's energy balance (``work_in = stored_change + dissipated + work_to_load +
+    residual``) with ``passed``: ``|residual| <= tolerance * |work_in|`` (0.1 % by default)."""
+    out = {k: float(v) for k, v in (result.energy or {}).items()}
+    if "residual" not in out or "work_in" not in out:
+        out.update({"tolerance": None, "passed": False, "note": "no energy balance in the result"})
+        return out
+    limit = tolerance * abs(out["work_in"])
+    out["tolerance"] = limit
+    out["tolerance_relative"] = tolerance
+    out["passed"] = bool(abs(out["residual"]) <= limit)
+    return out
+
+
+def _f(x, fmt=".3f", unit=""):
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "-"
+    return f"{x:{fmt}}{(' ' + unit) if unit else ''}"
+
+
+def _shift_text(q: ShiftQuality) -> str:
+    lines = [f"Shift {q.name}: oncoming {q.oncoming}, offgoing {q.offgoing}, command at {q.t_start:.3f} s"
+             + ("" if q.completed else "  (NOT COMPLETED)"),
+             f"  {'phase':<24}{'start [s]':>11}{'end [s]':>11}{'duration [s]':>14}"]
+    rows = [("torque phase", q.torque_phase_start, q.torque_phase_end, q.torque_phase_duration),
+            ("inertia (speed) phase", q.inertia_phase_start, q.inertia_phase_end, q.inertia_phase_duration),
+            ("whole shift", min([x for x in (q.torque_phase_start, q.inertia_phase_start) if x is not None],
+                                default=q.t_start), q.shift_end if q.completed else None, q.shift_duration)]
+    for label, a, b, d in rows:
+        lines.append(f"  {label:<24}{_f(a):>11}{_f(b):>11}{_f(d):>14}")
+    lines.append(f"  speed ratio {q.input_link}/{q.output_link}: {_f(q.ratio_before, '.4f')} -> "
+                 f"{_f(q.ratio_after, '.4f')}")
+    kv = [
+        ("output torque before", f"{q.output_torque_before:.1f} N*m (mean over {PRE_WINDOW:g} s before the command)"),
+        ("torque hole", f"{q.torque_hole:.1f} N*m = {_f(q.torque_hole_pct, '.1f')} % "
+                        f"(minimum {q.output_torque_min:.1f} N*m at {q.output_torque_min_time:.3f} s)"),
+        ("output torque peak", f"{q.output_torque_max:.1f} N*m at {q.output_torque_max_time:.3f} s "
+                               f"({_f(q.output_torque_overshoot_pct, '+.1f')} %)"),
+        ("bindup", (f"YES - {q.offgoing} torque reversed: {q.bindup_torque:.1f} N*m opposite for "
+                    f"{q.bindup_duration:.3f} s" if q.bindup else f"no (opposite torque {q.bindup_torque:.1f} N*m)")
+         + f"; {q.offgoing} torque {q.offgoing_torque_before:.1f} N*m before, "
+           f"{_f(q.offgoing_torque_at_unlock, '.1f', 'N*m')} at unlock"),
+        ("flare", (f"YES - {q.input_link} {q.flare_max:.2f} rad/s = {q.flare_max_rpm:.1f} rpm above its "
+                   f"pre-shift trajectory at {_f(q.flare_time)} s" if q.flare else
+                   f"no (max excess {q.flare_max:.3f} rad/s = {q.flare_max_rpm:.2f} rpm)")),
+        ("oncoming apply ramp", f"final {q.oncoming_apply_final:.3g} reached at {_f(q.oncoming_ramp_end)} s; "
+                                + (f"speed phase ran {q.speed_phase_overrun:.3f} s PAST the ramp end"
+                                   if q.speed_phase_past_ramp else "locked within the ramp")),
+        ("both dissipating", (f"YES - {q.both_dissipating_duration:.3f} s: {q.offgoing} forced to unlock by "
+                              f"{q.oncoming}" if q.forced_unlock else
+                              f"no ({q.both_dissipating_duration * 1e3:.1f} ms)")),
+    ]
+    for k, v in kv:
+        lines.append(f"  {k:<24}{v}")
+    lines.append(f"  {'element':<10}{'energy [J]':>14}{'peak power [W]':>17}")
+    for e in q.energy:
+        mark = " (on)" if e == q.oncoming else (" (off)" if e == q.offgoing else "")
+        lines.append(f"  {e + mark:<10}{q.energy[e]:>14.1f}{q.peak_power.get(e, 0.0):>17.1f}")
+    lines.append(f"  {'total':<10}{q.energy_total:>14.1f}")
+    for n in q.notes:
+        lines.append(f"  note: {n}")
+    return "\n".join(lines)
+
+
+def report_text(result: Result, qualities: list[ShiftQuality] | None = None) -> str:
+    """A readable report: one table per shift (units in the headers), the energy balance and the
+    run statistics."""
+    if qualities is None:
+        qualities = shift_report(result)
+    meta = result.meta or {}
+    head = [f"Shift report: {meta.get('mechanism', '')} ({meta.get('model', '')} model)",
+            f"run {'completed' if result.success else 'FAILED'}: {result.message}",
+            f"time {float(result.time[0]):.3f} .. {float(result.time[-1]):.3f} s, {len(result.time)} samples"
+            if len(result.time) else "no samples", ""]
+    body = [_shift_text(q) + "\n" for q in qualities] or ["no shifts found\n"]
+    eb = energy_balance(result)
+    bal = ["Energy balance [J]"]
+    for k in ("work_in", "stored_change", "dissipated", "work_to_load", "residual"):
+        if k in eb:
+            bal.append(f"  {k:<24}{eb[k]:>16.6g}")
+    if "relative_residual" in eb:
+        bal.append(f"  {'relative residual':<24}{eb['relative_residual']:>16.3e}")
+    bal.append(f"  {'check':<24}{'PASS' if eb.get('passed') else 'FAIL'} "
+               f"(|residual| <= {ENERGY_TOL:.1%} of the input work)")
+    stats = ["", "Run statistics"]
+    units = {"wall_time": "s"}
+    for k, v in (result.stats or {}).items():
+        stats.append(f"  {k:<24}{(f'{v:.4g}' if isinstance(v, float) else str(v)):>16} {units.get(k, '')}".rstrip())
+    modes = [f"{m.name} {m.t0:.3f}-{m.t1:.3f} s" for m in result.modes]
+    if modes:
+        stats.append(f"  {'modes':<24}" + ", ".join(modes))
+    return "\n".join(head + body + bal + stats) + "\n"
+
+
+def report_dict(result: Result, qualities: list[ShiftQuality] | None = None) -> dict:
+    """JSON-ready report: run status, shifts, energy balance, run statistics."""
+    if qualities is None:
+        qualities = shift_report(result)
+    meta = result.meta or {}
+    return _jsonable({
+        "mechanism": meta.get("mechanism", ""),
+        "model": meta.get("model", ""),
+        "success": result.success,
+        "message": result.message,
+        "t_start": float(result.time[0]) if len(result.time) else None,
+        "t_end": float(result.time[-1]) if len(result.time) else None,
+        "thresholds": {"pre_window_s": PRE_WINDOW, "onset_fraction": ONSET_FRACTION, "ratio_tol": RATIO_TOL,
+                       "bindup_fraction": BINDUP_FRACTION, "flare_fraction": FLARE_FRACTION,
+                       "ramp_tol": RAMP_TOL, "overlap_fraction": OVERLAP_FRACTION, "overlap_min_s": OVERLAP_MIN,
+                       "energy_tol": ENERGY_TOL},
+        "shifts": [q.to_dict() for q in qualities],
+        "energy_balance": energy_balance(result),
+        "stats": dict(result.stats or {}),
+        "modes": [{"name": m.name, "t0": m.t0, "t1": m.t1, "locked": list(m.locked)} for m in result.modes],
+    })
