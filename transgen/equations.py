@@ -32,9 +32,9 @@ import numpy as np
 import scipy.linalg
 
 from .errors import ModeError
-from .graph import build_graph, coefficient, element_nodes, link_nodes, transformer_ports
+from .graph import coefficient, element_nodes, link_nodes, transformer_ports
 from .kinematics import constraint_matrix, null_space, numeric_rank
-from .model import HOUSING, Mechanism
+from .model import HOUSING
 
 __all__ = ["ModeEquations", "input_names", "assemble", "solve", "diagnose_singular", "symbols_of"]
 

@@ -9,7 +9,8 @@ torque is an input. :func:`select_modes` chooses which modes to model:
   (declared with ``neutral``, or else the elements shared by the first gear and a reverse gear),
   then the reverse gears — for the HT-740 exactly the thesis' seven modes M1-M7;
 * ``"declared"``: the ``mode`` statements of the file (the default when there are any);
-* ``"all"``: every combination of locked elements.
+* ``"all"``: every combination of locked elements (also the default of a mechanism without a
+  gear table, such as a benchmark chain of clutches).
 
 :func:`mode_model` solves a mode's equations (:mod:`transgen.equations`); its DOF is
 ``rank(G_accel)`` (eq. 3.12 context), cross-checked with the kinematic DOF.
@@ -29,7 +30,7 @@ import numpy as np
 
 from .equations import ModeEquations, assemble, diagnose_singular, solve
 from .errors import ModeError
-from .graph import build_graph, element_nodes, link_nodes
+from .graph import build_graph
 from .kinematics import analyze, numeric_rank
 from .model import Mechanism
 
@@ -105,6 +106,8 @@ def select_modes(mech: Mechanism, which: str = "auto") -> list[Mode]:
         return [Mode(f"M{i + 1}", c, "") for i, c in enumerate(combos)]
     if which != "default":
         raise ValueError(f"unknown mode selection {which!r}")
+    if not any(g.kind == "gear" for g in mech.gears):
+        return select_modes(mech, "all")  # no gear table: nothing to choose from
     g = build_graph(mech)
     forward, reverse = [], []
     for gear in mech.gears:
