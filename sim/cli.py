@@ -63,6 +63,11 @@ def cmd_simulate(args) -> int:
     result = scenario.run(progress)
     if progress is not None:
         print(file=sys.stderr)
+    if not result.success:  # nothing is written for a failed run
+        print(f"error: {result.message}", file=sys.stderr)
+        if args.json:
+            print(json.dumps(result.summary(), indent=2, default=float))
+        return 1
     qualities = shift_report(result, scenario.shifts or None) if len(result.time) else []
     written = []
     if args.output:

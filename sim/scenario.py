@@ -353,6 +353,9 @@ def load_scenario(path: str | Path) -> Scenario:
             if mech.element(name).kind != "oneway" and "apply" not in element_extra.get(name, {}):
                 element_extra.setdefault(name, {})["apply"] = sig
 
+    for name in init_locked:  # elements of the initial gear default to full apply
+        element_extra.setdefault(name, {}).setdefault("apply", Constant(1.0))
+
     sim_coords = sim_t.get("coordinates")
     try:
         tr = Transmission(mech, element_extra, sim_coords, str(sim_t.get("modes", "auto")))
