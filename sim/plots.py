@@ -3,7 +3,9 @@
 Every time plot shades the shift phases from :class:`~transgen.sim.report.ShiftQuality`: the
 torque phase and the inertia (speed) phase in two colours. Functions take ``ax=None`` (a new
 figure) or an axes to draw into, and return the :class:`matplotlib.figure.Figure`.
-``time_window=(t0, t1)`` zooms on a part of the run (the y limits follow the data shown).
+``time_window=(t0, t1)`` zooms on a part of the run (the y limits follow the data shown). In a
+figure of their own the legend sits outside the axes, right of the plot, so it hides no curve;
+drawn into a given axes it goes inside at the best place.
 
 Matplotlib is imported only inside the functions and only its object API is used (no
 ``pyplot``), so plotting is safe in any thread and with any backend.
@@ -44,7 +46,7 @@ RPM_PER_RAD_S = 60.0 / (2.0 * np.pi)
 TORQUE_PHASE_COLOR = "#f4a259"
 INERTIA_PHASE_COLOR = "#5b8def"
 PHASE_ALPHA = 0.18
-FIGSIZE = (9.0, 5.0)
+FIGSIZE = (10.0, 5.0)
 DPI = 120
 
 
@@ -55,7 +57,9 @@ def _axes(ax, figsize=FIGSIZE):
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=figsize, dpi=DPI, layout="constrained")
-    return fig, fig.add_subplot()
+    ax = fig.add_subplot()
+    ax._transgen_own = True  # a figure of our own: the legend goes outside the axes
+    return fig, ax
 
 
 def _mask(result: Result, time_window):
@@ -134,11 +138,20 @@ def _finish(ax, ylabel: str, title: str, handles, time_window, result: Result, l
     elif len(result.time):
         ax.set_xlim(float(result.time[0]), float(result.time[-1]))
     if legend:
-        lines, labels = ax.get_legend_handles_labels()
-        items = lines + list(handles)
-        if items:
-            ncol = 1 if len(items) <= 6 else 2
-            ax.legend(handles=items, loc="best", fontsize="small", ncol=ncol, framealpha=0.85)
+        lines, _ = ax.get_legend_handles_labels()
+        _legend(ax, lines + list(handles))
+
+
+def _legend(ax, items):
+    """Outside the axes, right of the plot, in a figure of our own (it never hides a curve);
+    inside at the best place when drawing into a caller's axes."""
+    if not items:
+        return
+    if getattr(ax, "_transgen_own", False):
+        ax.figure.legend(handles=items, loc="outside right upper", fontsize="small",
+                         ncol=1 if len(items) <= 16 else 2)
+    else:
+        ax.legend(handles=items, loc="best", fontsize="small", ncol=1 if len(items) <= 6 else 2, framealpha=0.85)
 
 
 def _title(result: Result, what: str) -> str:
@@ -147,14 +160,25 @@ def _title(result: Result, what: str) -> str:
     return f"{what} - {short}" if short else what
 
 
+_STYLES = ("-", "--", "-.", ":")
+
+
 def _lines(ax, result: Result, names, labels, mask, scale=1.0, widths=None, colors=None):
+    """One line per signal. Signals often coincide (elements locked together): the lines cycle
+    through solid, dashed, dash-dotted and dotted so that a line drawn over another still shows
+    it; bold lines (``widths``) are drawn solid underneath the others."""
     t = result.time[mask]
     colors = colors or _colors(len(names))
     for k, (n, lab) in enumerate(zip(names, labels)):
         if n not in result.signals:
             continue
-        lw = (widths or {}).get(n, 1.5)
-        ax.plot(t, result.signals[n][mask] * scale, label=lab, color=colors[k], lw=lw)
+        bold = n in (widths or {})
+        if bold:
+            style, z = "-", 2
+        else:
+            style, z = _STYLES[k % len(_STYLES)], 3
+        ax.plot(t, result.signals[n][mask] * scale, label=lab, color=colors[k], lw=widths[n] if bold else 1.5,
+                ls=style, zorder=z)
 
 
 # ----------------------------------------------------------------------------- time plots
@@ -232,7 +256,7 @@ def plot_power(result: Result, qualities=None, ax=None, elements=None, time_wind
 def plot_mode(result: Result, qualities=None, ax=None, time_window=None):
     """Mode of operation over time (thesis Figs. 3.6, 3.19, 3.25): a step plot with the mode
     names (and their locked elements) as y tick labels."""
-    fig, ax = _axes(ax, (9.0, 3.8))
+    fig, ax = _axes(ax, (10.0, 3.8))
     m = _mask(result, time_window)
     names = list((result.meta or {}).get("mode_names") or [])
     mode = result.signals["mode"]
@@ -246,9 +270,8 @@ def plot_mode(result: Result, qualities=None, ax=None, time_window=None):
     ax.set_ylim(0.5, len(names) + 0.5)
     handles = _shade(ax, qualities, time_window)
     _finish(ax, "mode [locked elements]", _title(result, "Mode of operation"), handles, time_window, result,
-            legend=bool(handles))
-    if handles:
-        ax.legend(handles=handles, loc="best", fontsize="small", framealpha=0.85)
+            legend=False)
+    _legend(ax, handles)
     return fig
 
 
@@ -295,6 +318,7 @@ def plot_all(result: Result, qualities=None, directory=".", formats=("png",), ti
             os.close(fd)
             try:
                 fig.savefig(tmp, format=fmt)
+                os.chmod(tmp, 0o644)  # mkstemp creates 0600
                 os.replace(tmp, path)
             except BaseException:
                 try:
@@ -338,5 +362,5 @@ def compare(results: dict, signal: str, ax=None, time_window=None, qualities=Non
     elif first is not None and len(first.time):
         ax.set_xlim(min(float(r.time[0]) for r in results.values()), max(float(r.time[-1]) for r in results.values()))
     lines, _ = ax.get_legend_handles_labels()
-    ax.legend(handles=lines + handles, loc="best", fontsize="small", framealpha=0.85)
+    _legend(ax, lines + handles)
     return fig

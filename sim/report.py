@@ -24,8 +24,9 @@ oncoming apply when shifts are inferred):
 * torque phase start: the onset of the oncoming element's torque at or after ``t_start`` - the
   first sample where ``|t_on|`` exceeds ``ONSET_FRACTION`` (1 %) of its peak magnitude during the
   shift, traced back to the last sample before it where ``|t_on|`` was still (numerically) zero;
-* torque phase end = inertia phase start: the offgoing element unlocks (lock event / its
-  ``locked_`` signal drops); if it was not locked at ``t_start``, the instant the input/output
+* torque phase end = inertia phase start: the offgoing element unlocks for the last time before
+  the shift end (unlock event / its ``locked_`` signal drops; an earlier slip that re-locks is
+  noted); if it was not locked at ``t_start``, the instant the input/output
   speed ratio leaves its pre-shift value by more than ``RATIO_TOL`` (0.5 %). If the offgoing
   element lets go before the oncoming one transmits (early release), the torque phase has zero
   length;
@@ -33,25 +34,38 @@ oncoming apply when shifts are inferred):
   if it never locks the shift is reported as not completed and ends at the end of the run;
 * shift duration: from the torque phase start (or the inertia phase start, if earlier) to the
   shift end;
+* dissipation end: the shift end, or later if the offgoing element goes on slipping (still
+  applied) after the oncoming one has locked - until its power returns to zero, at the latest
+  at the next shift's ``t_start``; the time it dissipated above the power threshold after the
+  lock and the energy are reported (``offgoing_drag_after_lock``, ``offgoing_energy_after_lock``);
 * torque hole: the pre-shift mean output torque ``T_out`` minus its minimum between ``t_start``
-  and the shift end (a positive depth is a dip), also in % of the pre-shift mean; the output
-  torque peak (the inertia torque of the speed phase) is reported the same way;
+  and the dissipation end (a positive depth is a dip), also in % of the pre-shift mean; the
+  output torque peak (the inertia torque of the speed phase) is reported the same way;
 * bindup: the offgoing torque takes the sign opposite to its pre-shift torque while both
   elements transmit (from the torque phase start until the offgoing element unlocks); it is
   reported when the opposite torque exceeds ``BINDUP_FRACTION`` (1 %) of the pre-shift offgoing
   torque (at least 1 N*m), with the peak opposite torque and the time it lasts;
+* direction: an upshift when the input/output speed ratio falls, a downshift when it rises;
 * flare: the input link speed above its pre-shift trajectory, a straight line through the speed
   at ``t_start`` with the least-squares slope of the pre-shift window (in the input's direction
-  of rotation); reported when the excess passes ``FLARE_FRACTION`` (1 %) of the input speed at
+  of rotation) - for a downshift, above the new gear's synchronous speed instead; reported
+  when the excess passes ``FLARE_FRACTION`` (1 %) of the input speed at
   ``t_start`` (at least 0.1 rad/s);
-* element energies: the trapezoidal integral of ``P_<e>`` from ``t_start`` to the shift end
-  (repeated time stamps at mode changes add nothing), with the peak power;
+* element energies: the trapezoidal integral of ``P_<e>`` from ``t_start`` to the dissipation
+  end (repeated time stamps at mode changes add nothing), with the peak power;
 * speed phase past the apply ramp: the oncoming apply reaches its final value (its maximum
   before it is released again, within ``RAMP_TOL``) before the element locks; the overrun is
-  the time between the two;
+  the time between the two (not checked when the apply does not ramp during the shift, e.g. a
+  one-way clutch);
 * both slipping and dissipating: ``P_on`` and ``P_off`` both above ``OVERLAP_FRACTION`` (1 %) of
-  the peak element power of the shift at the same time for longer than ``OVERLAP_MIN`` (5 ms):
-  the offgoing element is being forced to unlock by the oncoming one.
+  the peak element power of the shift at the same time (``both_dissipating_duration``). That
+  alone also happens when the offgoing element is released early and slips its normal way while
+  its apply decays (a flare-type overlap). The offgoing element is **forced to unlock by the
+  oncoming one** (the 3-4 anomaly of Fig. 3.18) when it dissipates above the threshold with its
+  torque reversed (the oncoming element drives it against its pre-shift torque) while the
+  oncoming element dissipates too or is already locked, for longer than ``OVERLAP_MIN`` (5 ms):
+  ``forced_duration``, ``forced_unlock``. ``offgoing_energy_share`` is the offgoing
+  element's part of the energy the elements dissipate during the shift, in %.
 
 The input and output links are ``meta["input_link"]`` / ``meta["output_link"]`` when the run
 recorded them, else the arguments of :func:`shift_report`, else the first two generalized
@@ -87,7 +101,7 @@ BINDUP_FRACTION = 0.01  # of the pre-shift |t_off|
 BINDUP_MIN = 1.0  # N*m
 FLARE_FRACTION = 0.01  # of |w_in(t_start)|
 FLARE_MIN = 0.1  # rad/s
-RAMP_TOL = 1e-3  # relative, apply at its final value
+RAMP_TOL = 1e-4  # relative, apply at its final value
 OVERLAP_FRACTION = 0.01  # of the shift's peak element power
 OVERLAP_MIN = 0.005  # s
 ENERGY_TOL = 1e-3  # energy residual tolerance, relative to the input work
@@ -118,6 +132,7 @@ class ShiftQuality:
     input_link: str
     output_link: str
     completed: bool  # the oncoming element locked
+    direction: str  # "upshift" / "downshift" from the speed ratios, "" if unknown
     # phases
     torque_phase_start: float | None
     torque_phase_end: float | None
@@ -127,6 +142,7 @@ class ShiftQuality:
     inertia_phase_duration: float | None
     shift_end: float
     shift_duration: float | None
+    dissipation_end: float  # the shift end, or later while the offgoing element still slips
     offgoing_unlock: float | None  # when the offgoing element unlocked
     oncoming_lock: float | None  # when the oncoming element locked
     ratio_before: float | None  # input/output speed ratio at t_start
@@ -157,10 +173,14 @@ class ShiftQuality:
     speed_phase_past_ramp: bool
     speed_phase_overrun: float  # s the speed phase ran on after the ramp end
     # both elements slipping and dissipating (offgoing forced to unlock)
-    both_dissipating_duration: float
+    both_dissipating_duration: float  # s, both above the power threshold
+    forced_duration: float  # s, of that with the offgoing torque reversed
     forced_unlock: bool
+    offgoing_energy_share: float  # % of the element energy of the shift
+    offgoing_drag_after_lock: float  # s the offgoing element dissipated after the oncoming locked
+    offgoing_energy_after_lock: float  # J
     # energy
-    energy: dict = field(hash=False)  # element -> J dissipated from t_start to the shift end
+    energy: dict = field(hash=False)  # element -> J dissipated from t_start to dissipation_end
     peak_power: dict = field(hash=False)  # element -> W
     energy_total: float = 0.0
     notes: tuple[str, ...] = ()
@@ -266,44 +286,42 @@ def _mode_locked(result: Result) -> dict[str, set]:
     return {m.name: set(m.locked) for m in result.modes}
 
 
-def _event_time(result: Result, element: str, after: float, before: float, locks: bool) -> float | None:
-    """First event in ``[after, before]`` where ``element`` locks (``locks``) or unlocks."""
+def _event_times(result: Result, element: str, after: float, before: float, locks: bool) -> list[float]:
+    """Times of the events in ``[after, before]`` where ``element`` locks (``locks``) or unlocks."""
     locked = _mode_locked(result)
+    out = []
     for e in result.events:
         if e.kind == "start" or element not in e.elements or not (after <= e.t <= before):
             continue
         src, tgt = locked.get(e.source), locked.get(e.target)
         if src is None or tgt is None:
             if e.kind == ("lock" if locks else "unlock"):
-                return float(e.t)
-            continue
-        if locks and element in tgt and element not in src:
-            return float(e.t)
-        if not locks and element in src and element not in tgt:
-            return float(e.t)
-    return None
+                out.append(float(e.t))
+        elif (element in tgt and element not in src) if locks else (element in src and element not in tgt):
+            out.append(float(e.t))
+    return out
 
 
-def _signal_edge(t: np.ndarray, y: np.ndarray, after: float, before: float, rising: bool) -> float | None:
-    """First time in ``[after, before]`` a 0/1 signal rises (or falls)."""
-    i0 = max(int(np.searchsorted(t, after, side="left")) - 1, 0)
+def _signal_edges(t: np.ndarray, y: np.ndarray, after: float, before: float, rising: bool) -> list[float]:
+    """Times in ``[after, before]`` where a 0/1 signal rises (or falls)."""
     s = y > 0.5
-    for i in range(i0, len(t) - 1):
-        if t[i + 1] > before:
-            break
-        if (not s[i] and s[i + 1]) if rising else (s[i] and not s[i + 1]):
-            return float(t[i + 1]) if t[i + 1] >= after else None
-    return None
+    k = np.nonzero((~s[:-1] & s[1:]) if rising else (s[:-1] & ~s[1:]))[0] + 1
+    return [float(x) for x in t[k] if after <= x <= before]
+
+
+def _lock_times(result: Result, element: str, after: float, before: float, locks: bool) -> list[float]:
+    """When ``element`` locks (``locks``) or unlocks in ``[after, before]``: from the events, else
+    from its ``locked_`` signal."""
+    times = _event_times(result, element, after, before, locks)
+    key = f"locked_{element}"
+    if not times and key in result.signals:
+        times = _signal_edges(result.time, result.signals[key], after, before, rising=locks)
+    return times
 
 
 def _lock_time(result: Result, element: str, after: float, before: float, locks: bool) -> float | None:
-    t_ev = _event_time(result, element, after, before, locks)
-    if t_ev is not None:
-        return t_ev
-    key = f"locked_{element}"
-    if key in result.signals:
-        return _signal_edge(result.time, result.signals[key], after, before, rising=locks)
-    return None
+    times = _lock_times(result, element, after, before, locks)
+    return times[0] if times else None
 
 
 # ------------------------------------------------------------------------------ inference
@@ -320,7 +338,8 @@ def _fall_zeros(t: np.ndarray, a: np.ndarray) -> list[tuple[float, float]]:
     for i in range(len(t) - 1):
         if on[i] and not on[i + 1]:
             j = i
-            while j > 0 and (a[j - 1] > a[j] + 1e-12 or (t[j - 1] == t[j] and a[j - 1] >= a[j])):
+            # back over the decreasing ramp (and over repeated or nearly repeated time stamps)
+            while j > 0 and (a[j - 1] > a[j] + 1e-12 or (t[j] - t[j - 1] < 1e-9 and a[j - 1] >= a[j] - 1e-9)):
                 j -= 1
             out.append((float(t[j]), float(t[i + 1])))
     return out
@@ -330,15 +349,24 @@ def infer_shifts(result: Result, max_early_release: float = 1.0) -> list[Shift]:
     """Shifts from the apply signals and the events.
 
     Every rise of an element's apply from zero is an oncoming apply. The offgoing element is the
-    one whose apply falls to zero nearest after that rise; failing that, one that fell to zero
-    at most ``max_early_release`` s before it (an early release, ``t_start`` is then the start
-    of the release ramp, as it is whenever the release starts before the oncoming apply);
-    failing that, the first other element that unlocks after the rise
-    (a one-way clutch, or an element whose apply stays on). The name is ``source->target`` from
-    the modes before the shift and after the oncoming element locks.
+    one whose apply falls to zero nearest after that rise (its release starting before the
+    oncoming element locks); failing that, one that fell to zero at most ``max_early_release`` s
+    before it (an early release). ``t_start`` is the start of the oncoming apply, or the start
+    of the offgoing release ramp when that comes first. Failing both, the offgoing element is the
+    first other element that unlocks after the rise (a one-way clutch, or an element whose apply
+    stays on).
+
+    A release to zero that belongs to no such shift, followed by another element locking (a
+    one-way clutch taking over, e.g. a release-to-freewheel downshift), is a shift too, with the
+    element that locks as the oncoming one and ``t_start`` at the start of the release.
+
+    The name is ``source->target`` from the modes before the shift and after the oncoming
+    element locks.
     """
     t = result.time
+    t_end = float(t[-1])
     elements = list(result.meta.get("elements") or [k[6:] for k in result.signals if k.startswith("apply_")])
+    locked = _mode_locked(result)
     rises = []
     falls = {}
     for e in elements:
@@ -349,21 +377,25 @@ def infer_shifts(result: Result, max_early_release: float = 1.0) -> list[Shift]:
         falls[e] = _fall_zeros(t, a)
     rises.sort()
     shifts = []
+    used = set()
     for t_on, on in rises:
         best = None
-        after = [(tz, e, ts) for e, fl in falls.items() if e != on for ts, tz in fl if tz >= t_on]
+        t_lock = _lock_time(result, on, t_on, t_end, locks=True)
+        limit = t_lock if t_lock is not None else t_end
+        after = [(tz, e, ts) for e, fl in falls.items() if e != on for ts, tz in fl
+                 if tz >= t_on and ts <= limit and (e, tz) not in used]
         if after:
             tz, best, ts = min(after)
-            t_start = min(t_on, ts)  # a release that starts before the oncoming apply
         else:
             before = [(tz, e, ts) for e, fl in falls.items() if e != on for ts, tz in fl
-                      if t_on - max_early_release <= tz < t_on]
+                      if t_on - max_early_release <= tz < t_on and (e, tz) not in used]
             if before:
                 tz, best, ts = max(before)
-                t_start = min(t_on, ts)
-        if best is None:
+        if best is not None:
+            used.add((best, tz))
+            t_start = min(t_on, ts)  # a release that starts before the oncoming apply
+        else:
             t_start = t_on
-            locked = _mode_locked(result)
             for ev in result.events:
                 if ev.t < t_on or ev.kind == "start":
                     continue
@@ -375,6 +407,22 @@ def infer_shifts(result: Result, max_early_release: float = 1.0) -> list[Shift]:
         if best is None:
             continue
         shifts.append(Shift(on, best, t_start, _shift_name(result, on, t_start)))
+    # releases handed over to an element that locks by itself (one-way clutch)
+    starts = sorted([x for x, _ in rises] + [ts for fl in falls.values() for ts, _ in fl])
+    for off, fl in falls.items():
+        for ts, tz in fl:
+            if (off, tz) in used or any(abs(s.t_start - ts) < 1e-9 and s.offgoing == off for s in shifts):
+                continue
+            nxt = min([x for x in starts if x > ts + 1e-9], default=t_end)
+            for ev in result.events:
+                if ev.kind == "start" or not (ts <= ev.t <= nxt):
+                    continue
+                src, tgt = locked.get(ev.source, set()), locked.get(ev.target, set())
+                gained = [x for x in ev.elements if x != off and x in tgt and x not in src]
+                if gained:
+                    shifts.append(Shift(gained[0], off, ts, _shift_name(result, gained[0], ts)))
+                    break
+    shifts.sort(key=lambda s: s.t_start)
     return shifts
 
 
@@ -414,10 +462,12 @@ def _pre_mean(t: np.ndarray, y: np.ndarray, t_start: float) -> float:
     return integrate(t, y, t0, t_start) / (t_start - t0)
 
 
-def _analyse(result: Result, shift: Shift, inp: str, out: str, link_notes: list[str]) -> ShiftQuality:
+def _analyse(result: Result, shift: Shift, inp: str, out: str, link_notes: list[str],
+             limit: float | None = None) -> ShiftQuality:
     t = result.time
     sig = result.signals
     t_run_end = float(t[-1])
+    limit = t_run_end if limit is None else min(limit, t_run_end)
     on, off, ts = shift.oncoming, shift.offgoing, float(shift.t_start)
     notes = list(link_notes)
     for e in (on, off):
@@ -452,9 +502,13 @@ def _analyse(result: Result, shift: Shift, inp: str, out: str, link_notes: list[
     # offgoing release: unlock event / locked_ signal drop
     locked_off = sig.get(f"locked_{off}")
     was_locked = bool(locked_off is not None and _value(t, locked_off, ts, "left") > 0.5)
-    t_unlock = _lock_time(result, off, ts, t_end, locks=False) if was_locked else None
+    unlocks = _lock_times(result, off, ts, t_end, locks=False) if was_locked else []
+    t_unlock = unlocks[-1] if unlocks else None  # the final release (it may slip and re-lock before)
     if was_locked and t_unlock is None:
         notes.append(f"{off} stayed locked until the shift end")
+    if len(unlocks) > 1:
+        notes.append(f"{off} unlocked {len(unlocks)} times (first at {unlocks[0]:.4f} s) and re-locked before its "
+                     f"final release at {t_unlock:.4f} s")
 
     # speed ratio
     w_in, w_out = sig[f"w_{inp}"], sig[f"w_{out}"]
@@ -483,21 +537,39 @@ def _analyse(result: Result, shift: Shift, inp: str, out: str, link_notes: list[
         sp_start = t_end
     sp_end = t_lock
 
+    direction = ""
+    if ratio_before is not None and ratio_after is not None and abs(ratio_after) != abs(ratio_before):
+        direction = "upshift" if abs(ratio_after) < abs(ratio_before) else "downshift"
+
     tp_end = sp_start
     if tp_start is not None and tp_end is not None and tp_end < tp_start:
-        notes.append(f"{off} let go before {on} transmitted torque (early release): no torque phase")
+        why = "speed phase first, as in a power-on downshift" if direction == "downshift" else "early release"
+        notes.append(f"{off} let go before {on} transmitted torque ({why}): no torque phase before the "
+                     f"speed phase")
         tp_end = tp_start
     tp_dur = (tp_end - tp_start) if tp_start is not None and tp_end is not None else None
     sp_dur = (sp_end - sp_start) if sp_start is not None and sp_end is not None else None
     first = min([x for x in (tp_start, sp_start) if x is not None], default=ts)
     duration = (t_end - first) if completed else None
 
-    # output torque: hole and peak
+    # the end of the shift's dissipation: the offgoing element may go on slipping (still applied)
+    # after the oncoming one has locked
+    p_on, p_off = sig.get(f"P_{on}"), sig.get(f"P_{off}")
+    t_diss = t_end
+    if completed and p_off is not None and t_end < limit:
+        i_post = max(int(np.searchsorted(t, t_end, side="right")) - 1, 0)  # the after-lock sample
+        after = np.arange(i_post, int(np.searchsorted(t, limit, side="right")))
+        ref = max([float(np.max(np.abs(p[_window(t, ts, limit)]))) for p in (p_on, p_off) if p is not None] + [0.0])
+        quiet = after[p_off[after] <= ZERO_FRACTION * max(ref, 1.0)]
+        t_diss = float(t[quiet[0]]) if len(quiet) else limit
+    ewin = _window(t, ts, t_diss)
+
+    # output torque: hole and peak (until the dissipation ends)
     T_out = sig["T_out"]
     before = _pre_mean(t, T_out, ts)
     s_out = 1.0 if before >= 0 else -1.0
-    seg = T_out[win] if len(win) else np.array([_value(t, T_out, ts)])
-    tw = t[win] if len(win) else np.array([ts])
+    seg = T_out[ewin] if len(ewin) else np.array([_value(t, T_out, ts)])
+    tw = t[ewin] if len(ewin) else np.array([ts])
     k_min = int(np.argmin(s_out * seg))
     k_max = int(np.argmax(s_out * seg))
     t_min_val, t_max_val = float(seg[k_min]), float(seg[k_max])
@@ -518,10 +590,15 @@ def _analyse(result: Result, shift: Shift, inp: str, out: str, link_notes: list[
     bindup = bindup_torque > max(BINDUP_MIN, BINDUP_FRACTION * abs(off_before))
     off_at_unlock = _value(t, t_off, t_unlock, "left") if t_unlock is not None else None
 
-    # flare: input speed above its pre-shift trajectory
+    # flare: input speed above its pre-shift trajectory (upshift), above the new gear's
+    # synchronous speed (downshift: the input must rise, but not beyond the new gear)
     w0, slope = _pre_trend(t, w_in, ts)
     s_in = 1.0 if w0 >= 0 else -1.0
-    excess = s_in * (w_in[win] - (w0 + slope * (t[win] - ts))) if len(win) else np.zeros(1)
+    if direction == "downshift":
+        reference = ratio_after * w_out[win]
+    else:
+        reference = w0 + slope * (t[win] - ts)
+    excess = s_in * (w_in[win] - reference) if len(win) else np.zeros(1)
     k_fl = int(np.argmax(excess))
     flare_max = max(0.0, float(excess[k_fl]))
     flare_time = float(t[win][k_fl]) if flare_max > 0 and len(win) else None
@@ -537,7 +614,7 @@ def _analyse(result: Result, shift: Shift, inp: str, out: str, link_notes: list[
         release = np.nonzero(a < (1 - 0.01) * run_max - APPLY_ZERO)[0]
         stop = int(release[0]) if len(release) else len(a)
         a_final = float(np.max(a[:stop])) if stop > 0 else float(a[0])
-        if a_final > APPLY_ZERO:
+        if a_final > APPLY_ZERO and a[0] < a_final * (1 - RAMP_TOL):  # it ramps (not a one-way clutch)
             reach = np.nonzero(a[:stop] >= a_final * (1 - RAMP_TOL))[0]
             ramp_end = float(t[aw][reach[0]]) if len(reach) else None
         if ramp_end is not None:
@@ -546,35 +623,51 @@ def _analyse(result: Result, shift: Shift, inp: str, out: str, link_notes: list[
             if past_ramp and completed:
                 notes.append(f"the speed phase ran {overrun:.3g} s past the end of the {on} apply ramp")
 
-    # energies and peak powers per element, from t_start to the shift end
+    # energies and peak powers per element, from t_start to the end of the dissipation
     elements = list(result.meta.get("elements") or [k[2:] for k in sig if k.startswith("P_")])
     energy, peak = {}, {}
     for e in elements:
         p = sig.get(f"P_{e}")
         if p is None:
             continue
-        energy[e] = integrate(t, p, ts, t_end)
-        peak[e] = float(np.max(p[win])) if len(win) else 0.0
+        energy[e] = integrate(t, p, ts, t_diss)
+        peak[e] = float(np.max(p[ewin])) if len(ewin) else 0.0
 
-    # both elements slipping and dissipating at once
-    both = 0.0
-    p_on, p_off = sig.get(f"P_{on}"), sig.get(f"P_{off}")
-    if p_on is not None and p_off is not None and len(win) > 1:
-        p_ref = max(peak.values(), default=0.0)
-        if p_ref > 0:
-            th = OVERLAP_FRACTION * p_ref
-            both = _duration_above(t[win], np.minimum(p_on[win], p_off[win]) - th)
-    forced = both > OVERLAP_MIN
+    # both elements slipping and dissipating at once; the offgoing one forced (reversed torque)
+    both = forced_dur = drag = 0.0
+    drag_energy = integrate(t, p_off, t_end, t_diss) if p_off is not None else 0.0
+    p_ref = max(peak.values(), default=0.0)
+    if p_on is not None and p_off is not None and len(ewin) > 1 and p_ref > 0:
+        th = OVERLAP_FRACTION * p_ref
+        tt, pon, poff = t[ewin], p_on[ewin], p_off[ewin]
+        both = _duration_above(tt, np.minimum(pon, poff) - th)
+        # reversed offgoing torque, scaled to power so that the minimum stays piecewise linear
+        rev = -s_off * t_off[ewin] * th / max(BINDUP_FRACTION * abs(off_before), BINDUP_MIN)
+        lock_on = sig.get(f"locked_{on}")
+        holding = (lock_on[ewin] - 0.5) * 2.0 * th if lock_on is not None else np.full(len(ewin), -th)
+        forced_dur = _duration_above(tt, np.minimum(np.minimum(poff - th, rev), np.maximum(pon - th, holding)))
+        if t_diss > t_end:
+            dw = _window(t, t_end, t_diss)
+            drag = _duration_above(t[dw], p_off[dw] - th)
+    forced = forced_dur > OVERLAP_MIN
+    total = sum(energy.values())
+    off_share = 100.0 * energy.get(off, 0.0) / total if total > 0 else 0.0
     if forced:
-        notes.append(f"{on} and {off} slipped and dissipated together for {both:.3g} s: "
-                     f"{off} was forced to unlock by {on}")
+        notes.append(f"{off} slipped and dissipated with its torque reversed against {on} (slipping or locked) "
+                     f"for {forced_dur:.3g} s: {off} was forced to unlock by {on} ({off_share:.2g} % of the energy)")
+    elif both > OVERLAP_MIN:
+        notes.append(f"{on} and {off} slipped and dissipated together for {both:.3g} s with {off} slipping "
+                     f"its normal way (released while still applied)")
+    if drag > OVERLAP_MIN:
+        notes.append(f"{off} went on slipping for {drag:.3g} s after {on} locked ({drag_energy:.4g} J)")
 
     return ShiftQuality(
         name=shift.name or _shift_name(result, on, ts), oncoming=on, offgoing=off, t_start=ts,
-        input_link=inp, output_link=out, completed=completed,
+        input_link=inp, output_link=out, completed=completed, direction=direction,
         torque_phase_start=tp_start, torque_phase_end=tp_end, torque_phase_duration=tp_dur,
         inertia_phase_start=sp_start, inertia_phase_end=sp_end, inertia_phase_duration=sp_dur,
-        shift_end=t_end, shift_duration=duration, offgoing_unlock=t_unlock, oncoming_lock=t_lock,
+        shift_end=t_end, shift_duration=duration, dissipation_end=t_diss, offgoing_unlock=t_unlock,
+        oncoming_lock=t_lock,
         ratio_before=ratio_before, ratio_after=ratio_after,
         output_torque_before=before, output_torque_min=t_min_val, output_torque_min_time=float(tw[k_min]),
         torque_hole=hole, torque_hole_pct=hole_pct, output_torque_max=t_max_val,
@@ -583,7 +676,9 @@ def _analyse(result: Result, shift: Shift, inp: str, out: str, link_notes: list[
         offgoing_torque_before=off_before, offgoing_torque_at_unlock=off_at_unlock,
         flare=bool(flare), flare_max=flare_max, flare_max_rpm=flare_max * RPM_PER_RAD_S, flare_time=flare_time,
         oncoming_ramp_end=ramp_end, oncoming_apply_final=a_final, speed_phase_past_ramp=bool(past_ramp),
-        speed_phase_overrun=overrun, both_dissipating_duration=both, forced_unlock=bool(forced),
+        speed_phase_overrun=overrun, both_dissipating_duration=both, forced_duration=forced_dur,
+        forced_unlock=bool(forced), offgoing_energy_share=off_share, offgoing_drag_after_lock=drag,
+        offgoing_energy_after_lock=drag_energy,
         energy=energy, peak_power=peak, energy_total=float(sum(energy.values())), notes=tuple(notes))
 
 
@@ -598,7 +693,12 @@ def shift_report(result: Result, shifts: list[Shift] | None = None, input_link: 
     inp, out, notes = _links(result, input_link, output_link)
     if shifts is None:
         shifts = infer_shifts(result)
-    return [_analyse(result, s, inp, out, notes) for s in shifts]
+    starts = sorted(float(s.t_start) for s in shifts)
+    out_list = []
+    for s in shifts:
+        nxt = [x for x in starts if x > float(s.t_start)]
+        out_list.append(_analyse(result, s, inp, out, notes, nxt[0] if nxt else None))
+    return out_list
 
 
 # ------------------------------------------------------------------------------ energy, text
@@ -623,7 +723,8 @@ def _f(x, fmt=".3f", unit=""):
 
 
 def _shift_text(q: ShiftQuality) -> str:
-    lines = [f"Shift {q.name}: oncoming {q.oncoming}, offgoing {q.offgoing}, command at {q.t_start:.3f} s"
+    lines = [f"Shift {q.name}{' (' + q.direction + ')' if q.direction else ''}: oncoming {q.oncoming}, "
+             f"offgoing {q.offgoing}, command at {q.t_start:.3f} s"
              + ("" if q.completed else "  (NOT COMPLETED)"),
              f"  {'phase':<24}{'start [s]':>11}{'end [s]':>11}{'duration [s]':>14}"]
     rows = [("torque phase", q.torque_phase_start, q.torque_phase_end, q.torque_phase_duration),
@@ -647,16 +748,24 @@ def _shift_text(q: ShiftQuality) -> str:
         ("flare", (f"YES - {q.input_link} {q.flare_max:.2f} rad/s = {q.flare_max_rpm:.1f} rpm above its "
                    f"pre-shift trajectory at {_f(q.flare_time)} s" if q.flare else
                    f"no (max excess {q.flare_max:.3f} rad/s = {q.flare_max_rpm:.2f} rpm)")),
-        ("oncoming apply ramp", f"final {q.oncoming_apply_final:.3g} reached at {_f(q.oncoming_ramp_end)} s; "
-                                + (f"speed phase ran {q.speed_phase_overrun:.3f} s PAST the ramp end"
-                                   if q.speed_phase_past_ramp else "locked within the ramp")),
-        ("both dissipating", (f"YES - {q.both_dissipating_duration:.3f} s: {q.offgoing} forced to unlock by "
-                              f"{q.oncoming}" if q.forced_unlock else
-                              f"no ({q.both_dissipating_duration * 1e3:.1f} ms)")),
+        ("oncoming apply ramp", "no ramp during the shift" if q.oncoming_ramp_end is None else
+         f"final {q.oncoming_apply_final:.3g} reached at {_f(q.oncoming_ramp_end)} s; "
+         + (f"speed phase ran {q.speed_phase_overrun:.3f} s PAST the ramp end"
+            if q.speed_phase_past_ramp else "locked within the ramp")),
+        ("both dissipating", f"{q.both_dissipating_duration:.3f} s; {q.offgoing} took "
+                             f"{q.offgoing_energy_share:.2f} % of the element energy"),
+        ("offgoing after lock", f"{q.offgoing} slipped {q.offgoing_drag_after_lock:.3f} s after {q.oncoming} "
+                                f"locked, {q.offgoing_energy_after_lock:.1f} J (dissipation ends at "
+                                f"{q.dissipation_end:.3f} s)"),
+        ("forced unlock", (f"YES - {q.offgoing} torque reversed against the slipping or locked {q.oncoming} "
+                           f"for {q.forced_duration:.3f} s: {q.offgoing} forced to unlock by {q.oncoming}"
+                           if q.forced_unlock else
+                           f"no (reversed overlap {q.forced_duration * 1e3:.1f} ms)")),
     ]
     for k, v in kv:
         lines.append(f"  {k:<24}{v}")
-    lines.append(f"  {'element':<10}{'energy [J]':>14}{'peak power [W]':>17}")
+    lines.append(f"  {'element':<10}{'energy [J]':>14}{'peak power [W]':>17}   "
+                 f"({q.t_start:.3f}-{q.dissipation_end:.3f} s)")
     for e in q.energy:
         mark = " (on)" if e == q.oncoming else (" (off)" if e == q.offgoing else "")
         lines.append(f"  {e + mark:<10}{q.energy[e]:>14.1f}{q.peak_power.get(e, 0.0):>17.1f}")

@@ -328,7 +328,8 @@ def _collect(pt: Powertrain, options: SolverOptions, segments: list[_Segment], e
     mode_names = []
     for seg in segments:
         grid = np.arange(math.ceil((seg.t0 + 1e-12) / options.output_dt) * options.output_dt, seg.t1, options.output_dt)
-        ts = np.concatenate([[seg.t0], grid[grid > seg.t0 + 1e-12], [seg.t1]])
+        grid = grid[(grid > seg.t0 + 1e-12) & (grid < seg.t1 - 1e-12)]
+        ts = np.concatenate([[seg.t0], grid, [seg.t1]])
         for tt in ts:
             y = seg.sol(tt)
             row = (sampler or _sample)(pt, seg, tt, y)

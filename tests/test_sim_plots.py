@@ -1,0 +1,141 @@
+"""Result plots: every plot returns a labelled Figure with the shift phases shaded, plot_all writes
+its files atomically, compare overlays runs."""
+import pytest
+
+pytest.importorskip("matplotlib")
+
+from matplotlib.figure import Figure  # noqa: E402
+
+from transgen.sim.plots import (PLOTS, compare, plot_all, plot_apply, plot_io_torques, plot_mode,  # noqa: E402
+                                plot_power, plot_slips, plot_speeds, plot_torques)
+from transgen.sim.report import shift_report  # noqa: E402
+
+
+def _cases():
+    """The simple2 run and the synthetic result of test_sim_report.py (tests/ is no package)."""
+    import importlib.util
+    from pathlib import Path
+
+    spec = importlib.util.spec_from_file_location("_sim_report_cases", Path(__file__).with_name("test_sim_report.py"))
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.run_simple2, module.synthetic
+
+
+run_simple2, synthetic = _cases()
+
+FUNCS = [plot_speeds, plot_slips, plot_torques, plot_io_torques, plot_power, plot_mode, plot_apply]
+NAMES = ["speeds", "slips", "torques", "io_torques", "power", "mode", "apply"]
+
+
+@pytest.fixture(scope="module")
+def s2():
+    r = run_simple2()
+    return r, shift_report(r)
+
+
+@pytest.mark.parametrize("func", FUNCS, ids=NAMES)
+def test_plot_returns_labelled_figure(s2, func):
+    r, qs = s2
+    fig = func(r, qs)
+    assert isinstance(fig, Figure)
+    ax = fig.axes[0]
+    assert ax.get_xlabel() == "time [s]"
+    assert "[" in ax.get_ylabel() and "]" in ax.get_ylabel()  # units
+    assert ax.get_title()
+    assert ax.get_lines()
+    # torque and inertia phase shaded
+    assert len(ax.patches) >= 2
+    # the legend sits outside the axes in a figure of our own (it hides no curve)
+    assert ax.get_legend() is None and len(fig.legends) == 1
+    labels = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert "torque phase" in labels and "inertia phase" in labels
+
+
+@pytest.mark.parametrize("func", FUNCS, ids=NAMES)
+def test_plot_into_given_axes_and_window(s2, func):
+    r, qs = s2
+    fig = Figure()
+    ax = fig.add_subplot()
+    assert func(r, qs, ax=ax, time_window=(4.9, 6.0)) is fig
+    assert ax.get_xlim() == pytest.approx((4.9, 6.0))
+    assert ax.get_legend() is not None and not fig.legends  # inside the caller's axes
+    for line in ax.get_lines():
+        x = line.get_xdata()
+        if len(x) > 2:  # data lines (not axhline)
+            assert min(x) >= 4.9 and max(x) <= 6.0
+
+
+def test_plot_without_qualities(s2):
+    r, _ = s2
+    for func in FUNCS:
+        fig = func(r)
+        assert isinstance(fig, Figure) and not fig.axes[0].patches
+
+
+def test_speeds_secondary_rpm_and_links(s2):
+    r, qs = s2
+    fig = plot_speeds(r, qs)
+    ax = fig.axes[0]
+    labels = [line.get_label() for line in ax.get_lines()]
+    assert "Li (input)" in labels and "Lo (output)" in labels and "La" in labels
+    rpm_axes = [c for c in ax.get_children() if c.__class__.__name__ == "SecondaryAxis"]
+    assert rpm_axes and "rpm" in rpm_axes[0].get_ylabel()
+
+
+def test_mode_tick_labels(s2):
+    r, qs = s2
+    ax = plot_mode(r, qs).axes[0]
+    ticks = [t.get_text() for t in ax.get_yticklabels()]
+    assert ticks == ["M1 [C1]", "M3 [none]", "M2 [C2]"]
+
+
+def test_power_in_kw(s2):
+    r, qs = s2
+    ax = plot_power(r, qs).axes[0]
+    assert "kW" in ax.get_ylabel()
+    peak = max(max(line.get_ydata()) for line in ax.get_lines())
+    assert peak == pytest.approx(qs[0].peak_power["C2"] / 1e3, rel=1e-9)
+
+
+def test_plot_all_writes_files_atomically(s2, tmp_path):
+    r, qs = s2
+    out = tmp_path / "plots"
+    paths = plot_all(r, qs, out, formats=("png", "svg"))
+    assert sorted(p.name for p in paths) == sorted(f"{n}.{f}" for n in NAMES for f in ("png", "svg"))
+    assert sorted(p.name for p in out.iterdir()) == sorted(p.name for p in paths)  # no temp files left
+    for p in paths:
+        assert p.stat().st_size > 1000
+    assert (out / "speeds.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    zoom = plot_all(r, qs, out, time_window=(4.9, 6.0), prefix="zoom_")
+    assert [p.name for p in zoom] == [f"zoom_{n}.png" for n in NAMES]
+    assert not [p for p in out.iterdir() if p.name.startswith(".")]
+    assert set(PLOTS) == set(NAMES)
+
+
+def test_plot_all_failure_leaves_no_temp(s2, tmp_path):
+    r, qs = s2
+    with pytest.raises(ValueError):
+        plot_all(r, qs, tmp_path, formats=("nosuchformat",))
+    assert not list(tmp_path.iterdir())
+
+
+def test_compare(s2):
+    r, qs = s2
+    r2 = run_simple2(c1=((0, 5.1, 5.2), (1, 1, 0)))
+    fig = compare({"original": r, "improved": r2}, "T_out", qualities={"original": qs}, time_window=(4.8, 6.2))
+    ax = fig.axes[0]
+    assert [line.get_label() for line in ax.get_lines()] == ["original", "improved"]
+    assert ax.get_xlabel() == "time [s]" and ax.get_ylabel() == "T_out [N*m]"
+    assert len(ax.patches) == 2
+    assert [t.get_text() for t in fig.legends[0].get_texts()] == ["original", "improved", "torque phase",
+                                                                  "inertia phase"]
+    with pytest.raises(KeyError):
+        compare({"a": r}, "nope")
+
+
+def test_synthetic_plots():
+    r = synthetic()
+    qs = shift_report(r)
+    for func in FUNCS:
+        assert isinstance(func(r, qs), Figure)
