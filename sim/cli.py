@@ -5,7 +5,7 @@ import json
 import sys
 from pathlib import Path
 
-__all__ = ["add_commands", "cmd_simulate"]
+__all__ = ["add_commands", "cmd_simulate", "cmd_maps"]
 
 
 def add_commands(sub) -> None:
@@ -23,6 +23,16 @@ def add_commands(sub) -> None:
     s.add_argument("--quiet", action="store_true", help="no progress on standard error")
     s.add_argument("--list", action="store_true", help="list the bundled scenarios")
     s.set_defaults(func=cmd_simulate)
+
+    s = sub.add_parser("maps", help="pre-process a compressor or turbine map and summarise it (thesis 4.4)",
+                       description="Run the map pre-processor on a compressor or turbine map file (or a bundled "
+                                   "map by name: we_compressor, we_turbine) and print a summary of the map and "
+                                   "of its causal tables (speed lines, chi or expansion-ratio grid, ranges).")
+    s.add_argument("map", metavar="MAPFILE", help="map .toml file or bundled map name")
+    s.add_argument("--plot", metavar="DIR", help="write the map plots (thesis Figs. 4.4, 4.6, 4.7, 4.10, 4.11) into DIR")
+    s.add_argument("--format", default="png", help="plot formats, comma-separated: png,svg,pdf (default png)")
+    s.add_argument("--json", action="store_true", help="machine-readable summary")
+    s.set_defaults(func=cmd_maps)
 
 
 def _progress(t_end: float, quiet: bool):
@@ -81,6 +91,10 @@ def cmd_simulate(args) -> int:
     if args.json:
         summary = result.summary()
         summary["report"] = report_dict(result, qualities)
+        if "omega_tc" in result.signals:
+            from .powertrain import turbo_report
+
+            summary["turbo"] = turbo_report(result).to_dict()
         summary["written"] = written
         print(json.dumps(summary, indent=2, default=float))
     else:
@@ -95,6 +109,30 @@ def cmd_simulate(args) -> int:
         if args.report:
             print()
             print(report_text(result, qualities))
+            if "omega_tc" in result.signals:
+                from .powertrain import turbo_report
+
+                print(turbo_report(result).text())
         for w in written:
             print(f"  wrote {w}")
     return 0 if result.success else 1
+
+
+def cmd_maps(args) -> int:
+    """``transgen maps``: pre-process a map, print (or JSON) its summary, optionally plot it."""
+    from .engine_plots import load_named_map, map_summary, map_summary_text, plot_map_file
+
+    path, m = load_named_map(args.map)
+    summary = map_summary(path, m)
+    written = []
+    if args.plot:
+        formats = tuple(f.strip() for f in args.format.split(",") if f.strip())
+        written = [str(p) for p in plot_map_file(m, Path(args.plot), formats=formats)]
+    if args.json:
+        summary["written"] = written
+        print(json.dumps(summary, indent=2))
+    else:
+        print(map_summary_text(summary))
+        for w in written:
+            print(f"  wrote {w}")
+    return 0

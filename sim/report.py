@@ -692,7 +692,8 @@ def shift_report(result: Result, shifts: list[Shift] | None = None, input_link: 
         return []
     inp, out, notes = _links(result, input_link, output_link)
     if shifts is None:
-        shifts = infer_shifts(result)
+        lockup = set(result.meta.get("lockup", ()))  # converter lock-up apply/release is no gear shift
+        shifts = [s for s in infer_shifts(result) if s.oncoming not in lockup and s.offgoing not in lockup]
     starts = sorted(float(s.t_start) for s in shifts)
     out_list = []
     for s in shifts:

@@ -37,7 +37,7 @@ __all__ = ["Scenario", "load_scenario", "bundled_scenarios", "RPM"]
 RPM = 2 * math.pi / 60
 
 _TOP_KEYS = {"mechanism", "include", "title", "description", "simulation", "compliant", "initial", "input", "load",
-             "driveline", "elements", "shifts", "auto_shift", "output", "report"}
+             "driveline", "elements", "shifts", "auto_shift", "output", "report", "converter"}
 
 
 @dataclass
@@ -52,13 +52,14 @@ class Scenario:
     shifts: list = field(default_factory=list)  # report.Shift, when known from the schedule
     outputs: list[str] = field(default_factory=list)
     data: dict = field(default_factory=dict)
+    lockup: list[str] = field(default_factory=list)  # converter lock-up clutches (not gear shifts)
 
     def run(self, progress=None):
         """Simulate; returns a :class:`~transgen.sim.result.Result`."""
         from .simulate import simulate
 
         result = simulate(self.powertrain, self.options, progress)
-        result.meta.update({"scenario": str(self.path), "title": self.title,
+        result.meta.update({"scenario": str(self.path), "title": self.title, "lockup": list(self.lockup),
                             "input_link": self.mechanism.input, "output_link": self.mechanism.output})
         return result
 
@@ -389,7 +390,12 @@ def load_scenario(path: str | Path) -> Scenario:
     out_t = r.table(data, ("output",), {"signals", "dt"})
     outputs = [str(x) for x in out_t.get("signals", [])]
     pt = Powertrain(tr, components, w0, controllers)
-    return Scenario(path, str(data.get("title", path.stem)), mech, pt, options, shifts_report, outputs, data)
+    from .powertrain import check_scenario_causality
+
+    check_scenario_causality(r, pt)  # thesis 2.4: an algebraic loop in the assembly is refused before the run
+    conv = data.get("converter", {})
+    lockup = [e.name for e in mech.elements if conv and {e.link1, e.link2} == {conv.get("pump"), conv.get("turbine")}]
+    return Scenario(path, str(data.get("title", path.stem)), mech, pt, options, shifts_report, outputs, data, lockup)
 
 
 def _template(r: _Reader, spec: dict, keys) -> ShiftTemplate:
@@ -432,7 +438,7 @@ def _components(r: _Reader, data: dict, mech: Mechanism, tr: Transmission) -> li
     li = tr.link_index
     inp = r.table(data, ("input",), {"type", "torque", "speed_rpm", "throttle", "torque_table", "throttle_signal",
                                       "converter", "J_engine", "engine_speed_rpm", "idle_rpm", "engine", "turbo",
-                                      "fuel_signal", "governor"})
+                                      "fuel_signal", "governor", "crank_model"})
     kind = inp.get("type", "torque")
     keys = ("input",)
     if kind == "torque":
@@ -484,6 +490,12 @@ def _components(r: _Reader, data: dict, mech: Mechanism, tr: Transmission) -> li
         link = next(t.link for t in mech.loads if t.name == name)
         comps.append(LinkLoad(name, li[link], r.signal(spec.get("signal", 0.0), keys + ("signal",)),
                               r.number(spec, keys, "c0", 0.0), r.number(spec, keys, "c1", 0.0), r.number(spec, keys, "c2", 0.0)))
+
+    conv = r.table(data, ("converter",), {"pump", "turbine", "pump_torque", "turbine_torque", "file"})
+    if conv:
+        from .powertrain import converter_component
+
+        comps.append(converter_component(r, conv, ("converter",), mech, tr))
 
     dl = r.table(data, ("driveline",), {"output_inertia", "stiffness", "damping", "final_drive", "wheel_radius",
                                          "vehicle_mass", "rolling_resistance", "cd_a", "air_density", "grade",

@@ -345,6 +345,8 @@ def _collect(pt: Powertrain, options: SolverOptions, segments: list[_Segment], e
                   "E_stored": "J", "theta_ds": "rad", "omega_v": "rad/s", "vehicle_speed": "m/s",
                   "vehicle_speed_mph": "mph", "road_torque": "N*m", "omega_engine": "rad/s", "T_engine": "N*m",
                   "T_pump": "N*m", "throttle": "1", "converter_speed_ratio": "1"})
+    for c in pt.components:
+        units.update(getattr(c, "signal_units", {}))
     arrays = {k: np.asarray(v, dtype=float) for k, v in signals.items()}
     order = list(dict.fromkeys(mode_names))
     arrays["mode"] = np.array([order.index(m) + 1 for m in mode_names], dtype=float)

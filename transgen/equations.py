@@ -33,7 +33,7 @@ import scipy.linalg
 
 from .errors import ModeError
 from .graph import coefficient, element_nodes, link_nodes, transformer_ports
-from .kinematics import constraint_matrix, null_space, numeric_rank
+from .kinematics import constraint_matrix, constraints, null_space, numeric_rank
 from .model import HOUSING
 
 __all__ = ["ModeEquations", "input_names", "assemble", "solve", "diagnose_singular", "symbols_of"]
@@ -193,15 +193,22 @@ def diagnose_singular(g: nx.DiGraph, locked=()) -> str:
     problems = []
     if numeric_rank(a) < a.shape[0]:
         left = null_space(a.T, a.shape[0])  # y with y^T A = 0
-        n_tf = a.shape[0] - len(locked)
-        involved = [locked[i - n_tf] for i in range(n_tf, a.shape[0]) if np.linalg.norm(left[i]) > 1e-9]
-        problems.append("the torques of the locked elements " + ", ".join(involved)
-                        + " are not unique (they over-constrain the mechanism)")
+        rows = [c.name for c in constraints(g, locked)]
+        involved = [rows[i] for i in range(a.shape[0]) if np.linalg.norm(left[i]) > 1e-9]
+        elements = [x for x in involved if x in locked]
+        transformers = [x for x in involved if x not in locked]
+        if elements:
+            problems.append("the torques of the locked elements " + ", ".join(elements)
+                            + " are not unique (they over-constrain the mechanism"
+                            + (f" together with {', '.join(transformers)})" if transformers else ")"))
+        else:
+            problems.append("the transformers " + ", ".join(transformers) + " impose redundant constraints, "
+                            "so their internal torques are not unique (e.g. twin load paths)")
     basis = null_space(a, len(links))
     if basis.shape[1]:
         J = np.diag([g.nodes[k]["J"] for k in links])
         m = basis.T @ J @ basis
-        free = null_space(m, m.shape[0])
+        free = null_space(m, m.shape[0], scale=max(float(J.max()), 1e-300))
         if free.shape[1]:
             motion = basis @ free
             names = [k for k, row in zip(links, motion) if np.linalg.norm(row) > 1e-9]
@@ -217,9 +224,9 @@ def _sparse_exact_solve(E, F):
 
     Gauss-Jordan elimination on the sparse rows of ``[E | -F]`` over the field of rational
     functions of the mechanism's symbols (every entry kept as a reduced fraction). Pivots are
-    chosen among numeric entries first, then by the Markowitz count, which keeps the fill-in and
+    chosen by the Markowitz count, then numeric entries first, which keeps the fill-in and
     the expression swell of the bond-graph structure small (a dense ``LUsolve`` does not finish
-    for the HT-740).
+    for the HT-740): the Markowitz count first, then numeric pivots, then small ones.
     """
     import sympy
     from sympy import QQ
@@ -241,6 +248,9 @@ def _sparse_exact_solve(E, F):
     def is_number(a) -> bool:
         return K is None or (a.numer.is_ground and a.denom.is_ground)
 
+    def _size(a) -> int:
+        return 0 if K is None else len(a.numer.terms()) + len(a.denom.terms())
+
     free_rows, free_cols, pivot_row = set(range(n)), set(range(n)), {}
     while free_rows:
         col_count: dict[int, int] = {}
@@ -253,7 +263,7 @@ def _sparse_exact_solve(E, F):
             in_row = sum(1 for j in rows[i] if j in free_cols)
             for j, a in rows[i].items():
                 if j in free_cols:
-                    cost = (not is_number(a), (in_row - 1) * (col_count[j] - 1))
+                    cost = ((in_row - 1) * (col_count[j] - 1), not is_number(a), _size(a))
                     if best is None or cost < best[0]:
                         best = (cost, i, j)
         if best is None:
@@ -278,5 +288,16 @@ def _sparse_exact_solve(E, F):
     for c, p in pivot_row.items():
         for j, a in rows[p].items():
             if j >= n:
-                G[c, j - n] = sympy.factor(a.as_expr() if K is not None else a)
+                G[c, j - n] = _readable(a) if K is not None else a
     return G
+
+
+def _readable(fraction):
+    """A fraction-field element as a sympy expression, factored where that is cheap (factoring
+    the large numerators of multi-DOF modes costs far more than the elimination itself)."""
+    import sympy
+
+    expr = fraction.as_expr()
+    if len(fraction.numer.terms()) + len(fraction.denom.terms()) <= 24:
+        expr = sympy.factor(expr)
+    return expr

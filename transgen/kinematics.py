@@ -95,20 +95,25 @@ def constraint_matrix(g: nx.DiGraph, locked=()) -> np.ndarray:
     return a
 
 
-def numeric_rank(a: np.ndarray) -> int:
-    """Rank by SVD with :data:`RANK_RTOL` relative to the largest singular value."""
+def numeric_rank(a: np.ndarray, scale: float | None = None) -> int:
+    """Rank by SVD: singular values above :data:`RANK_RTOL` times ``scale`` (default: the largest
+    singular value; pass the matrix's natural size, e.g. the largest inertia, when the matrix
+    may be all round-off)."""
     if a.size == 0:
         return 0
     s = np.linalg.svd(a, compute_uv=False)
-    return int(np.sum(s > RANK_RTOL * max(s[0], 1e-300))) if s.size and s[0] > 0 else 0
+    ref = s[0] if scale is None else scale
+    return int(np.sum(s > RANK_RTOL * ref)) if s.size and ref > 0 else 0
 
 
-def null_space(a: np.ndarray, n: int) -> np.ndarray:
-    """Orthonormal basis (columns) of the null space of ``a`` with ``n`` columns."""
+def null_space(a: np.ndarray, n: int, scale: float | None = None) -> np.ndarray:
+    """Orthonormal basis (columns) of the null space of ``a`` with ``n`` columns (``scale`` as in
+    :func:`numeric_rank`)."""
     if a.shape[0] == 0:
         return np.eye(n)
     _, s, vt = np.linalg.svd(a)
-    rank = int(np.sum(s > RANK_RTOL * max(s[0], 1e-300))) if s.size and s[0] > 0 else 0
+    ref = s[0] if scale is None else scale
+    rank = int(np.sum(s > RANK_RTOL * ref)) if s.size and ref > 0 else 0
     return vt[rank:].T.copy()
 
 

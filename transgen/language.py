@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import difflib
 import functools
+import math
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -44,6 +45,7 @@ RESERVED = frozenset(
     {
         "transmission", "link", "planetary", "gears", "clutch", "brake", "oneway", "input",
         "output", "torque", "gear", "neutral", "mode", "coordinates", "none", HOUSING,
+        "T_in", "T_out",  # the input and output torques of every mechanism
     }
 )
 
@@ -107,6 +109,12 @@ def _syntax_diagnostic(exc: UnexpectedInput, filename: str, lines: list[str], li
     return Diagnostic(filename, line, column, message, source)
 
 
+def _lines(text: str) -> list[str]:
+    """Lines as the grammar counts them: only ``\\n`` ends a line (``str.splitlines`` would also
+    break at form feeds and other characters the grammar treats as blanks)."""
+    return [line.rstrip("\r") for line in text.split("\n")]
+
+
 def parse_tree(text: str, filename: str = "<string>") -> Tree:
     """Parse ``.mech`` text into a lark tree; raise :class:`MechSyntaxError` with every bad line."""
     if not text.endswith("\n"):
@@ -115,7 +123,7 @@ def parse_tree(text: str, filename: str = "<string>") -> Tree:
         return _parser().parse(text)
     except UnexpectedInput:
         pass
-    lines = text.splitlines()
+    lines = _lines(text)
     diagnostics = []
     for number, line in enumerate(lines, start=1):
         try:
@@ -158,7 +166,7 @@ class _Reporter:
     def __init__(self, filename: str, text: str):
         self.filename = filename
         self.text = text
-        self.lines = text.splitlines()
+        self.lines = _lines(text)
         self.diagnostics: list[Diagnostic] = []
 
     def error(self, span: Span, message: str) -> None:
@@ -244,6 +252,10 @@ def _check_params(stmt: _Statement, report: _Reporter) -> dict[str, object]:
                 report.error(word.span, f"{key} must be a number, not '{word.text}'")
                 continue
             number = float(word.text)
+            if not math.isfinite(number):
+                what = "is a tooth count: a positive whole number" if kind == "int>0" else "must be a finite number"
+                report.error(word.span, f"{key} {what}, not {word.text}")
+                continue
             if kind == "int>0":
                 if number != int(number) or number <= 0:
                     report.error(word.span, f"{key} is a tooth count: a positive whole number, not {word.text}")
@@ -369,7 +381,10 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str) -> 
             link_refs.append((words[0], False))
         elif kw == "torque":
             name, w = words
-            if declare(name, "torque"):
+            if name.text.startswith("t_"):
+                report.error(name.span, f"torque names starting with 't_' are reserved for the shift elements' "
+                                        f"torques; rename '{name.text}'")
+            elif declare(name, "torque"):
                 loads.append(ExternalTorque(name.text, w.text, "load", name.span))
             link_refs.append((w, False))
         elif kw in ("gear", "neutral", "mode"):
@@ -412,7 +427,7 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str) -> 
             report.error(ref.span, f"unknown shift element '{ref.text}'{_suggest(ref.text, element_names)}")
     for role, found in (("input", inputs), ("output", outputs)):
         if not found:
-            last = len(report.lines) or 1
+            last = max(1, len(report.lines) - (1 if report.lines and report.lines[-1] == "" else 0))
             report.error(Span(last, 1), f"missing '{role}' statement: name the {role} link, e.g. '{role} L1'")
         for extra in found[1:]:
             report.error(extra.span, f"the {role} is given twice")
@@ -495,7 +510,7 @@ def load_mechanism(path: str | Path) -> Mechanism:
 
 
 def _number(x: float) -> str:
-    return f"{x:.12g}"
+    return repr(float(x))  # shortest text that reads back as the same float
 
 
 def format_mechanism(m: Mechanism) -> str:

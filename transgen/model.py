@@ -194,7 +194,7 @@ class Mechanism:
 
     def source_line(self, line: int) -> str:
         """Line ``line`` (1-based) of the source text, or ``""``."""
-        lines = self.text.splitlines()
+        lines = self.text.split("\n")
         return lines[line - 1] if 0 < line <= len(lines) else ""
 
     @property

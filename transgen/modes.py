@@ -159,7 +159,10 @@ def mode_model(mech: Mechanism, mode: Mode, graph: nx.DiGraph | None = None, sym
     problem = diagnose_singular(g, mode.locked)
     if problem:
         return ModeModel(mode, combo.kind, combo.dof, combo.dof, None, problem)
-    eq = solve(assemble(g, mode.locked), g)
+    try:
+        eq = solve(assemble(g, mode.locked), g)
+    except ModeError as exc:  # singular for a reason the diagnosis did not name
+        return ModeModel(mode, combo.kind, combo.dof, combo.dof, None, str(exc))
     dof = numeric_rank(eq.G_accel)
     problem = "" if dof == combo.dof else (
         f"{combo.dof - dof} degree(s) of freedom receive no input torque (rank(G_accel) = {dof} < {combo.dof})")

@@ -1,0 +1,87 @@
+"""Cost of the full turbocharged powertrain run (thesis 4.6), both turbo algorithms.
+
+Run:  python benchmarks/bench_powertrain.py [--plot DIR]
+
+Scenarios ``ht740_turbo`` (basic algorithm) and ``ht740_turbo_iterative``: turbodiesel, torque
+converter with lock-up, HT-740, driveline and vehicle, 20 s, the scenario's solver settings
+(BDF). Prints wall time, real-time factor (simulated / wall time; goal >= 20), right-hand-side
+evaluations, integration segments and events, the part of the wall time spent sampling the
+output (``output_dt`` = 0.01 s, every sample re-evaluates the engine), the shift and lock-up
+events, and the turbocharger report comparing the two algorithms. ``--plot DIR`` also writes the
+thesis Fig. 4.17-4.24 comparison plots.
+"""
+import argparse
+import time
+import warnings
+
+import transgen.sim.simulate as simulate_module
+from transgen.sim.maps import RPM
+from transgen.sim.powertrain import turbo_report
+from transgen.sim.scenario import load_scenario
+
+SCENARIOS = (("basic", "ht740_turbo"), ("iterative", "ht740_turbo_iterative"))
+
+
+def run(name: str) -> dict:
+    sc = load_scenario(name)
+    sampled = {}
+    collect = simulate_module._collect
+
+    def timed_collect(*args, **kwargs):
+        t0 = time.perf_counter()
+        out = collect(*args, **kwargs)
+        sampled["wall"] = time.perf_counter() - t0
+        return out
+
+    simulate_module._collect = timed_collect
+    try:
+        start = time.perf_counter()
+        result = sc.run()
+        wall = time.perf_counter() - start
+    finally:
+        simulate_module._collect = collect
+    sim_time = sc.options.t_end - sc.options.t_start
+    return {"result": result, "wall": wall, "rtf": sim_time / wall, "sampling": sampled.get("wall", 0.0),
+            "method": sc.options.method, "rtol": sc.options.rtol}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--plot", metavar="DIR", help="write the comparison plots into DIR")
+    args = parser.parse_args()
+    warnings.simplefilter("ignore")
+    runs = {kind: run(name) for kind, name in SCENARIOS}
+    print("ht740_turbo, 20 s: turbodiesel + converter (lock-up) + HT-740 + driveline + vehicle")
+    print(f"{'algorithm':10s} {'method':6s} {'rtol':>6s} {'wall [s]':>9s} {'x real time':>12s} {'RHS evals':>10s} "
+          f"{'segments':>9s} {'events':>7s} {'sampling [s]':>13s}  result")
+    for kind, r in runs.items():
+        res = r["result"]
+        st = res.stats
+        print(f"{kind:10s} {r['method']:6s} {r['rtol']:6.0e} {r['wall']:9.2f} {r['rtf']:12.1f} "
+              f"{st['rhs_evaluations']:10d} {st['segments']:9d} {st['events']:7d} {r['sampling']:13.2f}  "
+              f"{'ok' if res.success else res.message}")
+    for kind, r in runs.items():
+        res = r["result"]
+        e = res["w_E"] / RPM
+        print(f"\n{kind}: engine {e[0]:.0f} rpm -> max {e.max():.0f} rpm, end {e[-1]:.0f} rpm; energy residual "
+              f"{res.energy.get('relative_residual', float('nan')):.1e}")
+        for ev in res.events:
+            if ev.kind != "start":
+                print(f"  t = {ev.t:7.3f} s  {ev.kind:<7} {' '.join(ev.elements):<4} {ev.source} -> {ev.target}")
+    basic, iterative = runs["basic"]["result"], runs["iterative"]["result"]
+    print()
+    print(turbo_report(iterative).text())
+    print(turbo_report(basic, iterative).text())
+    if args.plot:
+        from transgen.sim.engine_plots import plot_turbo_comparison
+
+        for p in plot_turbo_comparison({"basic": basic, "iterative": iterative}, args.plot):
+            print(f"  wrote {p}")
+    slow = [k for k, r in runs.items() if r["rtf"] < 20.0]
+    if slow:
+        factors = ", ".join(f"{k} {runs[k]['rtf']:.1f}x" for k in slow)
+        print(f"\nbelow the 20x real-time goal: {factors}")
+
+
+if __name__ == "__main__":
+    main()
