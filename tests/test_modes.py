@@ -12,11 +12,9 @@ from transgen import ModeError, bundled_mechanisms, load_mechanism, parse_mechan
 from transgen.equations import input_names
 from transgen.graph import build_graph, link_nodes
 from transgen.modes import (
-    Mode,
     check_coordinates,
     coordinate_subset,
     default_coordinates,
-    mode_model,
     mode_models,
     select_modes,
     valid_coordinate_sets,

@@ -3,7 +3,6 @@ symbolic against the thesis' printed equations 3.25-3.34 for the simple transmis
 from __future__ import annotations
 
 import functools
-import time
 
 import numpy as np
 import pytest
@@ -11,7 +10,7 @@ import sympy
 
 import independent as ind
 from transgen import ModeError, bundled_mechanisms, load_mechanism
-from transgen.graph import build_graph, link_nodes
+from transgen.graph import build_graph
 from transgen.equations import input_names
 from transgen.modes import mode_model, mode_models, select_modes
 from transgen.statespace import state_space
