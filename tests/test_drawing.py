@@ -242,11 +242,12 @@ def test_draw_into_a_given_axes_returns_its_figure():
     fig.clear()
 
 
-def test_drawing_uses_no_pyplot():
+def test_drawing_uses_no_pyplot(tmp_path):
     code = ("import matplotlib, sys; from transgen import load_mechanism; "
             "from transgen.drawing import draw_graph, draw_std; m = load_mechanism('simple2'); "
             "draw_graph(m); draw_std(m); print('matplotlib.pyplot' in sys.modules)")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    # run outside the source tree: "python -c" puts the working directory first on sys.path
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=tmp_path)
     assert out.stdout.strip() == "False"
 
 
