@@ -291,9 +291,7 @@ def test_simple2_symbolic_evaluates_to_numeric():
 HT740_SYMBOLIC_BUDGET = 20.0  # seconds for one mode
 
 
-@pytest.mark.skip(reason="transgen's symbolic solve of an HT-740 mode does not finish in minutes "
-                  "(_sparse_exact_solve spends its time in polynomial gcds); skipped over the 20 s budget and reported")
-def test_ht740_symbolic_one_dof_modes_evaluate_to_numeric():  # pragma: no cover - skipped
+def test_ht740_symbolic_one_dof_modes_evaluate_to_numeric():
     mech = load_mechanism("ht740")
     models = [m for m in mode_models(mech) if m.dof == 1]
     sym_models = [mode_model(mech, m.mode, symbolic=True) for m in models]
