@@ -125,3 +125,15 @@ def test_fuzz_cli_exits_0_or_2_never_crashes(text, tmp_path, capsys):
         assert code in (0, 2)
         if code == 2:
             assert "error:" in captured.err and "Traceback" not in captured.err
+
+
+def test_symbolic_inertias_only_keeps_gear_geometry_exact(capsys):
+    data = _json(capsys, ["matrices", "simple2", "--symbolic", "inertias"])
+    b = data["modes"][0]["B"][0][0]
+    assert "J_Li" in b and "r1_" not in b  # radii became exact numbers
+    import sympy
+
+    expr = sympy.sympify(b)
+    value = expr.subs({sym: {"J_Li": 2.9, "J_Lo": 1.0}[sym.name] for sym in expr.free_symbols})
+    numeric = _json(capsys, ["matrices", "simple2"])["modes"][0]["B"][0][0]
+    assert float(value) == pytest.approx(numeric, rel=1e-12)

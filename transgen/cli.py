@@ -253,7 +253,9 @@ def build_parser() -> argparse.ArgumentParser:
                        description="State-space matrices B, C, D of every modelled mode (thesis eqs. 3.6-3.15).")
     s.add_argument("file", metavar="FILE")
     s.add_argument("--coords", help="generalized coordinates, e.g. L1,L6 (default: from the file, else input and output)")
-    s.add_argument("--symbolic", action="store_true", help="symbolic matrices in the mechanism's own symbols")
+    s.add_argument("--symbolic", nargs="?", const="all", choices=("all", "inertias"),
+                   help="symbolic matrices in the mechanism's own symbols: all (inertias, tooth counts, radii; "
+                        "the default) or inertias (gear geometry kept as exact numbers: fast for multi-DOF modes)")
     s.add_argument("--modes", choices=("auto", "default", "declared", "all"), default="auto",
                    help="which modes (default: declared in the file, else the default choice)")
     s.add_argument("--format", choices=("json", "npz", "mat", "latex"), help="output format (default: from -o suffix)")

@@ -75,15 +75,19 @@ def input_names(g: nx.DiGraph) -> tuple[str, ...]:
     return tuple(sources) + tuple(f"t_{e}" for e in element_nodes(g))
 
 
-def symbols_of(g: nx.DiGraph) -> dict:
-    """Sympy symbols for the symbolic back-end: transformer parameters and nonzero inertias
-    (``J_<link>``); massless links keep an exact 0."""
+def symbols_of(g: nx.DiGraph, which: str = "all") -> dict:
+    """Values for the symbolic back-end: sympy symbols for the transformer parameters (tooth
+    counts ``Ns_P1``, radii ``r1_G``) and the nonzero inertias (``J_<link>``); massless links
+    keep an exact 0. ``which="inertias"`` keeps the gear geometry as exact rational numbers and
+    makes only the inertias symbols (much smaller expressions for multi-DOF modes)."""
     import sympy
 
+    if which not in ("all", "inertias"):
+        raise ValueError(f"symbols must be 'all' or 'inertias', not {which!r}")
     values = {}
     for node, data in g.nodes(data=True):
-        for name in data.get("params", {}):
-            values[name] = sympy.Symbol(name, positive=True)
+        for name, value in data.get("params", {}).items():
+            values[name] = sympy.Symbol(name, positive=True) if which == "all" else sympy.nsimplify(value, rational=True)
         if data["kind"] == "link":
             values[f"J_{node}"] = sympy.Symbol(f"J_{node}", positive=True) if data["J"] > 0 else sympy.Integer(0)
     return values
@@ -98,10 +102,16 @@ def _numeric_values(g: nx.DiGraph) -> dict:
     return values
 
 
-def assemble(g: nx.DiGraph, locked=(), symbolic: bool = False) -> ModeEquations:
-    """Assemble ``E`` and ``F`` of the mode with the elements ``locked`` from the graph."""
+def assemble(g: nx.DiGraph, locked=(), symbolic: bool | str = False) -> ModeEquations:
+    """Assemble ``E`` and ``F`` of the mode with the elements ``locked`` from the graph.
+
+    ``symbolic``: False (numbers), True or ``"all"`` (every parameter a symbol) or
+    ``"inertias"`` (only the inertias; see :func:`symbols_of`)."""
     locked = tuple(locked)
-    values = symbols_of(g) if symbolic else _numeric_values(g)
+    if symbolic:
+        values = symbols_of(g, "all" if symbolic is True else symbolic)
+    else:
+        values = _numeric_values(g)
     links = link_nodes(g)
     transformers = [n for n, d in g.nodes(data=True) if d["kind"] in ("planetary", "gearpair")]
     ports = [(t, link, port, terms) for t in transformers for link, port, terms in transformer_ports(g, t)]

@@ -151,9 +151,11 @@ def _join_labels(labels: list[str]) -> str:
     return "; ".join(out)
 
 
-def mode_model(mech: Mechanism, mode: Mode, graph: nx.DiGraph | None = None, symbolic: bool = False) -> ModeModel:
+def mode_model(mech: Mechanism, mode: Mode, graph: nx.DiGraph | None = None,
+               symbolic: bool | str = False) -> ModeModel:
     """Kinematics and solved equations of ``mode``; a mode that cannot be solved keeps
-    ``equations=None`` and says why in ``problem``."""
+    ``equations=None`` and says why in ``problem``. ``symbolic`` (True, ``"all"`` or
+    ``"inertias"``) also solves the symbolic equations (:func:`transgen.equations.assemble`)."""
     g = build_graph(mech) if graph is None else graph
     combo = analyze(mech, mode.locked, g)
     problem = diagnose_singular(g, mode.locked)
@@ -166,11 +168,11 @@ def mode_model(mech: Mechanism, mode: Mode, graph: nx.DiGraph | None = None, sym
     dof = numeric_rank(eq.G_accel)
     problem = "" if dof == combo.dof else (
         f"{combo.dof - dof} degree(s) of freedom receive no input torque (rank(G_accel) = {dof} < {combo.dof})")
-    symbolic_eq = solve(assemble(g, mode.locked, symbolic=True), g) if symbolic else None
+    symbolic_eq = solve(assemble(g, mode.locked, symbolic=symbolic), g) if symbolic else None
     return ModeModel(mode, combo.kind, dof, combo.dof, eq, problem, symbolic_eq)
 
 
-def mode_models(mech: Mechanism, which: str = "auto", symbolic: bool = False) -> list[ModeModel]:
+def mode_models(mech: Mechanism, which: str = "auto", symbolic: bool | str = False) -> list[ModeModel]:
     """:func:`mode_model` of every mode of :func:`select_modes`."""
     g = build_graph(mech)
     return [mode_model(mech, m, g, symbolic) for m in select_modes(mech, which)]

@@ -150,7 +150,7 @@ def _mode_state_space(model: ModeModel, links: list[str], coords, symbolic: bool
                           B, C, D, tuple(links), tuple(f"t_{e}" for e in model.locked))
 
 
-def state_space(mech: Mechanism, coordinates=None, which: str = "auto", symbolic: bool = False,
+def state_space(mech: Mechanism, coordinates=None, which: str = "auto", symbolic: bool | str = False,
                 models: list[ModeModel] | None = None) -> StateSpaceSet:
     """State-space matrices of the modelled modes of ``mech``.
 
@@ -169,5 +169,5 @@ def state_space(mech: Mechanism, coordinates=None, which: str = "auto", symbolic
             warnings.warn(f"mode {m.name}: {m.problem}", stacklevel=2)
     coords = tuple(coordinates or mech.coordinates) or default_coordinates(models, links, mech.input, mech.output)
     check_coordinates(models, links, coords)
-    modes = tuple(_mode_state_space(m, links, coords, symbolic) for m in models)
-    return StateSpaceSet(mech.name, coords, models[0].equations.u if models else (), modes, symbolic)
+    modes = tuple(_mode_state_space(m, links, coords, bool(symbolic)) for m in models)
+    return StateSpaceSet(mech.name, coords, models[0].equations.u if models else (), modes, bool(symbolic))
