@@ -15,12 +15,12 @@ import math
 import time as _time
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from transgen.errors import ModeError, SimulationError
 
 from .result import Event
-from .simulate import Powertrain, SolverOptions, _breakpoints, _check_finite, _collect, _Layout, _Model, _Segment
+from .simulate import (Powertrain, SolverOptions, _breakpoints, _check_finite, _collect, _Layout, _Model, _Segment,
+                       integrate, sample_row)
 
 __all__ = ["simulate_compliant"]
 
@@ -105,13 +105,9 @@ def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
         for f in event_funcs:
             f.terminal = True
         try:
-            sol = solve_ivp(rhs, (t, t_stop), y0, method=options.method, rtol=options.rtol, atol=options.atol,
-                            max_step=options.max_step, events=event_funcs, dense_output=True)
+            sol = integrate(rhs, t, t_stop, y0, options, event_funcs)
         except SimulationError as exc:
             success, message = False, f"{exc} (compliant model, sticking {_name(tr, seg_stuck)})"
-            break
-        if sol.status == -1:
-            success, message = False, f"t={sol.t[-1]:.6g} s: integrator failed (compliant model): {sol.message}"
             break
         t_end = float(sol.t[-1])
         segments.append(_Segment(t, t_end, frozenset(np.flatnonzero(seg_stuck)), seg_dirs, mode, sol.sol, seg_stuck))
@@ -165,34 +161,13 @@ def _name(tr, stuck) -> str:
 
 def _sample(pt, seg, t, y, k, c):
     tr = pt.transmission
-    mode = seg.mode
-    w = mode.C @ y[: mode.dof]
     n_e = len(tr.elements)
-    phi = y[mode.dof: mode.dof + n_e]
-    layout = _Layout(pt.components, mode.dof + n_e)
-    row = {}
-    u = np.zeros(len(tr.inputs))
-    stored = 0.5 * float(tr.inertia @ (w * w)) + 0.5 * k * float(np.sum(np.where(seg.stuck, phi ** 2, 0.0)))
-    for cmp, sl in zip(pt.components, layout.slices):
-        x = y[sl]
-        for name, value in cmp.torques(t, x, w).items():
-            u[tr.input_index[name]] += value
-        row.update(cmp.signals(t, x, w))
-        stored += cmp.energy(x, w)
-    slips = tr.P @ w
-    te = tr.slipping_torques(t, w, seg.locked, seg.directions)
-    te = np.where(seg.stuck, k * phi + c * slips, te)
-    u[tr.element_input] += te
-    for j, name in enumerate(tr.links):
-        row[f"w_{name}"] = w[j]
-    for i, e in enumerate(tr.elements):
-        row[f"slip_{e.name}"] = slips[i]
-        row[f"t_{e.name}"] = te[i]
-        row[f"apply_{e.name}"] = e.apply_at(t)
-        row[f"P_{e.name}"] = c * slips[i] ** 2 if seg.stuck[i] else abs(te[i] * slips[i])
-        row[f"locked_{e.name}"] = 1.0 if seg.stuck[i] else 0.0
-    row.setdefault("T_in", u[tr.input_index["T_in"]])
-    row.setdefault("T_out", u[tr.input_index["T_out"]])
-    e_in, e_diss, e_load = y[layout.energy]
-    row.update({"E_in": e_in, "E_dissipated": e_diss, "E_load": e_load, "E_stored": stored})
-    return row
+    phi = y[seg.mode.dof: seg.mode.dof + n_e]
+
+    def element_state(w, slips, u):
+        te = tr.slipping_torques(t, w, seg.locked, seg.directions)
+        te = np.where(seg.stuck, k * phi + c * slips, te)
+        power = np.where(seg.stuck, c * slips ** 2, np.abs(te * slips))
+        return te, te, power, 0.5 * k * float(np.sum(np.where(seg.stuck, phi ** 2, 0.0)))
+
+    return sample_row(pt, seg, t, y, n_e, element_state)

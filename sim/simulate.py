@@ -276,13 +276,9 @@ def _simulate_switching(pt: Powertrain, options: SolverOptions, progress) -> Res
                 event_funcs.append(control_event)
 
         try:
-            sol = solve_ivp(rhs, (t, t_stop), y0, method=options.method, rtol=options.rtol, atol=options.atol,
-                            max_step=options.max_step, events=event_funcs, dense_output=True)
+            sol = integrate(rhs, t, t_stop, y0, options, event_funcs)
         except SimulationError as exc:
             success, message = False, f"{exc} (mode {tr.mode_name(locked)})"
-            break
-        if sol.status == -1:
-            success, message = False, f"t={sol.t[-1]:.6g} s: integrator failed in mode {tr.mode_name(locked)}: {sol.message}"
             break
         t_end = float(sol.t[-1])
         segments.append(_Segment(t, t_end, locked, seg_dirs, mode, sol.sol))
@@ -374,12 +370,18 @@ def _collect(pt: Powertrain, options: SolverOptions, segments: list[_Segment], e
     return Result(time_arr, arrays, units, spans, events, success, message, energy, stats, meta)
 
 
-def _sample(pt: Powertrain, seg: _Segment, t: float, y: np.ndarray) -> dict[str, float]:
+def sample_row(pt: Powertrain, seg: _Segment, t: float, y: np.ndarray, n_extra: int, element_state) -> dict[str, float]:
+    """The named signals at one output time, shared by both clutch models.
+
+    ``n_extra`` states follow the mode's coordinates before the component states (the spring
+    twists of the compliant model); ``element_state(w, slips, u)`` returns, for the input vector
+    ``u`` without element torques, the element torques as inputs, the transmitted torques, the
+    dissipated powers and any extra stored energy.
+    """
     tr = pt.transmission
-    mode = seg.mode
-    dof = mode.dof
-    w = mode.C @ y[:dof]
-    layout = _Layout(pt.components, dof)
+    dof = seg.mode.dof
+    w = seg.mode.C @ y[:dof]
+    layout = _Layout(pt.components, dof + n_extra)
     row: dict[str, float] = {}
     u = np.zeros(len(tr.inputs))
     stored = 0.5 * float(tr.inertia @ (w * w))
@@ -390,21 +392,45 @@ def _sample(pt: Powertrain, seg: _Segment, t: float, y: np.ndarray) -> dict[str,
         row.update(c.signals(t, x, w))
         stored += c.energy(x, w)
     slips = tr.P @ w
-    te = tr.slipping_torques(t, w, seg.locked, seg.directions)
+    te, torques, power, extra = element_state(w, slips, u)
     u[tr.element_input] += te
-    torques = te.copy()
-    if mode.locked_order:
-        torques[list(mode.locked_order)] = mode.D @ u
     for k, name in enumerate(tr.links):
         row[f"w_{name}"] = w[k]
     for i, e in enumerate(tr.elements):
         row[f"slip_{e.name}"] = slips[i]
         row[f"t_{e.name}"] = torques[i]
         row[f"apply_{e.name}"] = e.apply_at(t)
-        row[f"P_{e.name}"] = abs(torques[i] * slips[i]) if i not in seg.locked else 0.0
+        row[f"P_{e.name}"] = power[i]
         row[f"locked_{e.name}"] = 1.0 if i in seg.locked else 0.0
     row.setdefault("T_in", u[tr.input_index["T_in"]])
     row.setdefault("T_out", u[tr.input_index["T_out"]])
     e_in, e_diss, e_load = y[layout.energy]
-    row.update({"E_in": e_in, "E_dissipated": e_diss, "E_load": e_load, "E_stored": stored})
+    row.update({"E_in": e_in, "E_dissipated": e_diss, "E_load": e_load, "E_stored": stored + extra})
     return row
+
+
+def _sample(pt: Powertrain, seg: _Segment, t: float, y: np.ndarray) -> dict[str, float]:
+    tr = pt.transmission
+    mode = seg.mode
+
+    def element_state(w, slips, u):
+        te = tr.slipping_torques(t, w, seg.locked, seg.directions)
+        torques = te.copy()
+        if mode.locked_order:
+            full = u.copy()
+            full[tr.element_input] += te
+            torques[list(mode.locked_order)] = mode.D @ full
+        power = np.where([i in seg.locked for i in range(len(tr.elements))], 0.0, np.abs(torques * slips))
+        return te, torques, power, 0.0
+
+    return sample_row(pt, seg, t, y, 0, element_state)
+
+
+def integrate(rhs, t0: float, t1: float, y0: np.ndarray, options: SolverOptions, events: list):
+    """One integration segment with ``solve_ivp`` (dense output, terminal events); raises
+    :class:`SimulationError` when the integrator fails."""
+    sol = solve_ivp(rhs, (t0, t1), y0, method=options.method, rtol=options.rtol, atol=options.atol,
+                    max_step=options.max_step, events=events, dense_output=True)
+    if sol.status == -1:
+        raise SimulationError(f"t={sol.t[-1]:.6g} s: integrator failed: {sol.message}")
+    return sol
