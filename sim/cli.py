@@ -20,6 +20,9 @@ def add_commands(sub) -> None:
     s.add_argument("--report", action="store_true", help="print the shift-quality report")
     s.add_argument("--json", action="store_true", help="machine-readable summary (events, modes, energy, report)")
     s.add_argument("--model", choices=("switching", "compliant"), help="override the clutch model of the scenario")
+    s.add_argument("--compare", metavar="SCENARIO2",
+                   help="also run SCENARIO2 and compare: overlay plots (with --plot; the Chapter-4 turbocharger "
+                        "plots of both runs for turbo scenarios) and side-by-side report numbers")
     s.add_argument("--quiet", action="store_true", help="no progress on standard error")
     s.add_argument("--list", action="store_true", help="list the bundled scenarios")
     s.set_defaults(func=cmd_simulate)
@@ -88,6 +91,20 @@ def cmd_simulate(args) -> int:
 
         formats = tuple(f.strip() for f in args.format.split(",") if f.strip())
         written += [str(p) for p in plot_all(result, qualities, Path(args.plot), formats=formats)]
+    other = other_q = None
+    if args.compare:
+        other_s = load_scenario(args.compare)
+        if args.model:
+            other_s.options = dataclasses.replace(other_s.options, model=args.model,
+                                                  method="Radau" if args.model == "compliant" else other_s.options.method)
+        other = other_s.run()
+        if not other.success:
+            print(f"error: {args.compare}: {other.message}", file=sys.stderr)
+            return 1
+        other_q = shift_report(other, other_s.shifts or None)
+        if args.plot:
+            written += _comparison_plots(scenario, result, other_s, other, Path(args.plot),
+                                         tuple(f.strip() for f in args.format.split(",") if f.strip()))
     if args.json:
         summary = result.summary()
         summary["report"] = report_dict(result, qualities)
@@ -95,6 +112,13 @@ def cmd_simulate(args) -> int:
             from .powertrain import turbo_report
 
             summary["turbo"] = turbo_report(result).to_dict()
+        if other is not None:
+            summary["compare"] = {"scenario": args.compare, "summary": other.summary(),
+                                  "report": report_dict(other, other_q)}
+            if "omega_tc" in result.signals and "omega_tc" in other.signals:
+                from .powertrain import turbo_report
+
+                summary["compare"]["turbo"] = turbo_report(result, other).to_dict()
         summary["written"] = written
         print(json.dumps(summary, indent=2, default=float))
     else:
@@ -112,9 +136,49 @@ def cmd_simulate(args) -> int:
                 from .powertrain import turbo_report
 
                 print(turbo_report(result).text())
+        if other is not None:
+            print()
+            print(_comparison_text(scenario.title, result, qualities, args.compare, other, other_q))
         for w in written:
             print(f"  wrote {w}")
     return 0 if result.success else 1
+
+
+def _comparison_plots(scenario, result, other_s, other, directory: Path, formats) -> list[str]:
+    """Overlay plots of two runs: input and output torque and speeds, and for turbocharged runs the
+    thesis' Figs. 4.17-4.24 with both runs."""
+    from transgen.drawing import save_figure
+
+    from .plots import compare
+
+    runs = {scenario.path.stem: result, other_s.path.stem: other}
+    written = []
+    inp = f"w_{scenario.mechanism.input}"
+    for signal in ("T_out", "T_in", inp, "vehicle_speed"):
+        if all(signal in r.signals for r in runs.values()):
+            for fmt in formats:
+                written.append(str(save_figure(compare(runs, signal), directory / f"compare_{signal}.{fmt}")))
+    if all("omega_tc" in r.signals for r in runs.values()):
+        from .engine_plots import plot_turbo_comparison
+
+        written += [str(p) for p in plot_turbo_comparison(runs, directory, formats=formats)]
+    return written
+
+
+def _comparison_text(title, a, qa, name_b, b, qb) -> str:
+    """Side-by-side shift numbers of two runs, and the turbocharger comparison where both have one."""
+    lines = [f"Comparison: {title}  vs  {name_b}  (each column: this run, then {name_b})",
+             f"  {'shift':<8} {'torque hole [N*m]':>22} {'bindup [N*m]':>18} {'energy [kJ]':>16} {'flare [rpm]':>16}"]
+    for x, y in zip(qa, qb):
+        lines.append(f"  {x.name:<8} {x.torque_hole:>10.0f} {y.torque_hole:>11.0f} {x.bindup_torque:>8.0f} "
+                     f"{y.bindup_torque:>9.0f} {x.energy_total / 1e3:>7.1f} {y.energy_total / 1e3:>8.1f} "
+                     f"{x.flare_max_rpm:>7.1f} {y.flare_max_rpm:>8.1f}")
+    lines.append(f"  energy dissipated [kJ]: {a.energy.get('dissipated', 0) / 1e3:.1f} vs {b.energy.get('dissipated', 0) / 1e3:.1f}")
+    if "omega_tc" in a.signals and "omega_tc" in b.signals:
+        from .powertrain import turbo_report
+
+        lines.append(turbo_report(a, b).text())
+    return "\n".join(lines)
 
 
 def cmd_maps(args) -> int:
@@ -128,6 +192,13 @@ def cmd_maps(args) -> int:
         formats = tuple(f.strip() for f in args.format.split(",") if f.strip())
         written = [str(p) for p in plot_map_file(m, Path(args.plot), formats=formats)]
     if args.json:
+        if other is not None:
+            summary["compare"] = {"scenario": args.compare, "summary": other.summary(),
+                                  "report": report_dict(other, other_q)}
+            if "omega_tc" in result.signals and "omega_tc" in other.signals:
+                from .powertrain import turbo_report
+
+                summary["compare"]["turbo"] = turbo_report(result, other).to_dict()
         summary["written"] = written
         print(json.dumps(summary, indent=2))
     else:

@@ -578,7 +578,14 @@ def test_overflowing_tooth_count_is_a_located_error(statement):
 
 
 def test_non_finite_numbers_are_rejected():
-    errors(BASE.replace("J=2", "J=1e400"))
+    text = BASE.replace("J=2", "J=1e400") + "clutch K A B static=1e999 dynamic=1\nbrake Q A static=5 dynamic=-1e400\n" \
+        + "gears H A B r1=1e309 r2=0.1\ngear 1 = K ratio=1e400\n"
+    diags = errors(text)
+    assert at(only(diags, "^J ")) == value_at(text, 2, "J")
+    assert at(only(diags, "^static ")) == value_at(text, 6, "static")
+    assert at(only(diags, "^dynamic ")) == value_at(text, 7, "dynamic")
+    assert at(only(diags, "^r1 ")) == value_at(text, 8, "r1")
+    assert at(only(diags, "^ratio ")) == value_at(text, 9, "ratio")
 
 
 def test_form_feed_does_not_shift_line_numbers():
@@ -615,7 +622,7 @@ _TOKENS = ["link", "planetary", "gears", "clutch", "brake", "oneway", "input", "
            "neutral", "mode", "coordinates", "none", "housing", "=", "J=0", "J=-1", "Ns=0", "Nr=10", "pinions=2",
            "mesh=internal", "free=negative", "ratio=1.5", "static=1", "dynamic=2", "r1=0.1", "N1=3.5", '"t"',
            "0", "-1", "1e3", "X", "T_in", "#"]
-_VALUES = ["0", "-1", "1.5", "+2", ".5", "2.", "1e3", "1e-3", "x", "housing", "none", "L1", "C1", "positive",
+_VALUES = ["1e400", "-1e999", "0.12345678901234567", "1e-400", "0", "-1", "1.5", "+2", ".5", "2.", "1e3", "1e-3", "x", "housing", "none", "L1", "C1", "positive",
            "negative", "internal", "band", "2", "3", "Ns", "="]
 _TEXTS = {name: path.read_text(encoding="utf-8") for name, path in BUNDLED.items()}
 # the same files without comments and blank lines, so that most mutations hit statements

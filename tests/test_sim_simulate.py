@@ -263,3 +263,20 @@ output_torque = 0.0
     assert code in (1, 2)
     assert not out.exists()
     assert list(tmp_path.glob(".out.csv*")) == []
+
+
+def test_compare_runs_a_second_scenario(capsys, tmp_path):
+    code = main(["simulate", "simple2_upshift", "--compare", "simple2_upshift", "--model", "compliant",
+                 "--json", "--quiet", "--plot", str(tmp_path)])
+    assert code == 0
+    import json
+
+    data = json.loads(capsys.readouterr().out)
+    assert data["compare"]["scenario"] == "simple2_upshift"
+    assert (tmp_path / "compare_T_out.png").exists()
+
+
+@pytest.mark.parametrize("name", sorted(__import__("transgen.sim.scenario", fromlist=["x"]).bundled_scenarios()))
+def test_every_bundled_scenario_loads(name):
+    s = load_scenario(name)
+    assert s.options.t_end > s.options.t_start and s.powertrain.initial_speeds is not None
