@@ -192,13 +192,6 @@ def cmd_maps(args) -> int:
         formats = tuple(f.strip() for f in args.format.split(",") if f.strip())
         written = [str(p) for p in plot_map_file(m, Path(args.plot), formats=formats)]
     if args.json:
-        if other is not None:
-            summary["compare"] = {"scenario": args.compare, "summary": other.summary(),
-                                  "report": report_dict(other, other_q)}
-            if "omega_tc" in result.signals and "omega_tc" in other.signals:
-                from .powertrain import turbo_report
-
-                summary["compare"]["turbo"] = turbo_report(result, other).to_dict()
         summary["written"] = written
         print(json.dumps(summary, indent=2))
     else:

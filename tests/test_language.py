@@ -1,4 +1,4 @@
-"""The .mech language: every statement of docs/mech-language.md, located diagnostics, the
+"""The .mech language: every statement of the README's language reference, located diagnostics, the
 canonical writer (round trip) and robustness against arbitrary input."""
 from __future__ import annotations
 

@@ -134,10 +134,6 @@ class Combination:
     detail: str = ""
 
 
-def _rel_tol(x: np.ndarray) -> float:
-    return 1e-9 * max(1.0, float(np.max(np.abs(x))) if x.size else 1.0)
-
-
 def analyze(mech: Mechanism, engaged=(), graph: nx.DiGraph | None = None) -> Combination:
     """Degrees of freedom, ratio and kind of ``mech`` with the elements ``engaged``."""
     g = build_graph(mech) if graph is None else graph
