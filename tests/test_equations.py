@@ -458,11 +458,6 @@ def test_scaling_all_inertias_scales_the_accelerations(name, factor):
     _check_scaled(name, factor)
 
 
-@pytest.mark.xfail(strict=True, reason="BUG: solve() decides whether E is singular with numeric_rank(E), a purely "
-                   "relative tolerance (1e-9 * largest singular value) on a matrix that mixes inertias with tooth "
-                   "counts and ones; with every inertia scaled by 1e-6 (a micro gearhead: J ~ 1e-7 kg*m^2) or by "
-                   "1e6, every HT-740 mode is refused as 'E is singular' although the scaled problem is as "
-                   "well-posed as the original (simple2 fails from 1e-7)")
 @pytest.mark.parametrize("factor", [1e-6, 1e6])
 def test_scaling_all_inertias_by_a_million_still_solves(factor):
     _check_scaled("ht740", factor)

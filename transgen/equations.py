@@ -177,10 +177,16 @@ def solve(eq: ModeEquations, g: nx.DiGraph) -> ModeEquations:
     locked elements whose torques are not unique when ``E`` is singular.
     """
     if isinstance(eq.E, np.ndarray):
-        n = eq.E.shape[0]
-        if numeric_rank(eq.E) < n:
-            raise ModeError(diagnose_singular(g, eq.locked) or f"mode {'+'.join(eq.locked) or 'none'}: E is singular")
-        G = -scipy.linalg.lu_solve(scipy.linalg.lu_factor(eq.E), eq.F)
+        # E mixes inertias with tooth counts and ones, so a rank test on E itself depends on the
+        # units; the structural diagnosis (unitless constraints, mass matrix scaled by its own size)
+        # does not.
+        problem = diagnose_singular(g, eq.locked)
+        if problem:
+            raise ModeError(problem)
+        with np.errstate(all="ignore"):
+            G = -scipy.linalg.lu_solve(scipy.linalg.lu_factor(eq.E, check_finite=False), eq.F)
+        if not np.all(np.isfinite(G)):
+            raise ModeError(f"mode {'+'.join(eq.locked) or 'none'}: E is singular")
         G[np.abs(G) < 1e-13 * max(1.0, np.abs(G).max(initial=0.0))] = 0.0
     else:
         problem = diagnose_singular(g, eq.locked)
