@@ -306,8 +306,5 @@ def test_simple2_one_dof_modes_symbolic_with_output_coordinate():
     _one_dof_symbolic_matches_numeric("simple2", "Lo")
 
 
-@pytest.mark.skip(reason="transgen's symbolic solve of one HT-740 mode (M1, C1 C5, 1 DOF) does not finish within "
-                  "150 s (the goal is < 10 s for all seven); _sparse_exact_solve spends the time in polynomial "
-                  "gcds of the fraction field. Over the 20 s budget of this suite: skipped and reported")
-def test_ht740_symbolic_one_dof_modes_evaluate_to_numeric():  # pragma: no cover - skipped
+def test_ht740_symbolic_one_dof_modes_evaluate_to_numeric():
     _one_dof_symbolic_matches_numeric("ht740", "L1")
