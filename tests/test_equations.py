@@ -461,3 +461,19 @@ def test_scaling_all_inertias_scales_the_accelerations(name, factor):
 @pytest.mark.parametrize("factor", [1e-6, 1e6])
 def test_scaling_all_inertias_by_a_million_still_solves(factor):
     _check_scaled("ht740", factor)
+
+
+@pytest.mark.parametrize("factor", [1e-12, 1e-10, 1e12])
+def test_scaling_all_inertias_to_extremes_is_exact_or_refused(factor):
+    try:
+        _check_scaled("ht740", factor)
+    except ModeError:
+        pass  # refusing (with a reason) is acceptable; a wrong number is not
+
+
+@pytest.mark.parametrize("inertia", ["1e-9", "1e-12"])
+def test_a_light_link_is_not_massless(inertia):
+    m = parse_mechanism(FREE_MASSLESS.replace("link X J=0", f"link X J={inertia}"))
+    g = build_graph(m)
+    eq = _compare_mode(m, g, ())
+    assert eq is not None

@@ -308,3 +308,19 @@ def test_simple2_one_dof_modes_symbolic_with_output_coordinate():
 
 def test_ht740_symbolic_one_dof_modes_evaluate_to_numeric():
     _one_dof_symbolic_matches_numeric("ht740", "L1")
+
+
+@pytest.mark.parametrize("name", ["simple2", "ht740"])
+def test_symbolic_inertias_only_evaluates_to_numeric_for_every_mode(name):
+    """symbolic="inertias": exact gear geometry, inertia symbols only (also the 2-DOF modes)."""
+    mech = load_mechanism(name)
+    models = mode_models(mech, symbolic="inertias")
+    sym = state_space(mech, models=models, symbolic="inertias")
+    num = state_space(mech)
+    assert sym.symbolic and sym.coordinates == num.coordinates
+    free = set().union(*(m.B.free_symbols | m.C.free_symbols | m.D.free_symbols for m in sym.modes))
+    assert free and all(str(x).startswith("J_") for x in free)
+    values = {P(f"J_{k.name}"): ind.exact(k.inertia) for k in mech.links}
+    for s, n in zip(sym.modes, num.modes):
+        assert s.states == n.states
+        _assert_symbolic_equals_numeric(s, n, values, name)

@@ -183,11 +183,24 @@ def solve(eq: ModeEquations, g: nx.DiGraph) -> ModeEquations:
         problem = diagnose_singular(g, eq.locked)
         if problem:
             raise ModeError(problem)
+        # equilibrate rows and columns (accelerations ~ 1/J and torques ~ 1 differ by the
+        # inertias' scale), then LU with partial pivoting
+        rows = 1.0 / np.abs(eq.E).max(axis=1)
+        E1 = eq.E * rows[:, None]
+        cols = 1.0 / np.abs(E1).max(axis=0)
         with np.errstate(all="ignore"):
-            G = -scipy.linalg.lu_solve(scipy.linalg.lu_factor(eq.E, check_finite=False), eq.F)
+            y = scipy.linalg.lu_solve(scipy.linalg.lu_factor(E1 * cols[None, :], check_finite=False),
+                                      -(eq.F * rows[:, None]))
+        G = y * cols[:, None]
         if not np.all(np.isfinite(G)):
             raise ModeError(f"mode {'+'.join(eq.locked) or 'none'}: E is singular")
-        G[np.abs(G) < 1e-13 * max(1.0, np.abs(G).max(initial=0.0))] = 0.0
+        # accelerations satisfy the constraints exactly: project out the round-off that violates
+        # them (a tie-up then has exactly zero accelerations)
+        basis = null_space(constraint_matrix(g, eq.locked), eq.n_links)
+        G[: eq.n_links] = basis @ (basis.T @ G[: eq.n_links])
+        for block in (slice(0, eq.n_links), slice(eq.n_links, eq.n_links + eq.n_locked), slice(eq.n_links + eq.n_locked, None)):
+            part = G[block]  # round-off clean-up within quantities of one unit
+            part[np.abs(part) < 1e-13 * np.abs(part).max(initial=0.0)] = 0.0
     else:
         problem = diagnose_singular(g, eq.locked)
         if problem:
@@ -222,9 +235,9 @@ def diagnose_singular(g: nx.DiGraph, locked=()) -> str:
                             "so their internal torques are not unique (e.g. twin load paths)")
     basis = null_space(a, len(links))
     if basis.shape[1]:
-        J = np.diag([g.nodes[k]["J"] for k in links])
-        m = basis.T @ J @ basis
-        free = null_space(m, m.shape[0], scale=max(float(J.max()), 1e-300))
+        # masslessness is structural: a motion that moves no link with inertia (J > 0) at all
+        massive = np.array([g.nodes[k]["J"] > 0 for k in links])
+        free = null_space(basis[massive], basis.shape[1], scale=1.0)
         if free.shape[1]:
             motion = basis @ free
             names = [k for k, row in zip(links, motion) if np.linalg.norm(row) > 1e-9]
