@@ -326,11 +326,12 @@ def _collect(pt: Powertrain, options: SolverOptions, segments: list[_Segment], e
         grid = np.arange(math.ceil((seg.t0 + 1e-12) / options.output_dt) * options.output_dt, seg.t1, options.output_dt)
         grid = grid[(grid > seg.t0 + 1e-12) & (grid < seg.t1 - 1e-12)]
         ts = np.concatenate([[seg.t0], grid, [seg.t1]])
-        for tt in ts:
-            y = seg.sol(tt)
-            row = (sampler or _sample)(pt, seg, tt, y)
+        ys = seg.sol(ts)  # the dense output evaluated for all samples of the segment at once
+        name = tr.mode_name(seg.locked)
+        for k, tt in enumerate(ts):
+            row = (sampler or _sample)(pt, seg, tt, ys[:, k])
             times.append(float(tt))
-            mode_names.append(tr.mode_name(seg.locked))
+            mode_names.append(name)
             for k, v in row.items():
                 signals.setdefault(k, []).append(v)
     for k in names_links:
