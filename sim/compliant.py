@@ -20,13 +20,9 @@ from transgen.errors import ModeError, SimulationError
 
 from .result import Event
 from .simulate import (Powertrain, SolverOptions, _breakpoints, _check_finite, _collect, _Layout, _Model, _Segment,
-                       integrate, sample_row)
+                       integrate, memo_last, sample_row)
 
 __all__ = ["simulate_compliant"]
-
-
-def _spring_torques(tr, k, c, phi, slips, stuck):
-    return np.where(stuck, k * phi + c * slips, 0.0)
 
 
 def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
@@ -59,24 +55,19 @@ def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
         seg_stuck, seg_dirs = stuck.copy(), directions.copy()
         y0 = np.concatenate([w[mode.coords], phi] + comp_states + [energy])
         t_stop = min([b for b in _breakpoints(pt, t, options.t_end) if b > t + 1e-12] + [options.t_end])
-        cache = {}
+        seg_locked = frozenset(np.flatnonzero(seg_stuck))
 
-        def evaluate(tt, y, seg_stuck=seg_stuck, seg_dirs=seg_dirs):
-            key = (tt, y.tobytes())
-            if key in cache:
-                return cache[key]
-            model.calls += 1
+        def point(tt, y, seg_stuck=seg_stuck, seg_dirs=seg_dirs, seg_locked=seg_locked):
             ww = mode.C @ y[: mode.dof]
             u, derivs, p_in, diss, p_load = model.external(tt, y, ww, layout)
             slips = tr.P @ ww
-            te = tr.slipping_torques(tt, ww, frozenset(np.flatnonzero(seg_stuck)), seg_dirs)
-            te = np.where(seg_stuck, _spring_torques(tr, k, c, y[spring], slips, seg_stuck), te)
+            te = tr.slipping_torques(tt, ww, seg_locked, seg_dirs)
+            te = np.where(seg_stuck, k * y[spring] + c * slips, te)  # stuck: spring-damper
             u[tr.element_input] += te
             diss += float(np.sum(np.where(seg_stuck, c * slips ** 2, te * slips)))
-            out = (ww, u, derivs, p_in, diss, p_load, slips, te)
-            cache.clear()
-            cache[key] = out
-            return out
+            return ww, u, derivs, p_in, diss, p_load, slips, te
+
+        evaluate = memo_last(model, point)
 
         def rhs(tt, y, seg_stuck=seg_stuck):
             ww, u, derivs, p_in, diss, p_load, slips, _ = evaluate(tt, y)
@@ -110,7 +101,7 @@ def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
             success, message = False, f"{exc} (compliant model, sticking {_name(tr, seg_stuck)})"
             break
         t_end = float(sol.t[-1])
-        segments.append(_Segment(t, t_end, frozenset(np.flatnonzero(seg_stuck)), seg_dirs, mode, sol.sol, seg_stuck))
+        segments.append(_Segment(t, t_end, seg_locked, seg_dirs, mode, sol.sol, seg_stuck))
         y_end = sol.y[:, -1]
         _check_finite(t_end, y_end, "compliant model")
         w = mode.C @ y_end[: mode.dof]

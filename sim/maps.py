@@ -342,9 +342,7 @@ class CompressorMap:
     def __post_init__(self):
         problems: list[str] = []
         _check_reference(self, problems)
-        speeds = [s.speed for s in self.speed_lines]
-        if len(speeds) < 2 or any(b <= a for a, b in zip(speeds, speeds[1:])):
-            problems.append("speed lines: need at least 2, in strictly increasing speed")
+        _check_speed_lines(self.speed_lines, problems)
         for s in self.speed_lines:
             what = f"speed line {s.speed / RPM:.6g} rpm"
             _check_lengths(what, problems, mass_flow=s.mass_flow,
@@ -377,9 +375,7 @@ class TurbineMap:
     def __post_init__(self):
         problems: list[str] = []
         _check_reference(self, problems)
-        speeds = [s.speed for s in self.speed_lines]
-        if len(speeds) < 2 or any(b <= a for a, b in zip(speeds, speeds[1:])):
-            problems.append("speed lines: need at least 2, in strictly increasing speed")
+        _check_speed_lines(self.speed_lines, problems)
         for s in self.speed_lines:
             what = f"speed line {s.speed / RPM:.6g} rpm"
             _check_lengths(what, problems, expansion_ratio=s.expansion_ratio,
@@ -393,6 +389,12 @@ class TurbineMap:
             if any(m < 0.0 for m in s.mass_flow):
                 problems.append(f"{what}: mass flow must be >= 0")
         _raise_problems(problems, f"turbine map '{self.name}'")
+
+
+def _check_speed_lines(lines, problems: list[str]) -> None:
+    speeds = [s.speed for s in lines]
+    if len(speeds) < 2 or any(b <= a for a, b in zip(speeds, speeds[1:])):
+        problems.append("speed lines: need at least 2, in strictly increasing speed")
 
 
 def _check_reference(m, problems: list[str]) -> None:

@@ -129,6 +129,23 @@ class _Model:
         return u, derivs, p_in, dissipated, p_load
 
 
+def memo_last(model: "_Model", func):
+    """``func(t, y)`` remembered for the last ``(t, y)``: the integrator calls the right-hand side
+    and every event function with the same point, which then costs one evaluation
+    (counted in ``model.calls``)."""
+    last = {}
+
+    def wrapper(t, y):
+        key = (t, y.tobytes())
+        if key not in last:
+            model.calls += 1
+            last.clear()
+            last[key] = func(t, y)
+        return last[key]
+
+    return wrapper
+
+
 def _check_finite(t, y, where: str):
     if not np.all(np.isfinite(y)):
         raise SimulationError(f"t={t:.6g} s: non-finite state in {where}")
@@ -209,22 +226,15 @@ def _simulate_switching(pt: Powertrain, options: SolverOptions, progress) -> Res
         seg_dirs = directions.copy()
         slipping = [i for i in range(len(tr.elements)) if i not in locked]
 
-        cache = {}
-
-        def evaluate(tt, y, mode=mode, layout=layout, locked=locked, seg_dirs=seg_dirs):
-            key = (tt, y.tobytes())
-            if key in cache:
-                return cache[key]
-            model.calls += 1
+        def point(tt, y, mode=mode, layout=layout, locked=locked, seg_dirs=seg_dirs):
             ww = mode.C @ y[: mode.dof]
             u, derivs, p_in, diss, p_load = model.external(tt, y, ww, layout)
             slips = tr.P @ ww
             te = tr.slipping_torques(tt, ww, locked, seg_dirs)
             u[tr.element_input] += te
-            out = (ww, u, derivs, p_in, diss + float(te @ slips), p_load, slips)
-            cache.clear()
-            cache[key] = out
-            return out
+            return ww, u, derivs, p_in, diss + float(te @ slips), p_load, slips
+
+        evaluate = memo_last(model, point)
 
         def rhs(tt, y, mode=mode):
             ww, u, derivs, p_in, diss, p_load, _ = evaluate(tt, y)
