@@ -20,7 +20,7 @@ from transgen.errors import ModeError, SimulationError
 
 from .result import Event
 from .simulate import (Powertrain, SolverOptions, _breakpoints, _check_finite, _collect, _Layout, _Model, _Segment,
-                       integrate, memo_last, sample_row)
+                       integrate, memo_last, sample_block)
 
 __all__ = ["simulate_compliant"]
 
@@ -71,7 +71,7 @@ def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
 
         def rhs(tt, y, seg_stuck=seg_stuck):
             ww, u, derivs, p_in, diss, p_load, slips, _ = evaluate(tt, y)
-            return np.concatenate([mode.B @ u, np.where(seg_stuck, slips, 0.0)] + derivs + [np.array([p_in, diss, p_load])])
+            return layout.derivative(np.concatenate([mode.B @ u, np.where(seg_stuck, slips, 0.0)]), derivs, p_in, diss, p_load)
 
         event_funcs = []
         _, u0, *_ = evaluate(t, y0)
@@ -96,7 +96,7 @@ def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
         for f in event_funcs:
             f.terminal = True
         try:
-            sol = integrate(rhs, t, t_stop, y0, options, event_funcs)
+            sol = integrate(rhs, t, t_stop, y0, options, event_funcs, layout.energy.start)
         except SimulationError as exc:
             success, message = False, f"{exc} (compliant model, sticking {_name(tr, seg_stuck)})"
             break
@@ -143,22 +143,23 @@ def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
         if progress is not None:
             progress(t)
     return _collect(pt, options, segments, events, success, message, model, wall,
-                    sampler=lambda p, seg, tt, y: _sample(p, seg, tt, y, k, c))
+                    sampler=lambda p, seg, ts, ys: _sample(p, seg, ts, ys, k, c))
 
 
 def _name(tr, stuck) -> str:
     return "+".join(e.name for e, s in zip(tr.elements, stuck) if s) or "none"
 
 
-def _sample(pt, seg, t, y, k, c):
+def _sample(pt, seg, ts, ys, k, c):
     tr = pt.transmission
     n_e = len(tr.elements)
-    phi = y[seg.mode.dof: seg.mode.dof + n_e]
+    phi = ys[seg.mode.dof: seg.mode.dof + n_e]
+    stuck = seg.stuck[:, None]
 
-    def element_state(w, slips, u):
-        te = tr.slipping_torques(t, w, seg.locked, seg.directions)
-        te = np.where(seg.stuck, k * phi + c * slips, te)
-        power = np.where(seg.stuck, c * slips ** 2, np.abs(te * slips))
-        return te, te, power, 0.5 * k * float(np.sum(np.where(seg.stuck, phi ** 2, 0.0)))
+    def element_state(W, slips, U):
+        te = tr.slipping_torques_at(ts, W, seg.locked, seg.directions)
+        te = np.where(stuck, k * phi + c * slips, te)
+        power = np.where(stuck, c * slips ** 2, np.abs(te * slips))
+        return te, te, power, 0.5 * k * np.sum(np.where(stuck, phi ** 2, 0.0), axis=0)
 
-    return sample_row(pt, seg, t, y, n_e, element_state)
+    return sample_block(pt, seg, ts, ys, n_e, element_state)

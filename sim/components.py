@@ -18,6 +18,13 @@ to positions):
 ``load_power(t, x, w)``            power it passes to an external load (the road) [W]
 ``signals(t, x, w)``               named outputs for the result
 ``breakpoints()``                  times where its inputs are not smooth
+``evaluate(t, x, w)``              ``(torques, derivatives, power_in, dissipation, load_power)``
+                                   in one call: what the right-hand side needs at one point
+                                   (components override it to share work between the parts)
+``sample(ts, X, W)``               ``(torques, signals, energy)`` as arrays over the output
+                                   times ``ts`` (``X``, ``W``: one column per time); the default
+                                   calls the scalar methods at each time, components override it
+                                   with array arithmetic
 """
 from __future__ import annotations
 
@@ -41,6 +48,12 @@ __all__ = [
 ]
 
 GRAVITY = 9.81
+
+
+def _each(func, n_out: int = 1):
+    """``func`` of scalars applied element by element to arrays (one implementation serves the
+    right-hand side's scalar calls and the output sampling)."""
+    return np.frompyfunc(func, 2, n_out)
 
 
 class Component:
@@ -75,6 +88,27 @@ class Component:
 
     def breakpoints(self) -> tuple[float, ...]:
         return ()
+
+    def evaluate(self, t: float, x: np.ndarray, w: np.ndarray) -> tuple:
+        """``(torques, derivatives, power_in, dissipation, load_power)`` at one point."""
+        return (self.torques(t, x, w), self.derivatives(t, x, w), self.power_in(t, x, w),
+                self.dissipation(t, x, w), self.load_power(t, x, w))
+
+    def sample(self, ts: np.ndarray, X: np.ndarray, W: np.ndarray) -> tuple[dict, dict, np.ndarray]:
+        """``(torques, signals, energy)`` at the output times ``ts``: dicts of arrays and the
+        stored energy [J] (``X``: the component's states, ``W``: the link speeds, one column per
+        time)."""
+        n = len(ts)
+        torques: dict[str, np.ndarray] = {}
+        rows = []
+        energy = np.zeros(n)
+        for k in range(n):
+            x, w = X[:, k], W[:, k]
+            for name, value in self.torques(ts[k], x, w).items():
+                torques.setdefault(name, np.zeros(n))[k] += value
+            rows.append(self.signals(ts[k], x, w))
+            energy[k] = self.energy(x, w)
+        return torques, {name: np.array([r[name] for r in rows], dtype=float) for name in (rows[0] if rows else ())}, energy
 
 
 @dataclass
@@ -199,6 +233,23 @@ class EngineWithConverter(Component):
     def energy(self, x, w):
         return 0.5 * self.J_engine * x[0] ** 2
 
+    def evaluate(self, t, x, w):
+        omega_e, omega_t = x[0], w[self.link]
+        pump, turbine = self.converter.torques(omega_e, omega_t)
+        t_engine = self._engine_torque(t, omega_e)
+        return ({"T_in": turbine}, [(t_engine - pump) / self.J_engine], t_engine * omega_e,
+                pump * omega_e - turbine * omega_t, 0.0)
+
+    def sample(self, ts, X, W):
+        omega_e, omega_t = X[0], W[self.link]
+        pump, turbine = (a.astype(float) for a in _each(self.converter.torques, 2)(omega_e, omega_t))
+        throttle = _each(self._throttle)(ts, omega_e).astype(float)
+        t_engine = _each(self.engine)(omega_e, throttle).astype(float)
+        ratio = np.divide(omega_t, omega_e, out=np.zeros_like(omega_e), where=omega_e > 1e-6)
+        signals = {"omega_engine": omega_e, "T_engine": t_engine, "T_pump": pump, "T_in": turbine,
+                   "throttle": throttle, "converter_speed_ratio": ratio}
+        return {"T_in": turbine}, signals, 0.5 * self.J_engine * omega_e ** 2
+
     def signals(self, t, x, w):
         pump, turbine = self.converter.torques(x[0], w[self.link])
         return {"omega_engine": x[0], "T_engine": self._engine_torque(t, x[0]), "T_pump": pump,
@@ -276,11 +327,13 @@ class Driveline(Component):
     def _speed(self, omega_v):
         return omega_v * self.wheel_radius / self.final_drive
 
-    def road_torque(self, omega_v: float) -> float:
-        """Road load referred to the driveshaft [N*m] (opposes forward motion)."""
+    def road_torque(self, omega_v: float | np.ndarray) -> float | np.ndarray:
+        """Road load referred to the driveshaft [N*m] (opposes forward motion); ``omega_v`` a
+        number or an array."""
         v = self._speed(omega_v)
         mg = self.mass * GRAVITY
-        rolling = self.rolling * mg * math.cos(self.grade) * math.tanh(v / 0.1)
+        tanh = np.tanh if isinstance(v, np.ndarray) else math.tanh
+        rolling = self.rolling * mg * math.cos(self.grade) * tanh(v / 0.1)
         force = rolling + 0.5 * self.air_density * self.cd_a * v * abs(v) + mg * math.sin(self.grade)
         return force * self.wheel_radius / self.final_drive
 
@@ -301,6 +354,20 @@ class Driveline(Component):
 
     def load_power(self, t, x, w):
         return self.road_torque(x[1]) * x[1]
+
+    def evaluate(self, t, x, w):
+        slip = w[self.output] - x[1]
+        shaft = self.stiffness * x[0] + self.damping * slip
+        road = self.road_torque(x[1])
+        return ({"T_out": shaft}, [slip, (shaft - road) / self.J_v], 0.0, self.damping * slip * slip, road * x[1])
+
+    def sample(self, ts, X, W):
+        theta, omega_v = X
+        shaft = self.stiffness * theta + self.damping * (W[self.output] - omega_v)
+        v = self._speed(omega_v)
+        signals = {"T_out": shaft, "theta_ds": theta, "omega_v": omega_v, "vehicle_speed": v,
+                   "vehicle_speed_mph": v / 0.44704, "road_torque": self.road_torque(omega_v)}
+        return {"T_out": shaft}, signals, self.energy(X, W)
 
     def signals(self, t, x, w):
         v = self._speed(x[1])

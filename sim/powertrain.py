@@ -151,6 +151,11 @@ class TurbodieselSource(Component):
         omega = float(w[self.link])
         return self.engine.torque(t, x, omega) * omega
 
+    def evaluate(self, t, x, w):
+        omega = float(w[self.link])
+        torque = self.engine.torque(t, x, omega)
+        return {"T_in": torque}, self.engine.derivatives(t, x, omega), torque * omega, 0.0, 0.0
+
     def signals(self, t, x, w):
         omega = float(w[self.link])
         sig = self.engine.signals(t, x, omega)
@@ -222,6 +227,11 @@ class ConverterComponent(Component):
     def dissipation(self, t, x, w):
         tp, tt = self._torques(w)
         return tp * float(w[self.pump]) - tt * float(w[self.turbine])
+
+    def evaluate(self, t, x, w):
+        wp, wt = float(w[self.pump]), float(w[self.turbine])
+        tp, tt = self.converter.torques(wp, wt)
+        return {self.pump_torque: -tp, self.turbine_torque: tt}, [], 0.0, tp * wp - tt * wt, 0.0
 
     def signals(self, t, x, w):
         wp, wt = float(w[self.pump]), float(w[self.turbine])

@@ -16,6 +16,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from .interp import interp1
 
 __all__ = ["Signal", "Constant", "Step", "Ramp", "Table", "Sine", "Sum", "Spliced"]
@@ -33,6 +35,10 @@ class Signal:
     def __call__(self, t: float) -> float:
         return self.value(t)
 
+    def sample(self, ts: np.ndarray) -> np.ndarray:
+        """The signal at every time of ``ts`` (for output sampling)."""
+        return np.array([self.value(t) for t in ts], dtype=float)
+
 
 @dataclass(frozen=True)
 class Constant(Signal):
@@ -40,6 +46,9 @@ class Constant(Signal):
 
     def value(self, t: float) -> float:
         return self.v
+
+    def sample(self, ts: np.ndarray) -> np.ndarray:
+        return np.full(len(ts), float(self.v))
 
 
 @dataclass(frozen=True)
@@ -86,6 +95,9 @@ class Table(Signal):
 
     def value(self, t: float) -> float:
         return interp1(t, self.times, self.values)
+
+    def sample(self, ts: np.ndarray) -> np.ndarray:
+        return np.interp(ts, self.times, self.values)
 
     def breakpoints(self) -> tuple[float, ...]:
         return tuple(self.times)

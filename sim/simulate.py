@@ -91,6 +91,17 @@ class _Layout:
             pos += n
         self.energy = slice(pos, pos + 3)  # work in, dissipated, work into the load
         self.size = pos + 3
+        self.offset = offset
+
+    def derivative(self, head: np.ndarray, derivs: list, p_in: float, dissipated: float, p_load: float) -> np.ndarray:
+        """The state derivative: ``head`` (the transmission's states), the components'
+        derivatives, the three energy rates."""
+        out = np.empty(self.size)
+        out[: self.offset] = head
+        for sl, dx in zip(self.slices, derivs):
+            out[sl] = dx
+        out[self.energy] = (p_in, dissipated, p_load)
+        return out
 
 
 def _breakpoints(pt: Powertrain, t0: float, t1: float) -> list[float]:
@@ -113,19 +124,20 @@ class _Model:
         self.calls = 0
 
     def external(self, t: float, y: np.ndarray, w: np.ndarray, layout: _Layout):
-        """External input vector (component torques) and component derivatives."""
+        """External input vector (component torques), component derivatives (in the order of
+        ``layout.slices``) and the power in, dissipated and passed to the load [W]."""
         u = np.zeros(self.n_u)
         derivs = []
         p_in = dissipated = p_load = 0.0
+        index = self.tr.input_index
         for c, sl in zip(self.components, layout.slices):
-            x = y[sl]
-            for name, value in c.torques(t, x, w).items():
-                u[self.tr.input_index[name]] += value
-            if sl.stop > sl.start:
-                derivs.append(c.derivatives(t, x, w))
-            p_in += c.power_in(t, x, w)
-            dissipated += c.dissipation(t, x, w)
-            p_load += c.load_power(t, x, w)
+            torques, dx, pi, di, pl = c.evaluate(t, y[sl], w)
+            for name, value in torques.items():
+                u[index[name]] += value
+            derivs.append(dx)
+            p_in += pi
+            dissipated += di
+            p_load += pl
         return u, derivs, p_in, dissipated, p_load
 
 
@@ -226,19 +238,21 @@ def _simulate_switching(pt: Powertrain, options: SolverOptions, progress) -> Res
         seg_dirs = directions.copy()
         slipping = [i for i in range(len(tr.elements)) if i not in locked]
 
-        def point(tt, y, mode=mode, layout=layout, locked=locked, seg_dirs=seg_dirs):
-            ww = mode.C @ y[: mode.dof]
+        def point(tt, y, C=mode.C, dof=mode.dof, layout=layout, active=tr.slipping_set(locked, seg_dirs)):
+            ww = C @ y[:dof]
             u, derivs, p_in, diss, p_load = model.external(tt, y, ww, layout)
             slips = tr.P @ ww
-            te = tr.slipping_torques(tt, ww, locked, seg_dirs)
-            u[tr.element_input] += te
-            return ww, u, derivs, p_in, diss + float(te @ slips), p_load, slips
+            for i, col, e, d in active:
+                torque = e.slip_torque(tt, slips[i], d)
+                u[col] += torque
+                diss += torque * slips[i]
+            return ww, u, derivs, p_in, diss, p_load, slips
 
         evaluate = memo_last(model, point)
 
-        def rhs(tt, y, mode=mode):
+        def rhs(tt, y, mode=mode, layout=layout):
             ww, u, derivs, p_in, diss, p_load, _ = evaluate(tt, y)
-            return np.concatenate([mode.B @ u] + derivs + [np.array([p_in, diss, p_load])])
+            return layout.derivative(mode.B @ u, derivs, p_in, diss, p_load)
 
         event_funcs = []
         # an element starting at zero slip (open, or a one-way clutch) moves off in the direction
@@ -286,7 +300,7 @@ def _simulate_switching(pt: Powertrain, options: SolverOptions, progress) -> Res
                 event_funcs.append(control_event)
 
         try:
-            sol = integrate(rhs, t, t_stop, y0, options, event_funcs)
+            sol = integrate(rhs, t, t_stop, y0, options, event_funcs, layout.energy.start)
         except SimulationError as exc:
             success, message = False, f"{exc} (mode {tr.mode_name(locked)})"
             break
@@ -324,28 +338,28 @@ def _simulate_switching(pt: Powertrain, options: SolverOptions, progress) -> Res
 
 def _collect(pt: Powertrain, options: SolverOptions, segments: list[_Segment], events: list[Event], success: bool,
              message: str, model: _Model, wall: float, sampler=None) -> Result:
-    """Sample every segment on the output grid and compute the named signals."""
+    """Sample every segment on the output grid and compute the named signals.
+
+    ``sampler(pt, seg, ts, ys)`` gives the signals of one segment at the times ``ts`` from its
+    states ``ys`` (one column per time) as a dict of arrays (default: the mode-switching
+    model's :func:`_sample`)."""
     tr = pt.transmission
-    names_links = [f"w_{k}" for k in tr.links]
     e_names = [e.name for e in tr.elements]
-    signals: dict[str, list] = {}
-    units: dict[str, str] = {}
-    times: list[float] = []
+    blocks: list[dict[str, np.ndarray]] = []
+    times: list[np.ndarray] = []
     mode_names = []
+    order: list[str] = []
     for seg in segments:
         grid = np.arange(math.ceil((seg.t0 + 1e-12) / options.output_dt) * options.output_dt, seg.t1, options.output_dt)
         grid = grid[(grid > seg.t0 + 1e-12) & (grid < seg.t1 - 1e-12)]
         ts = np.concatenate([[seg.t0], grid, [seg.t1]])
-        ys = seg.sol(ts)  # the dense output evaluated for all samples of the segment at once
+        blocks.append((sampler or _sample)(pt, seg, ts, seg.sol(ts)))  # the dense output at all samples at once
+        times.append(ts)
         name = tr.mode_name(seg.locked)
-        for k, tt in enumerate(ts):
-            row = (sampler or _sample)(pt, seg, tt, ys[:, k])
-            times.append(float(tt))
-            mode_names.append(name)
-            for k, v in row.items():
-                signals.setdefault(k, []).append(v)
-    for k in names_links:
-        units[k] = "rad/s"
+        if name not in order:
+            order.append(name)
+        mode_names.append(np.full(len(ts), order.index(name) + 1.0))
+    units = {f"w_{k}": "rad/s" for k in tr.links}
     for n in e_names:
         units.update({f"slip_{n}": "rad/s", f"t_{n}": "N*m", f"apply_{n}": "1", f"P_{n}": "W", f"locked_{n}": "1"})
     units.update({"T_in": "N*m", "T_out": "N*m", "mode": "1", "E_in": "J", "E_dissipated": "J", "E_load": "J",
@@ -354,10 +368,9 @@ def _collect(pt: Powertrain, options: SolverOptions, segments: list[_Segment], e
                   "T_pump": "N*m", "throttle": "1", "converter_speed_ratio": "1"})
     for c in pt.components:
         units.update(getattr(c, "signal_units", {}))
-    arrays = {k: np.asarray(v, dtype=float) for k, v in signals.items()}
-    order = list(dict.fromkeys(mode_names))
-    arrays["mode"] = np.array([order.index(m) + 1 for m in mode_names], dtype=float)
-    time_arr = np.asarray(times)
+    arrays = {k: np.concatenate([blk[k] for blk in blocks]) for k in (blocks[0] if blocks else {})}
+    arrays["mode"] = np.concatenate(mode_names) if mode_names else np.zeros(0)
+    time_arr = np.concatenate(times) if times else np.zeros(0)
     spans = []
     for seg in segments:
         name = tr.mode_name(seg.locked)
@@ -381,67 +394,98 @@ def _collect(pt: Powertrain, options: SolverOptions, segments: list[_Segment], e
     return Result(time_arr, arrays, units, spans, events, success, message, energy, stats, meta)
 
 
-def sample_row(pt: Powertrain, seg: _Segment, t: float, y: np.ndarray, n_extra: int, element_state) -> dict[str, float]:
-    """The named signals at one output time, shared by both clutch models.
+def sample_block(pt: Powertrain, seg: _Segment, ts: np.ndarray, ys: np.ndarray, n_extra: int,
+                 element_state) -> dict[str, np.ndarray]:
+    """The named signals at the output times ``ts`` of one segment (states ``ys``, one column per
+    time), shared by both clutch models.
 
     ``n_extra`` states follow the mode's coordinates before the component states (the spring
-    twists of the compliant model); ``element_state(w, slips, u)`` returns, for the input vector
-    ``u`` without element torques, the element torques as inputs, the transmitted torques, the
-    dissipated powers and any extra stored energy.
+    twists of the compliant model); ``element_state(W, slips, U)`` returns, for the link speeds
+    ``W``, slips and input vectors ``U`` without element torques (one column per time), the
+    element torques as inputs, the transmitted torques, the dissipated powers and any extra
+    stored energy (rows: elements; columns: times).
     """
     tr = pt.transmission
     dof = seg.mode.dof
-    w = seg.mode.C @ y[:dof]
+    n = len(ts)
+    W = seg.mode.C @ ys[:dof]
     layout = _Layout(pt.components, dof + n_extra)
-    row: dict[str, float] = {}
-    u = np.zeros(len(tr.inputs))
-    stored = 0.5 * float(tr.inertia @ (w * w))
+    out: dict[str, np.ndarray] = {}
+    U = np.zeros((len(tr.inputs), n))
+    stored = 0.5 * (tr.inertia @ (W * W))
     for c, sl in zip(pt.components, layout.slices):
-        x = y[sl]
-        for name, value in c.torques(t, x, w).items():
-            u[tr.input_index[name]] += value
-        row.update(c.signals(t, x, w))
-        stored += c.energy(x, w)
-    slips = tr.P @ w
-    te, torques, power, extra = element_state(w, slips, u)
-    u[tr.element_input] += te
+        torques, signals, energy = c.sample(ts, ys[sl], W)
+        for name, values in torques.items():
+            U[tr.input_index[name]] += values
+        out.update(signals)
+        stored += energy
+    slips = tr.P @ W
+    te, torques, power, extra = element_state(W, slips, U)
+    U[tr.element_input] += te
     for k, name in enumerate(tr.links):
-        row[f"w_{name}"] = w[k]
+        out[f"w_{name}"] = W[k]
     for i, e in enumerate(tr.elements):
-        row[f"slip_{e.name}"] = slips[i]
-        row[f"t_{e.name}"] = torques[i]
-        row[f"apply_{e.name}"] = e.apply_at(t)
-        row[f"P_{e.name}"] = power[i]
-        row[f"locked_{e.name}"] = 1.0 if i in seg.locked else 0.0
-    row.setdefault("T_in", u[tr.input_index["T_in"]])
-    row.setdefault("T_out", u[tr.input_index["T_out"]])
-    e_in, e_diss, e_load = y[layout.energy]
-    row.update({"E_in": e_in, "E_dissipated": e_diss, "E_load": e_load, "E_stored": stored + extra})
-    return row
+        out[f"slip_{e.name}"] = slips[i]
+        out[f"t_{e.name}"] = torques[i]
+        out[f"apply_{e.name}"] = e.apply.sample(ts).clip(min=0.0) if e.kind != "oneway" else np.ones(n)
+        out[f"P_{e.name}"] = power[i]
+        out[f"locked_{e.name}"] = np.full(n, 1.0 if i in seg.locked else 0.0)
+    out.setdefault("T_in", U[tr.input_index["T_in"]])
+    out.setdefault("T_out", U[tr.input_index["T_out"]])
+    e_in, e_diss, e_load = ys[layout.energy]
+    out.update({"E_in": e_in, "E_dissipated": e_diss, "E_load": e_load, "E_stored": stored + extra})
+    return out
 
 
-def _sample(pt: Powertrain, seg: _Segment, t: float, y: np.ndarray) -> dict[str, float]:
+def _sample(pt: Powertrain, seg: _Segment, ts: np.ndarray, ys: np.ndarray) -> dict[str, np.ndarray]:
     tr = pt.transmission
     mode = seg.mode
+    slipping = np.array([i not in seg.locked for i in range(len(tr.elements))])
 
-    def element_state(w, slips, u):
-        te = tr.slipping_torques(t, w, seg.locked, seg.directions)
+    def element_state(W, slips, U):
+        te = tr.slipping_torques_at(ts, W, seg.locked, seg.directions)
         torques = te.copy()
         if mode.locked_order:
-            full = u.copy()
+            full = U.copy()
             full[tr.element_input] += te
             torques[list(mode.locked_order)] = mode.D @ full
-        power = np.where([i in seg.locked for i in range(len(tr.elements))], 0.0, np.abs(torques * slips))
+        power = np.where(slipping[:, None], np.abs(torques * slips), 0.0)
         return te, torques, power, 0.0
 
-    return sample_row(pt, seg, t, y, 0, element_state)
+    return sample_block(pt, seg, ts, ys, 0, element_state)
 
 
-def integrate(rhs, t0: float, t1: float, y0: np.ndarray, options: SolverOptions, events: list):
+def integrate(rhs, t0: float, t1: float, y0: np.ndarray, options: SolverOptions, events: list,
+              n_dynamic: int | None = None):
     """One integration segment with ``solve_ivp`` (dense output, terminal events); raises
-    :class:`SimulationError` when the integrator fails."""
+    :class:`SimulationError` when the integrator fails.
+
+    ``n_dynamic``: the right-hand side depends on the first ``n_dynamic`` states only (the rest
+    are quadratures, the energy integrals); the implicit methods then get a finite-difference
+    Jacobian over those columns, the others being zero, instead of differencing every state.
+    """
+    extra = {}
+    if n_dynamic is not None and options.method in ("LSODA", "BDF", "Radau"):
+        extra["jac"] = _partial_jacobian(rhs, len(y0), n_dynamic)
     sol = solve_ivp(rhs, (t0, t1), y0, method=options.method, rtol=options.rtol, atol=options.atol,
-                    max_step=options.max_step, events=events, dense_output=True)
+                    max_step=options.max_step, events=events, dense_output=True, **extra)
     if sol.status == -1:
         raise SimulationError(f"t={sol.t[-1]:.6g} s: integrator failed: {sol.message}")
     return sol
+
+
+def _partial_jacobian(rhs, n: int, n_dynamic: int):
+    """Forward-difference Jacobian of ``rhs`` whose columns past ``n_dynamic`` are zero."""
+    sqrt_eps = math.sqrt(np.finfo(float).eps)
+
+    def jac(t, y):
+        f0 = rhs(t, y)
+        out = np.zeros((n, n))
+        for j in range(n_dynamic):
+            h = sqrt_eps * max(abs(y[j]), 1e-3)
+            yj = y.copy()
+            yj[j] += h
+            out[:, j] = (rhs(t, yj) - f0) / (yj[j] - y[j])
+        return out
+
+    return jac

@@ -57,20 +57,36 @@ class ElementConfig:
     def static_capacity(self, t: float) -> float:
         return float("inf") if self.kind == "oneway" else self.static * self.apply_at(t)
 
+    def _scale(self, direction: int, capacity: str) -> float:
+        """Capacity [N*m] times the band-brake gain, signed by ``direction``; 0 for none."""
+        if self.kind == "oneway" or direction == 0:
+            return 0.0
+        base = self.static if capacity == "static" else self.dynamic
+        if self.energizing and direction == self.energizing:
+            base *= self.gain
+        return base * direction
+
     def slip_torque(self, t: float, slip: float, direction: int, capacity: str = "dynamic") -> float:
         """Torque of the element slipping in ``direction`` (+1/-1) at slip speed ``slip``."""
-        if self.kind == "oneway" or direction == 0:
+        scale = self._scale(direction, capacity)
+        if scale == 0.0:
             return 0.0
         a = self.apply_at(t)
         if a <= 0.0:
             return 0.0
-        base = self.static if capacity == "static" else self.dynamic
-        factor = 1.0
         if self.friction is not None and capacity == "dynamic":
-            factor = float(np.interp(abs(slip), self.friction[0], self.friction[1]))
-        if self.energizing and direction == self.energizing:
-            factor *= self.gain
-        return base * a * factor * direction
+            a *= float(np.interp(abs(slip), self.friction[0], self.friction[1]))
+        return scale * a
+
+    def slip_torques(self, ts: np.ndarray, slips: np.ndarray, direction: int) -> np.ndarray:
+        """:meth:`slip_torque` (dynamic capacity) at the times ``ts`` with the slips ``slips``."""
+        scale = self._scale(direction, "dynamic")
+        if scale == 0.0:
+            return np.zeros(len(ts))
+        a = np.maximum(self.apply.sample(ts), 0.0)
+        if self.friction is not None:
+            a = a * np.interp(np.abs(slips), self.friction[0], self.friction[1])
+        return scale * a
 
     def breakpoints(self) -> tuple[float, ...]:
         return self.apply.breakpoints()
@@ -178,6 +194,24 @@ class Transmission:
         for i, e in enumerate(self.elements):
             if i not in locked:
                 out[i] = e.slip_torque(t, slips[i], int(directions[i]), capacity)
+        return out
+
+    def slipping_set(self, locked: frozenset, directions: np.ndarray) -> tuple[tuple, ...]:
+        """``(element index, input column, element, direction)`` of every element that can
+        transmit torque while slipping in a mode (friction elements not locked, with a slip
+        direction): what a right-hand side loops over."""
+        return tuple((i, int(self.element_input[i]), e, int(directions[i])) for i, e in enumerate(self.elements)
+                     if i not in locked and e.kind != "oneway" and directions[i] != 0)
+
+    def slipping_torques_at(self, ts: np.ndarray, W: np.ndarray, locked: frozenset,
+                            directions: np.ndarray) -> np.ndarray:
+        """:meth:`slipping_torques` at the times ``ts`` for the link speeds ``W`` (one column per
+        time): rows elements, columns times."""
+        slips = self.P @ W
+        out = np.zeros((len(self.elements), len(ts)))
+        for i, e in enumerate(self.elements):
+            if i not in locked:
+                out[i] = e.slip_torques(ts, slips[i], int(directions[i]))
         return out
 
     # ------------------------------------------------------ mode consistency
