@@ -118,7 +118,7 @@ def cmd_simulate(args) -> int:
             if "omega_tc" in result.signals and "omega_tc" in other.signals:
                 from .powertrain import turbo_report
 
-                summary["compare"]["turbo"] = turbo_report(result, other).to_dict()
+                summary["compare"]["turbo"] = turbo_report(result, other, engine=_engine_of(scenario)).to_dict()
         summary["written"] = written
         print(json.dumps(summary, indent=2, default=float))
     else:
@@ -138,7 +138,7 @@ def cmd_simulate(args) -> int:
                 print(turbo_report(result).text())
         if other is not None:
             print()
-            print(_comparison_text(scenario.title, result, qualities, args.compare, other, other_q))
+            print(_comparison_text(scenario, result, qualities, args.compare, other, other_q))
         for w in written:
             print(f"  wrote {w}")
     return 0 if result.success else 1
@@ -165,9 +165,17 @@ def _comparison_plots(scenario, result, other_s, other, directory: Path, formats
     return written
 
 
-def _comparison_text(title, a, qa, name_b, b, qb) -> str:
-    """Side-by-side shift numbers of two runs, and the turbocharger comparison where both have one."""
-    lines = [f"Comparison: {title}  vs  {name_b}  (each column: this run, then {name_b})",
+def _engine_of(scenario):
+    """The scenario's turbodiesel engine, or None."""
+    from .powertrain import TurbodieselSource
+
+    return next((c.engine for c in scenario.powertrain.components if isinstance(c, TurbodieselSource)), None)
+
+
+def _comparison_text(scenario, a, qa, name_b, b, qb) -> str:
+    """Side-by-side shift numbers of two runs, and the turbocharger comparison where both have one
+    (with both algorithms evaluated on the first run's states)."""
+    lines = [f"Comparison: {scenario.title}  vs  {name_b}  (each column: this run, then {name_b})",
              f"  {'shift':<8} {'torque hole [N*m]':>22} {'bindup [N*m]':>18} {'energy [kJ]':>16} {'flare [rpm]':>16}"]
     for x, y in zip(qa, qb):
         lines.append(f"  {x.name:<8} {x.torque_hole:>10.0f} {y.torque_hole:>11.0f} {x.bindup_torque:>8.0f} "
@@ -177,7 +185,7 @@ def _comparison_text(title, a, qa, name_b, b, qb) -> str:
     if "omega_tc" in a.signals and "omega_tc" in b.signals:
         from .powertrain import turbo_report
 
-        lines.append(turbo_report(a, b).text())
+        lines.append(turbo_report(a, b, engine=_engine_of(scenario)).text())
     return "\n".join(lines)
 
 

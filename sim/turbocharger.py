@@ -146,12 +146,21 @@ class TurboShaft:
 class PortAreas:
     """Flow areas [m^2] of the four device ports used by :class:`IterativeTurbo`.
 
-    Defaults are assumed duct sizes of a heavy-duty turbocharger (not sourced): compressor inlet
-    100 mm, compressor outlet 76 mm, turbine inlet 76 mm, turbine outlet 100 mm diameter.
+    Defaults are assumed duct sizes of a heavy-duty turbocharger (the thesis gives none):
+    compressor inlet and outlet 100 mm (4 in. charge-air piping), turbine inlet 76 mm, turbine
+    outlet 100 mm diameter.
+
+    The compressor's area ratio sets the sign of the iterative algorithm's chi shift: the map's
+    total pressure ratio is the static one times ``((1 + (g-1)/2 M_out^2) / (1 + (g-1)/2
+    M_in^2))^(g/(g-1))``, and ``M_out/M_in = (A_in/A_out) sqrt(T_out/T_in) / PR``. With equal
+    areas ``M_out < M_in`` at every pressure ratio above 1, so the iterative algorithm puts the
+    compressor at a lower chi (more corrected flow at a given speed), as the thesis found (4.6).
+    With an outlet duct smaller than the inlet (e.g. 76 mm) ``M_out > M_in`` at low pressure
+    ratios and chi there comes out slightly higher instead.
     """
 
     compressor_inlet: float = math.pi / 4 * 0.100 ** 2
-    compressor_outlet: float = math.pi / 4 * 0.076 ** 2
+    compressor_outlet: float = math.pi / 4 * 0.100 ** 2
     turbine_inlet: float = math.pi / 4 * 0.076 ** 2
     turbine_outlet: float = math.pi / 4 * 0.100 ** 2
 

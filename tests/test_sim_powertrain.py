@@ -189,6 +189,40 @@ def test_turbo_report_and_comparison(turbo_runs, capsys):
         turbo_report(_lockup_like_result(a))
 
 
+def test_algorithm_difference_on_the_same_states_reproduces_the_thesis(turbo_runs):
+    """Thesis 4.6: the iterative algorithm gives a lower chi (more corrected flow at a given turbo
+    speed); virtually the same at low flow, larger differences at high flow. Evaluated on the
+    same states, without the engine's feedback."""
+    sc, a = turbo_runs["basic"]
+    engine = next(c.engine for c in sc.powertrain.components if isinstance(c, TurbodieselSource))
+    rep = turbo_report(a, engine=engine, bins=4)
+    d = rep.decoupled
+    assert d["points"] > 100 and d["skipped"] == 0
+    assert d["chi_lower"] and d["grows_with_flow"]
+    lo, hi = d["bins"][0], d["bins"][-1]
+    assert abs(lo["d_chi"]) < 0.002 and hi["d_chi"] < -0.003
+    assert 0.0 <= lo["d_flow_c_percent"] < hi["d_flow_c_percent"]      # more compressor flow
+    assert all(b["mach_c_out"] < b["mach_c_in"] for b in d["bins"])
+    assert "decoupled" in rep.text() and json.dumps(rep.to_dict())
+
+
+def test_chi_shift_follows_the_port_mach_numbers():
+    """The iterative chi shift has the sign of M_out^2 - M_in^2 (total vs static pressure ratio):
+    equal ducts give a lower chi at every pressure ratio; an outlet duct much smaller than the
+    inlet a higher chi at low pressure ratio."""
+    from transgen.sim.turbocharger import BasicTurbo, IterativeTurbo, PortAreas
+
+    basic = BasicTurbo()
+    omega = 60e3 * RPM
+    for p_out in (1.15e5, 1.3e5):
+        a = basic.compressor.operate(1e5, 298.0, p_out, omega)
+        for d_out, sign in ((0.100, -1), (0.060, +1)):
+            ports = dataclasses.replace(PortAreas(), compressor_outlet=math.pi / 4 * d_out ** 2)
+            b, (m_in, m_out) = IterativeTurbo(ports=ports)._solve("compressor", basic.compressor, 1e5, 298.0, p_out, omega,
+                                                                  ports.compressor_inlet, ports.compressor_outlet)
+            assert np.sign(m_out - m_in) == sign and np.sign(b.chi - a.chi) == sign, (p_out, d_out)
+
+
 def _lockup_like_result(r):
     return dataclasses.replace(r, signals={k: v for k, v in r.signals.items() if k != "omega_tc"})
 
