@@ -152,3 +152,12 @@ def test_algorithms_on_engine_steady_states(capsys):
     assert all(d < 0 for d in rel)                      # iterative: lower turbo speed
     assert abs(rel[0]) < 0.003                          # low flow: virtually the same
     assert min(abs(rel[1]), abs(rel[2])) > 3 * abs(rel[0])
+
+
+def test_secant_fast_path_and_bracketed_fallback_agree(monkeypatch):
+    fast = IterativeTurbo().evaluate(*HIGH_FLOW)
+    monkeypatch.setattr(IterativeTurbo, "_secant", lambda self, *a, **k: None)
+    slow = IterativeTurbo().evaluate(*HIGH_FLOW)
+    for a, b in ((fast.compressor, slow.compressor), (fast.turbine, slow.turbine)):
+        assert a.m_dot == pytest.approx(b.m_dot, rel=1e-10) and a.T_out == pytest.approx(b.T_out, rel=1e-10)
+    assert fast.mach == pytest.approx(slow.mach, rel=1e-8)
