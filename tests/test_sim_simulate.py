@@ -280,3 +280,47 @@ def test_compare_runs_a_second_scenario(capsys, tmp_path):
 def test_every_bundled_scenario_loads(name):
     s = load_scenario(name)
     assert s.options.t_end > s.options.t_start and s.powertrain.initial_speeds is not None
+
+
+@pytest.mark.filterwarnings("ignore")   # random states leave the turbo maps; they warn, which is not tested here
+@pytest.mark.parametrize("scenario", ["ht740_improved", "simple2_upshift", "ht740_turbo"])
+def test_vectorised_sampling_equals_the_scalar_component_methods(scenario):
+    """Every component's array ``sample`` (used for the output) agrees with its scalar methods
+    (used by the right-hand side), and ``evaluate`` with the separate scalar methods."""
+    from transgen.sim.components import Component
+
+    pt = load_scenario(scenario).powertrain
+    tr = pt.transmission
+    rng = np.random.default_rng(1)
+    n = 7
+    ts = np.sort(rng.uniform(0.0, 20.0, n))
+    W = rng.uniform(10.0, 200.0, (len(tr.links), n))
+    for c in pt.components:
+        x0 = c.initial_state(W[:, 0])
+        X = np.asarray(x0, dtype=float)[:, None] * rng.uniform(0.9, 1.1, (len(x0), n))
+        torques, signals, energy = c.sample(ts, X, W)
+        reference = Component.sample(c, ts, X, W)          # the scalar methods at each time
+        for got, want in zip((torques, signals), reference[:2]):
+            assert got.keys() == want.keys()
+            for k in want:
+                np.testing.assert_allclose(got[k], want[k], rtol=1e-12, atol=1e-9, err_msg=f"{c.name}.{k}")
+        np.testing.assert_allclose(energy, reference[2], rtol=1e-12)
+        for k in range(n):
+            x, w = X[:, k], W[:, k]
+            tq, dx, p_in, diss, p_load = c.evaluate(ts[k], x, w)
+            assert tq == pytest.approx(c.torques(ts[k], x, w), rel=1e-12)
+            np.testing.assert_allclose(dx, c.derivatives(ts[k], x, w), rtol=1e-12, atol=1e-9)
+            assert (p_in, diss, p_load) == pytest.approx(
+                (c.power_in(ts[k], x, w), c.dissipation(ts[k], x, w), c.load_power(ts[k], x, w)), rel=1e-12, abs=1e-9)
+
+
+def test_vectorised_slipping_torques_equal_the_scalar_ones():
+    tr = load_scenario("ht740_improved").powertrain.transmission
+    rng = np.random.default_rng(2)
+    ts = np.linspace(3.9, 18.2, 9)
+    W = rng.uniform(-50.0, 200.0, (len(tr.links), len(ts)))
+    for locked in (frozenset(), frozenset({0})):
+        directions = np.array([1, -1, 1, -1, 1][: len(tr.elements)])
+        got = tr.slipping_torques_at(ts, W, locked, directions)
+        want = np.array([tr.slipping_torques(t, W[:, k], locked, directions) for k, t in enumerate(ts)]).T
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
