@@ -196,14 +196,18 @@ def exhaust_temperature(p: EngineParams, p_im: float, p_em: float, fuel_air: flo
     cv = p.air.cp - p.air.R
     rcg = p.r_c ** (g - 1.0)
     pi_e = p_em / p_im
+    # loop invariants of the fixed point
+    q_fuel = p.q_HV * fuel_air / (1.0 + fuel_air)
+    pi_g = pi_e ** (1.0 / g) / p.r_c
+    t_scale = p.eta_sc * pi_e ** (1.0 - 1.0 / g) * p.r_c ** (1.0 - g)
+    c_v, c_p, c_mix = p.x_cv / cv, (1.0 - p.x_cv) / p.air.cp, (1.0 - p.x_cv) / p.air.cp + p.x_cv / cv
     x_r, T_1 = 0.0, p.T_im
     for _ in range(maxiter):
-        q_in = p.q_HV * (1.0 - x_r) * fuel_air / (1.0 + fuel_air)
-        x_p = 1.0 + q_in * p.x_cv / (cv * T_1 * rcg)
-        x_v = 1.0 + q_in * (1.0 - p.x_cv) / (p.air.cp * (q_in * p.x_cv / cv + T_1 * rcg))
-        x_r_new = min(max(pi_e ** (1.0 / g) * x_p ** (-1.0 / g) / (p.r_c * x_v), 0.0), 1.0)
-        T_e = (p.eta_sc * pi_e ** (1.0 - 1.0 / g) * p.r_c ** (1.0 - g) * x_p ** (1.0 / g - 1.0)
-               * (q_in * ((1.0 - p.x_cv) / p.air.cp + p.x_cv / cv) + T_1 * rcg))
+        q_in = q_fuel * (1.0 - x_r)
+        x_p = 1.0 + q_in * c_v / (T_1 * rcg)
+        x_v = 1.0 + q_in * c_p / (q_in * c_v + T_1 * rcg)
+        x_r_new = min(max(pi_g * x_p ** (-1.0 / g) / x_v, 0.0), 1.0)
+        T_e = t_scale * x_p ** (1.0 / g - 1.0) * (q_in * c_mix + T_1 * rcg)
         T_1_new = max(273.0, x_r_new * T_e + (1.0 - x_r_new) * p.T_im)
         done = abs(T_1_new - T_1) <= tol * T_1 and abs(x_r_new - x_r) <= tol
         x_r, T_1 = x_r_new, T_1_new

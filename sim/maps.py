@@ -92,7 +92,7 @@ import math
 import tomllib
 import warnings
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cached_property, lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -178,12 +178,12 @@ class Gas:
     cp: float
     R: float
 
-    @property
+    @cached_property  # read in every turbocharger evaluation
     def gamma(self) -> float:
         """Ratio of specific heats cp/cv [-]."""
         return self.cp / (self.cp - self.R)
 
-    @property
+    @cached_property
     def kappa(self) -> float:
         """Isentropic exponent (gamma-1)/gamma = R/cp [-] used in eqs 4.4 and 4.13."""
         return self.R / self.cp

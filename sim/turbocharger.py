@@ -10,10 +10,12 @@ mass flows, outlet temperatures, shaft torques, chi, PR and ER (:class:`TurboPoi
   The manifold values are the *static* state at the ports (as in the thesis), the Mach numbers
   follow from eq. 4.36 and the totals from eqs 4.34-4.35; the maps are read with totals.  The
   unknown of each device is its mass flow ``m``, solved from ``m = m_map(m)`` by a secant
-  iteration warm-started from the previous call's solution (bounded to the subsonic range; three
-  or four evaluations), falling back to Brent's method on a bracket grown from the warm start.
-  Inside, the outlet total temperature (which sets the outlet Mach number) is converged by a
-  bounded fixed point.  A choke check comes first: if the map flow exceeds what a port duct can
+  iteration (bounded to the subsonic range) warm-started from the previous call: its kinetic-
+  energy correction ``m/m_basic`` and slope. The outlet total temperature (which sets the outlet
+  Mach number) is updated once per secant evaluation, a joint iteration that ends when both have
+  converged (about five map evaluations per solve). The fallback is Brent's method on a bracket
+  grown from the warm start, with the outlet temperature converged by a bounded fixed point at
+  every evaluation.  A choke check comes first: if the map flow exceeds what a port duct can
   pass at Mach 1 (static-state choking, ``m* = p*A*sqrt(gamma/(R*T))`` at the inlet and
   ``p*A*sqrt(gamma/(R*T0))*sqrt((gamma+1)/2)`` at the outlet) :class:`ChokedFlowError` is raised;
   if the solve does not converge :class:`TurboConvergenceError` is raised.  No silent value is
@@ -300,7 +302,9 @@ class IterativeTurbo(BasicTurbo):
         self.ports = ports
         self.xtol, self.maxiter = xtol, maxiter
         self.inner_tol, self.inner_maxiter = inner_tol, inner_maxiter
-        self._warm: dict[str, tuple[float, float]] = {}
+        # device -> (m / m_basic, T02 / T_basic, slope) of the last solution: the kinetic-energy
+        # correction changes slowly, so scaling the basic answer by it is a close first guess
+        self._warm: dict[str, tuple[float, float, float]] = {}
 
     def reset(self) -> None:
         """Forget the previous solutions used as warm starts."""
@@ -336,26 +340,32 @@ class IterativeTurbo(BasicTurbo):
                 rb = residual(b)
         raise TurboConvergenceError(f"{where}: no bracket of the mass-flow solution found")
 
-    def _secant(self, residual, m0: float, m1: float, hi: float, iterations: int = 8) -> float | None:
-        """Secant iteration on ``residual(m) = 0`` from the warm start and the basic algorithm's
-        flow; the root is weakly coupled (the Mach numbers change the map flow by a few per
-        cent), so it converges in three or four evaluations. None when an iterate leaves
-        ``(0, hi)`` or it has not converged: the caller then brackets."""
-        if not 0.0 < m0 < hi or abs(m1 - m0) <= self.xtol:
-            m0 = 0.999 * m1 if 0.0 < m1 < hi else None
-            if m0 is None:
-                return None
-        r0, r1 = residual(m0), residual(m1)
+    def _secant(self, residual, settled, m0: float, m_basic: float, hi: float, slope: float = 1.0,
+                iterations: int = 8) -> tuple[float | None, float]:
+        """Secant iteration on ``residual(m) = 0`` from the warm start ``m0``, the first step with
+        the previous solve's ``slope`` (it is ``1 - dm_map/dm``, near 1: the Mach numbers change
+        the map flow by a few per cent only). ``residual`` may update the outlet total temperature
+        only once per call (a joint iteration); the root is accepted when the step is below
+        ``xtol`` and ``settled()`` says that temperature has converged. Returns ``(root, slope)``;
+        the root is None when an iterate leaves ``(0, hi)`` or it has not converged: the caller
+        then brackets."""
+        if not 0.0 < m0 < hi:
+            m0 = m_basic
+        r0 = residual(m0)
+        m1 = m0 - r0 / slope
         for _ in range(iterations):
-            if r1 == r0:
-                return None
-            m2 = m1 - r1 * (m1 - m0) / (r1 - r0)
-            if not 0.0 < m2 < hi:
-                return None
-            if abs(m2 - m1) <= self.xtol:
-                return m2
-            m0, r0, m1, r1 = m1, r1, m2, residual(m2)
-        return None
+            if not 0.0 < m1 < hi:
+                return None, 1.0
+            r1 = residual(m1)
+            if (abs(r1) <= self.xtol * slope or abs(m1 - m0) <= self.xtol) and settled():
+                return m1, slope  # within xtol of the root; the last evaluation is at m1
+            secant = (r1 - r0) / (m1 - m0) if m1 != m0 else slope
+            # a secant through two nearly equal points with the outlet temperature still moving
+            # is noise: keep the last good slope
+            if 0.25 <= secant <= 4.0:
+                slope = secant
+            m0, r0, m1 = m1, r1, m1 - r1 / slope
+        return None, 1.0
 
     def _solve(self, name, device, p1, T1, p2, omega, area_in, area_out):
         """Solve ``m = m_map(m)`` for one device between static states (p1, T1) and p2."""
@@ -371,26 +381,32 @@ class IterativeTurbo(BasicTurbo):
         if basic.m_dot >= m_star:
             raise ChokedFlowError(f"{where}: map flow {basic.m_dot:.4g} kg/s exceeds the "
                                   f"choked flow {m_star:.4g} kg/s of its port ducts")
-        m_warm, T02 = self._warm.get(name, (basic.m_dot, basic.T_out))
+        ratio_m, ratio_T, slope = self._warm.get(name, (1.0, 1.0, 1.0))
+        m_warm, T02 = basic.m_dot * ratio_m, basic.T_out * ratio_T
         last: dict = {"T02": T02}
 
-        def residual(m: float) -> float:
+        def residual(m: float, inner: int | None = None) -> float:
+            """``m - m_map(m)``; the outlet total temperature is iterated up to ``inner`` times
+            (None: until converged, at most ``inner_maxiter``)."""
             M1 = mach_number(m, p1, T1, area_in, gas)
             p01, T01 = total_pressure(p1, M1, gas), total_temperature(T1, M1, gas)
             T02 = last["T02"]
-            for _ in range(self.inner_maxiter):
+            for _ in range(self.inner_maxiter if inner is None else inner):
                 M2 = mach_from_total_temperature(m, p2, T02, area_out, gas)
                 pt = device.operate(p01, T01, total_pressure(p2, M2, gas), omega)
-                if abs(pt.T_out - T02) <= self.inner_tol * T02:
+                settled = abs(pt.T_out - T02) <= self.inner_tol * T02
+                if settled:
                     break
                 T02 = pt.T_out
             else:
-                raise TurboConvergenceError(f"{where}: outlet total temperature did not "
-                                            f"converge in {self.inner_maxiter} iterations")
-            last.update(T02=pt.T_out, point=pt, mach=(M1, M2))
+                if inner is None:
+                    raise TurboConvergenceError(f"{where}: outlet total temperature did not "
+                                                f"converge in {self.inner_maxiter} iterations")
+            last.update(m=m, T02=pt.T_out, point=pt, mach=(M1, M2), settled=settled)
             return m - pt.m_dot
 
-        m = self._secant(residual, m_warm, basic.m_dot, 0.999 * m_star, min(8, self.maxiter))
+        m, slope = self._secant(lambda m: residual(m, 1), lambda: last["settled"], m_warm, basic.m_dot,
+                                0.999 * m_star, slope, min(8, self.maxiter))
         if m is None:  # the fast path left its bounds or stalled: bracket and Brent
             a, b = self._bracket(residual, m_warm, 0.999 * m_star, basic.m_dot, where)
             m, info = brentq(residual, a, b, xtol=self.xtol, maxiter=self.maxiter,
@@ -398,12 +414,13 @@ class IterativeTurbo(BasicTurbo):
             if not info.converged:
                 raise TurboConvergenceError(f"{where}: mass-flow solve did not converge in "
                                             f"{self.maxiter} iterations ({info.flag})")
-        residual(m)
+        if last.get("m") != m or not last["settled"]:
+            residual(m)
         M1, M2 = last["mach"]
         if not (M1 < 1.0 and M2 < 1.0):
             raise ChokedFlowError(f"{where}: solution is not subsonic (M_in = {M1:.3f}, "
                                   f"M_out = {M2:.3f})")
-        self._warm[name] = (m, last["T02"])
+        self._warm[name] = (m / basic.m_dot, last["T02"] / basic.T_out, slope)
         return last["point"], (M1, M2)
 
 

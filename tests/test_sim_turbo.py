@@ -103,11 +103,14 @@ def test_iterative_solution_is_consistent_and_warm_started():
                                              / total_pressure(P_AMB, M1, AIR), rel=1e-9)
 
 
-def test_iterative_failures_raise():
+def test_iterative_failures_raise(monkeypatch):
     with pytest.raises(TurboConvergenceError, match="did not converge"):
         IterativeTurbo(maxiter=1).evaluate(*HIGH_FLOW)
+    # the bracketed fallback converges the outlet temperature fully, within its bound
+    monkeypatch.setattr(IterativeTurbo, "_secant", lambda self, *a, **k: (None, 1.0))
     with pytest.raises(TurboConvergenceError, match="outlet total temperature"):
         IterativeTurbo(inner_maxiter=1).evaluate(*HIGH_FLOW)
+    monkeypatch.undo()
     tiny = PortAreas(compressor_inlet=1e-4)
     with pytest.raises(ChokedFlowError, match="compressor.*choked") as err:
         IterativeTurbo(ports=tiny).evaluate(*HIGH_FLOW)
@@ -156,7 +159,7 @@ def test_algorithms_on_engine_steady_states(capsys):
 
 def test_secant_fast_path_and_bracketed_fallback_agree(monkeypatch):
     fast = IterativeTurbo().evaluate(*HIGH_FLOW)
-    monkeypatch.setattr(IterativeTurbo, "_secant", lambda self, *a, **k: None)
+    monkeypatch.setattr(IterativeTurbo, "_secant", lambda self, *a, **k: (None, 1.0))
     slow = IterativeTurbo().evaluate(*HIGH_FLOW)
     for a, b in ((fast.compressor, slow.compressor), (fast.turbine, slow.turbine)):
         assert a.m_dot == pytest.approx(b.m_dot, rel=1e-10) and a.T_out == pytest.approx(b.T_out, rel=1e-10)
