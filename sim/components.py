@@ -234,7 +234,7 @@ class EngineWithConverter(Component):
         return 0.5 * self.J_engine * x[0] ** 2
 
     def evaluate(self, t, x, w):
-        omega_e, omega_t = x[0], w[self.link]
+        omega_e, omega_t = float(x[0]), float(w[self.link])  # Python floats: faster scalar arithmetic
         pump, turbine = self.converter.torques(omega_e, omega_t)
         t_engine = self._engine_torque(t, omega_e)
         return ({"T_in": turbine}, [(t_engine - pump) / self.J_engine], t_engine * omega_e,
@@ -356,10 +356,11 @@ class Driveline(Component):
         return self.road_torque(x[1]) * x[1]
 
     def evaluate(self, t, x, w):
-        slip = w[self.output] - x[1]
-        shaft = self.stiffness * x[0] + self.damping * slip
-        road = self.road_torque(x[1])
-        return ({"T_out": shaft}, [slip, (shaft - road) / self.J_v], 0.0, self.damping * slip * slip, road * x[1])
+        theta, omega_v = float(x[0]), float(x[1])  # Python floats: faster scalar arithmetic
+        slip = float(w[self.output]) - omega_v
+        shaft = self.stiffness * theta + self.damping * slip
+        road = self.road_torque(omega_v)
+        return ({"T_out": shaft}, [slip, (shaft - road) / self.J_v], 0.0, self.damping * slip * slip, road * omega_v)
 
     def sample(self, ts, X, W):
         theta, omega_v = X

@@ -39,6 +39,12 @@ class Signal:
         """The signal at every time of ``ts`` (for output sampling)."""
         return np.array([self.value(t) for t in ts], dtype=float)
 
+    def upper_bound(self, t0: float, t1: float) -> float:
+        """An upper bound of the signal on ``[t0, t1]`` (``inf`` when unknown): the simulator
+        leaves out of a segment's right-hand side the shift elements whose apply signal cannot
+        rise above zero in it."""
+        return math.inf
+
 
 @dataclass(frozen=True)
 class Constant(Signal):
@@ -49,6 +55,9 @@ class Constant(Signal):
 
     def sample(self, ts: np.ndarray) -> np.ndarray:
         return np.full(len(ts), float(self.v))
+
+    def upper_bound(self, t0: float, t1: float) -> float:
+        return self.v
 
 
 @dataclass(frozen=True)
@@ -62,6 +71,9 @@ class Step(Signal):
 
     def breakpoints(self) -> tuple[float, ...]:
         return (self.t,)
+
+    def upper_bound(self, t0: float, t1: float) -> float:
+        return max(self.value(t0), self.value(t1))
 
 
 @dataclass(frozen=True)
@@ -81,6 +93,9 @@ class Ramp(Signal):
     def breakpoints(self) -> tuple[float, ...]:
         return (self.t0, self.t1)
 
+    def upper_bound(self, t0: float, t1: float) -> float:
+        return max(self.value(t0), self.value(t1))  # monotonic
+
 
 @dataclass(frozen=True)
 class Table(Signal):
@@ -99,6 +114,10 @@ class Table(Signal):
     def sample(self, ts: np.ndarray) -> np.ndarray:
         return np.interp(ts, self.times, self.values)
 
+    def upper_bound(self, t0: float, t1: float) -> float:
+        inside = [v for t, v in zip(self.times, self.values) if t0 < t < t1]  # piecewise linear
+        return max([self.value(t0), self.value(t1)] + inside)
+
     def breakpoints(self) -> tuple[float, ...]:
         return tuple(self.times)
 
@@ -113,6 +132,9 @@ class Sine(Signal):
     def value(self, t: float) -> float:
         return self.offset + self.amplitude * math.sin(2 * math.pi * self.frequency * t + self.phase)
 
+    def upper_bound(self, t0: float, t1: float) -> float:
+        return self.offset + abs(self.amplitude)
+
 
 @dataclass(frozen=True)
 class Sum(Signal):
@@ -122,6 +144,9 @@ class Sum(Signal):
 
     def value(self, t: float) -> float:
         return sum(p.value(t) for p in self.parts)
+
+    def upper_bound(self, t0: float, t1: float) -> float:
+        return sum(p.upper_bound(t0, t1) for p in self.parts)
 
     def breakpoints(self) -> tuple[float, ...]:
         return tuple(sorted({b for p in self.parts for b in p.breakpoints()}))
@@ -137,6 +162,14 @@ class Spliced(Signal):
 
     def value(self, t: float) -> float:
         return self.after.value(t) if t >= self.t else self.before.value(t)
+
+    def upper_bound(self, t0: float, t1: float) -> float:
+        bounds = []
+        if t0 < self.t:
+            bounds.append(self.before.upper_bound(t0, min(t1, self.t)))
+        if t1 >= self.t:
+            bounds.append(self.after.upper_bound(max(t0, self.t), t1))
+        return max(bounds)
 
     def breakpoints(self) -> tuple[float, ...]:
         return tuple(sorted({self.t} | {b for b in self.before.breakpoints() if b < self.t}

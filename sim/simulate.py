@@ -238,7 +238,7 @@ def _simulate_switching(pt: Powertrain, options: SolverOptions, progress) -> Res
         seg_dirs = directions.copy()
         slipping = [i for i in range(len(tr.elements)) if i not in locked]
 
-        def point(tt, y, C=mode.C, dof=mode.dof, layout=layout, active=tr.slipping_set(locked, seg_dirs)):
+        def point(tt, y, C=mode.C, dof=mode.dof, layout=layout, active=tr.slipping_set(locked, seg_dirs, t, t_stop)):
             ww = C @ y[:dof]
             u, derivs, p_in, diss, p_load = model.external(tt, y, ww, layout)
             slips = tr.P @ ww

@@ -196,12 +196,15 @@ class Transmission:
                 out[i] = e.slip_torque(t, slips[i], int(directions[i]), capacity)
         return out
 
-    def slipping_set(self, locked: frozenset, directions: np.ndarray) -> tuple[tuple, ...]:
+    def slipping_set(self, locked: frozenset, directions: np.ndarray, t0: float = -np.inf,
+                     t1: float = np.inf) -> tuple[tuple, ...]:
         """``(element index, input column, element, direction)`` of every element that can
-        transmit torque while slipping in a mode (friction elements not locked, with a slip
-        direction): what a right-hand side loops over."""
+        transmit torque while slipping in a mode between ``t0`` and ``t1`` (friction elements not
+        locked, with a slip direction, whose apply can rise above zero): what a right-hand side
+        loops over."""
         return tuple((i, int(self.element_input[i]), e, int(directions[i])) for i, e in enumerate(self.elements)
-                     if i not in locked and e.kind != "oneway" and directions[i] != 0)
+                     if i not in locked and e.kind != "oneway" and directions[i] != 0
+                     and e.apply.upper_bound(t0, t1) > 0.0)
 
     def slipping_torques_at(self, ts: np.ndarray, W: np.ndarray, locked: frozenset,
                             directions: np.ndarray) -> np.ndarray:

@@ -324,3 +324,19 @@ def test_vectorised_slipping_torques_equal_the_scalar_ones():
         got = tr.slipping_torques_at(ts, W, locked, directions)
         want = np.array([tr.slipping_torques(t, W[:, k], locked, directions) for k, t in enumerate(ts)]).T
         np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
+
+
+def test_signal_upper_bounds_hold_on_every_interval():
+    """``upper_bound`` lets the simulator drop unapplied elements from a segment's right-hand
+    side; it must never be below the signal."""
+    from transgen.sim.signals import Ramp, Sine, Spliced, Step, Sum
+
+    signals = [Constant(0.3), Step(1.0, 0.0, 0.5), Ramp(1.0, 2.0, 0.0, 1.0), Table((0, 1, 2, 3), (0, 0, 1, 0)),
+               Sine(0.2, 0.5, 2.0), Sum((Table((0, 1, 2), (0, 1, 0)), Constant(-0.2))),
+               Spliced(1.5, Table((0, 1, 2), (0, 1, 0)), Constant(0.1))]
+    rng = np.random.default_rng(0)
+    for s in signals:
+        for _ in range(200):
+            a, b = np.sort(rng.uniform(-1.0, 4.0, 2))
+            assert max(s.value(t) for t in np.linspace(a, b, 400)) <= s.upper_bound(a, b) + 1e-12, (s, a, b)
+    assert Table((0, 1, 2), (0, 0, 1)).upper_bound(0.0, 1.0) == 0.0      # not applied: left out
