@@ -23,6 +23,10 @@ def add_commands(sub) -> None:
     s.add_argument("--compare", metavar="SCENARIO2",
                    help="also run SCENARIO2 and compare: overlay plots (with --plot; the Chapter-4 turbocharger "
                         "plots of both runs for turbo scenarios) and side-by-side report numbers")
+    s.add_argument("--compare-model", choices=("switching", "compliant"),
+                   help="clutch model of the compared run (default: as the first run); without --compare the "
+                        "scenario is compared with itself, e.g. '--compare-model compliant' reruns the thesis' "
+                        "comparison of Runde's and Haessig's models (3.2.2)")
     s.add_argument("--quiet", action="store_true", help="no progress on standard error")
     s.add_argument("--list", action="store_true", help="list the bundled scenarios")
     s.set_defaults(func=cmd_simulate)
@@ -52,8 +56,6 @@ def _progress(t_end: float, quiet: bool):
 
 
 def cmd_simulate(args) -> int:
-    import dataclasses
-
     from transgen.errors import ScenarioError
 
     from .report import report_dict, report_text, shift_report
@@ -65,10 +67,7 @@ def cmd_simulate(args) -> int:
         items = {name: str(path) for name, path in bundled_scenarios().items()}
         print(json.dumps(items, indent=2) if args.json else "\n".join(f"  {k:<24} {v}" for k, v in items.items()))
         return 0
-    scenario = load_scenario(args.scenario)
-    if args.model:
-        scenario.options = dataclasses.replace(scenario.options, model=args.model,
-                                               method="Radau" if args.model == "compliant" else scenario.options.method)
+    scenario = _with_model(load_scenario(args.scenario), args.model)
     progress = _progress(scenario.options.t_end, args.quiet or args.json)
     if not args.quiet and not args.json:
         print(f"{scenario.title}: {scenario.mechanism.name}, {scenario.options.model} model, "
@@ -92,14 +91,12 @@ def cmd_simulate(args) -> int:
         formats = tuple(f.strip() for f in args.format.split(",") if f.strip())
         written += [str(p) for p in plot_all(result, qualities, Path(args.plot), formats=formats)]
     other = other_q = None
-    if args.compare:
-        other_s = load_scenario(args.compare)
-        if args.model:
-            other_s.options = dataclasses.replace(other_s.options, model=args.model,
-                                                  method="Radau" if args.model == "compliant" else other_s.options.method)
+    compare = args.compare or (args.scenario if args.compare_model else None)
+    if compare:
+        other_s = _with_model(load_scenario(compare), args.compare_model or args.model)
         other = other_s.run()
         if not other.success:
-            print(f"error: {args.compare}: {other.message}", file=sys.stderr)
+            print(f"error: {compare}: {other.message}", file=sys.stderr)
             return 1
         other_q = shift_report(other, other_s.shifts or None)
         if args.plot:
@@ -113,7 +110,7 @@ def cmd_simulate(args) -> int:
 
             summary["turbo"] = turbo_report(result).to_dict()
         if other is not None:
-            summary["compare"] = {"scenario": args.compare, "summary": other.summary(),
+            summary["compare"] = {"scenario": compare, "model": other_s.options.model, "summary": other.summary(),
                                   "report": report_dict(other, other_q)}
             if "omega_tc" in result.signals and "omega_tc" in other.signals:
                 from .powertrain import turbo_report
@@ -138,10 +135,28 @@ def cmd_simulate(args) -> int:
                 print(turbo_report(result).text())
         if other is not None:
             print()
-            print(_comparison_text(scenario, result, qualities, args.compare, other, other_q))
+            print(_comparison_text(scenario, result, qualities, _labels(scenario, other_s)[1], other, other_q))
         for w in written:
             print(f"  wrote {w}")
     return 0 if result.success else 1
+
+
+def _with_model(scenario, model: str | None):
+    """``scenario`` with its clutch model replaced by ``model`` (None: unchanged); the compliant
+    model is integrated with Radau (stiff)."""
+    import dataclasses
+
+    if model:
+        method = "Radau" if model == "compliant" and model != scenario.options.model else scenario.options.method
+        scenario.options = dataclasses.replace(scenario.options, model=model, method=method)
+    return scenario
+
+
+def _labels(a, b) -> tuple[str, str]:
+    """Names of two compared runs: their file names, with the clutch model where those are equal."""
+    if a.path.stem != b.path.stem:
+        return a.path.stem, b.path.stem
+    return f"{a.path.stem} ({a.options.model})", f"{b.path.stem} ({b.options.model})"
 
 
 def _comparison_plots(scenario, result, other_s, other, directory: Path, formats) -> list[str]:
@@ -151,7 +166,8 @@ def _comparison_plots(scenario, result, other_s, other, directory: Path, formats
 
     from .plots import compare
 
-    runs = {scenario.path.stem: result, other_s.path.stem: other}
+    first, second = _labels(scenario, other_s)
+    runs = {first: result, second: other}
     written = []
     inp = f"w_{scenario.mechanism.input}"
     for signal in ("T_out", "T_in", inp, "vehicle_speed"):

@@ -276,6 +276,23 @@ def test_compare_runs_a_second_scenario(capsys, tmp_path):
     assert (tmp_path / "compare_T_out.png").exists()
 
 
+def test_compare_model_reruns_the_scenario_with_the_other_clutch_model(capsys, tmp_path):
+    """Thesis 3.2.2 in one command: the same scenario with Runde's and with Haessig's model."""
+    import json
+
+    code = main(["simulate", "simple2_upshift", "--compare-model", "compliant", "--json", "--quiet",
+                 "--plot", str(tmp_path), "--format", "svg"])
+    assert code == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["compare"]["scenario"] == "simple2_upshift" and data["compare"]["model"] == "compliant"
+    a, b = data["report"]["shifts"][0], data["compare"]["report"]["shifts"][0]
+    assert abs(a["energy_total"] - b["energy_total"]) < 0.02 * a["energy_total"]   # same shift, two models
+    svg = (tmp_path / "compare_T_out.svg").read_text()
+    assert "switching" in svg and "compliant" in svg                                # runs told apart
+    main(["simulate", "simple2_upshift", "--compare-model", "compliant", "--report", "--quiet"])
+    assert "simple2_upshift (compliant)" in capsys.readouterr().out
+
+
 @pytest.mark.parametrize("name", sorted(__import__("transgen.sim.scenario", fromlist=["x"]).bundled_scenarios()))
 def test_every_bundled_scenario_loads(name):
     s = load_scenario(name)
