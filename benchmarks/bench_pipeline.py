@@ -67,4 +67,4 @@ if __name__ == "__main__":
     print()
     symbolic_ht740("inertias")
     print()
-    symbolic_ht740("all")  # the two-DOF modes take long: tooth-count symbols make big gcds
+    symbolic_ht740("all")  # the two-DOF modes by the structured null-space route

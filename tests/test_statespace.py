@@ -324,3 +324,54 @@ def test_symbolic_inertias_only_evaluates_to_numeric_for_every_mode(name):
     for s, n in zip(sym.modes, num.modes):
         assert s.states == n.states
         _assert_symbolic_equals_numeric(s, n, values, name)
+
+
+# every parameter symbolic, multi-DOF modes included (structured null-space solution)
+
+
+def _at(matrix, values: dict) -> np.ndarray:
+    symbols = sorted(values, key=str)
+    f = sympy.lambdify(symbols, matrix, "mpmath")
+    import mpmath
+
+    with mpmath.workdps(40):
+        return np.array(f(*[mpmath.mpf(sympy.Rational(values[s]).p) / sympy.Rational(values[s]).q for s in symbols]).tolist(),
+                        dtype=float)
+
+
+@functools.lru_cache(maxsize=None)
+def _ht740_all_symbolic():
+    mech = load_mechanism("ht740")
+    return mech, state_space(mech, symbolic=True)
+
+
+def test_ht740_every_mode_fully_symbolic_evaluates_to_numeric():
+    """``--symbolic all`` finishes for the HT-740's 2-DOF modes and each of its matrices, evaluated
+    at the mechanism's values, equals the numeric one."""
+    mech, sym = _ht740_all_symbolic()
+    num = state_space(mech)
+    assert [m.dof for m in sym.modes] == [1, 1, 1, 1, 2, 2, 1]
+    values = _numeric_values(mech)
+    for s, n in zip(sym.modes, num.modes):
+        for mat in ("B", "C", "D"):
+            got = _at(getattr(s, mat), values) if getattr(s, mat).shape[1] else np.zeros(getattr(n, mat).shape)
+            ind.assert_close(got, np.asarray(getattr(n, mat), dtype=float), what=f"ht740 {s.name} {mat}")
+
+
+def test_structured_and_eliminated_symbolic_solutions_are_the_same_functions(seed=1):
+    """The structured null-space route and the exact elimination give the same rational functions:
+    compared at random parameter values (not only the mechanism's), for 1-DOF HT-740 modes where
+    both are affordable."""
+    from transgen.equations import _numeric_values as graph_values
+    from transgen.equations import _sparse_exact_solve, _structured_solve, assemble
+
+    mech = load_mechanism("ht740")
+    g = build_graph(mech)
+    rng = np.random.default_rng(seed)
+    values = {k: v * rng.uniform(0.7, 1.4) for k, v in graph_values(g).items()}
+    for mode in select_modes(mech)[:2]:
+        eq = assemble(g, mode.locked, symbolic=True)
+        a = _sparse_exact_solve(eq.E, eq.F)
+        b = _structured_solve(eq.E, eq.F, eq.n_links, graph_values(g))
+        at = {sympy.Symbol(k, positive=True): sympy.Rational(str(round(v, 9))) for k, v in values.items()}
+        np.testing.assert_allclose(_at(b, at), _at(a, at), rtol=1e-12, atol=1e-12 * float(np.abs(_at(a, at)).max()))

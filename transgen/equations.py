@@ -22,6 +22,11 @@ for a brake).
 
 ``G = -E^-1 F`` is partitioned (eq. 3.10) into ``G_accel`` (link accelerations),
 ``G_clutches`` (locked element torques) and ``G_intermediate`` (transformer torques).
+
+Symbolic back-end: an exact sparse elimination over the rational functions of the symbols gives
+every entry as one reduced fraction; for modes with two or more degrees of freedom and symbolic
+gear geometry that reduction does not finish, and the null-space (virtual work) route of
+:func:`_structured_solve` gives the same matrices, exact, in structured form.
 """
 from __future__ import annotations
 
@@ -36,7 +41,7 @@ from .graph import coefficient, element_nodes, link_nodes, transformer_ports
 from .kinematics import constraint_matrix, constraints, null_space, numeric_rank
 from .model import HOUSING
 
-__all__ = ["ModeEquations", "input_names", "assemble", "solve", "diagnose_singular", "symbols_of"]
+__all__ = ["ModeEquations", "input_names", "assemble", "solve", "diagnose_singular", "symbols_of", "kinematic_basis"]
 
 
 @dataclass(frozen=True)
@@ -205,7 +210,12 @@ def solve(eq: ModeEquations, g: nx.DiGraph) -> ModeEquations:
         problem = diagnose_singular(g, eq.locked)
         if problem:
             raise ModeError(problem)
-        G = _sparse_exact_solve(eq.E, eq.F)
+        geometry = any(not str(x).startswith("J_") for x in eq.E.free_symbols)
+        if geometry and eq.n_links - numeric_rank(constraint_matrix(g, eq.locked)) >= 2:
+            # multi-DOF with symbolic gear geometry: reduced fractions would take hours
+            G = _structured_solve(eq.E, eq.F, eq.n_links, _numeric_values(g))
+        else:
+            G = _sparse_exact_solve(eq.E, eq.F)
     return ModeEquations(eq.locked, eq.z, eq.u, eq.E, eq.F, eq.n_links, eq.n_locked, G)
 
 
@@ -248,39 +258,33 @@ def diagnose_singular(g: nx.DiGraph, locked=()) -> str:
     return f"mode with {', '.join(locked) or 'no element'} locked: " + "; ".join(problems)
 
 
-def _sparse_exact_solve(E, F):
-    """``G = -E^-1 F`` exactly, for sympy matrices ``E`` (square, regular) and ``F``.
-
-    Gauss-Jordan elimination on the sparse rows of ``[E | -F]`` over the field of rational
-    functions of the mechanism's symbols (every entry kept as a reduced fraction). Pivots are
-    chosen by the Markowitz count, then numeric entries first, which keeps the fill-in and
-    the expression swell of the bond-graph structure small (a dense ``LUsolve`` does not finish
-    for the HT-740): the Markowitz count first, then numeric pivots, then small ones.
-    """
+def _fraction_field(*matrices):
+    """The field of rational functions (over QQ) of the symbols in ``matrices``, and a converter
+    from sympy expressions to its elements (None, sympy.Rational when there are no symbols)."""
     import sympy
     from sympy import QQ
     from sympy.polys.fields import field as fraction_field
 
-    n, m = E.shape[0], F.shape[1]
-    symbols = sorted(E.free_symbols | F.free_symbols, key=str)
+    symbols = sorted(set().union(*(m.free_symbols for m in matrices)), key=str)
     K = fraction_field(symbols, QQ)[0] if symbols else None
+    return K, (K.from_expr if K is not None else sympy.Rational)
 
-    def convert(x):
-        return K.from_expr(x) if K is not None else sympy.Rational(x)
 
-    rows = []
-    for i in range(n):
-        row = {j: convert(E[i, j]) for j in range(n) if E[i, j] != 0}
-        row.update({n + j: convert(-F[i, j]) for j in range(m) if F[i, j] != 0})
-        rows.append(row)
+def _eliminate(rows: list[dict], n: int, K) -> dict[int, dict]:
+    """Gauss-Jordan elimination of the sparse rows (``{column: field element}``) of ``[E | R]``
+    with ``E`` square (columns ``0..n-1``), in place; returns ``{column of E: its pivot row}``,
+    each pivot row holding ``E^-1 R`` in the columns ``>= n``.
 
+    Pivots by the Markowitz count, then numeric entries first, then small ones, which keeps the
+    fill-in and the expression swell of the bond-graph structure small.
+    """
     def is_number(a) -> bool:
         return K is None or (a.numer.is_ground and a.denom.is_ground)
 
-    def _size(a) -> int:
+    def size(a) -> int:
         return 0 if K is None else len(a.numer.terms()) + len(a.denom.terms())
 
-    free_rows, free_cols, pivot_row = set(range(n)), set(range(n)), {}
+    free_rows, free_cols, pivot_row = set(range(len(rows))), set(range(n)), {}
     while free_rows:
         col_count: dict[int, int] = {}
         for i in free_rows:
@@ -292,7 +296,7 @@ def _sparse_exact_solve(E, F):
             in_row = sum(1 for j in rows[i] if j in free_cols)
             for j, a in rows[i].items():
                 if j in free_cols:
-                    cost = ((in_row - 1) * (col_count[j] - 1), not is_number(a), _size(a))
+                    cost = ((in_row - 1) * (col_count[j] - 1), not is_number(a), size(a))
                     if best is None or cost < best[0]:
                         best = (cost, i, j)
         if best is None:
@@ -301,7 +305,7 @@ def _sparse_exact_solve(E, F):
         pivot = rows[p][c]
         prow = {j: a / pivot for j, a in rows[p].items()}
         rows[p] = prow
-        for i in range(n):
+        for i in range(len(rows)):
             if i != p and c in rows[i]:
                 factor, row = rows[i][c], rows[i]
                 for j, a in prow.items():
@@ -312,13 +316,160 @@ def _sparse_exact_solve(E, F):
                         row[j] = value
         free_rows.discard(p)
         free_cols.discard(c)
-        pivot_row[c] = p
+        pivot_row[c] = rows[p]
+    return pivot_row
+
+
+def _solve_rows(E: list[list], R: list[list], K) -> list[list]:
+    """``E^-1 R`` exactly for dense lists of field elements (``E`` square and regular)."""
+    n = len(E)
+    rows = []
+    for i in range(n):
+        row = {j: a for j, a in enumerate(E[i]) if a != 0}
+        row.update({n + j: a for j, a in enumerate(R[i]) if a != 0})
+        rows.append(row)
+    pivots = _eliminate(rows, n, K)
+    m = len(R[0]) if R else 0
+    zero = K.zero if K is not None else 0
+    return [[pivots[c].get(n + j, zero) for j in range(m)] for c in range(n)]
+
+
+def _sparse_exact_solve(E, F):
+    """``G = -E^-1 F`` exactly, for sympy matrices ``E`` (square, regular) and ``F``: sparse
+    Gauss-Jordan elimination over the field of rational functions of the mechanism's symbols
+    (every entry kept as a reduced fraction; see :func:`_eliminate`)."""
+    import sympy
+
+    K, convert = _fraction_field(E, F)
+    n, m = E.shape[0], F.shape[1]
+    X = _solve_rows([[convert(E[i, j]) for j in range(n)] for i in range(n)],
+                    [[convert(-F[i, j]) for j in range(m)] for i in range(n)], K)
     G = sympy.zeros(n, m)
-    for c, p in pivot_row.items():
-        for j, a in rows[p].items():
-            if j >= n:
-                G[c, j - n] = _readable(a) if K is not None else a
+    for i in range(n):
+        for j in range(m):
+            G[i, j] = _to_expr(X[i][j], K)
     return G
+
+
+def _independent(a: np.ndarray, rank: int) -> list[int]:
+    """Indices of ``rank`` linearly independent columns of ``a`` (QR with column pivoting)."""
+    if rank == 0:
+        return []
+    _, _, piv = scipy.linalg.qr(a, mode="economic", pivoting=True)
+    return sorted(int(j) for j in piv[:rank])
+
+
+def _to_expr(x, K):
+    """A field element (or rational number when ``K`` is None) as a sympy expression."""
+    import sympy
+
+    if x == 0:
+        return sympy.Integer(0)
+    return _readable(x) if K is not None else sympy.sympify(x)
+
+
+def _kinematic_rows(E, n_links: int) -> list[int]:
+    """Rows of ``E`` that are kinematic constraints (transformers, locked elements): entries in
+    the acceleration columns only."""
+    n = E.shape[0]
+    return [i for i in range(n_links, n) if all(E[i, j] == 0 for j in range(n_links, n))]
+
+
+def kinematic_basis(E, n_links: int, free: list[int]) -> list[list]:
+    """Exact basis of the link accelerations (and speeds) the kinematic rows of the symbolic
+    ``E`` allow: ``N`` (rows: links, columns: the links ``free``) with ``alpha = N alpha_free``.
+    It holds only the gear geometry. Raises :class:`ModeError` when ``free`` are not independent
+    coordinates of the mode."""
+    import sympy
+
+    kin = _kinematic_rows(E, n_links)
+    dep = [j for j in range(n_links) if j not in free]
+    if len(dep) != len(kin):
+        raise ModeError(f"{len(free)} coordinates for a mode with {n_links - len(kin)} degrees of freedom")
+    N = [[sympy.Integer(int(j == f)) for f in free] for j in range(n_links)]
+    if dep:
+        K, convert = _fraction_field(E.extract(kin, list(range(n_links))))
+        X = _solve_rows([[convert(E[i, j]) for j in dep] for i in kin],
+                        [[convert(-E[i, j]) for j in free] for i in kin], K)
+        for r, j in enumerate(dep):
+            N[j] = [_to_expr(x, K) for x in X[r]]
+    return N
+
+
+def _det(M: list[list]):
+    """Determinant by cofactors (the generalized mass matrix is DOF x DOF, small), unexpanded."""
+    import sympy
+
+    if not M:
+        return sympy.Integer(1)
+    if len(M) == 1:
+        return M[0][0]
+    return sympy.Add(*[(-1) ** c * M[0][c] * _det([row[:c] + row[c + 1:] for row in M[1:]])
+                       for c in range(len(M)) if M[0][c] != 0])
+
+
+def _structured_solve(E, F, n_links: int, numbers: dict):
+    """``G = -E^-1 F`` by the null-space (virtual work) route, for multi-DOF modes whose gear
+    geometry is symbolic, where the exact elimination drowns in greatest common divisors.
+
+    The rows of ``E z + F u = 0`` are the link balances ``J alpha + R lambda = -F_l u``, the
+    kinematic constraints ``A alpha = 0`` and the power relations ``P lambda = 0`` between the
+    internal torques ``lambda`` (locked elements, transformer ports). With an exact basis ``N``
+    of the null space of ``A`` (:func:`kinematic_basis`, ``alpha = N qdot``) and workless internal
+    torques (``N^T R lambda = 0`` when ``P lambda = 0``):
+
+    * ``M qdot = -N^T F_l u`` with the generalized mass matrix ``M = N^T J N`` (DOF x DOF),
+      solved by cofactors: ``qdot = -adj(M) N^T F_l u / det(M)``;
+    * ``alpha = N qdot``;
+    * ``lambda = S^-1 [-F_l u - J alpha]`` on independent rows ``S`` of ``[R; P]`` (geometry
+      only, inverted exactly).
+
+    The results are exact but not reduced to single fractions (that reduction, a multivariate
+    greatest common divisor per entry, is what does not finish: minutes for one entry of the
+    HT-740's 2-DOF modes). ``numbers`` gives a numeric value per symbol, used only to choose
+    independent columns and rows.
+    """
+    import sympy
+
+    n, m = E.shape[0], F.shape[1]
+    nl = n_links
+    num = {sym: numbers[str(sym)] for sym in (E.free_symbols | F.free_symbols)}
+
+    def numeric(rows, cols) -> np.ndarray:
+        return np.array([[float(E[i, j].subs(num)) for j in cols] for i in rows], dtype=float)
+
+    kin = _kinematic_rows(E, nl)
+    a_num = numeric(kin, range(nl))
+    rank = numeric_rank(a_num) if kin else 0
+    if rank != len(kin):
+        raise ModeError("the mode's kinematic constraints are not independent")
+    dep = _independent(a_num, rank)
+    free = [j for j in range(nl) if j not in dep]
+    d = len(free)
+    N = kinematic_basis(E, nl, free)
+    J = [E[k, k] for k in range(nl)]
+    M = [[sympy.Add(*[J[k] * N[k][a] * N[k][b] for k in range(nl)]) for b in range(d)] for a in range(d)]
+    Q = [[-sympy.Add(*[N[k][a] * F[k, j] for k in range(nl)]) for j in range(m)] for a in range(d)]
+    det = _det(M)
+    adj = [[(-1) ** (a + b) * _det([row[:a] + row[a + 1:] for r, row in enumerate(M) if r != b])
+            for b in range(d)] for a in range(d)]
+    Bq = [[sympy.Add(*[adj[a][b] * Q[b][j] for b in range(d)]) / det for j in range(m)] for a in range(d)]
+    G_alpha = [[sympy.Add(*[N[k][a] * Bq[a][j] for a in range(d)]) for j in range(m)] for k in range(nl)]
+    lam_cols = list(range(nl, n))
+    rows = list(range(nl)) + [i for i in range(nl, n) if i not in kin]
+    pick = [rows[i] for i in _independent(numeric(rows, lam_cols).T, len(lam_cols))]
+    if len(pick) != len(lam_cols) or numeric_rank(numeric(pick, lam_cols)) != len(lam_cols):
+        raise ModeError("the mode's internal torques are not unique")
+    Lam = []
+    if lam_cols:
+        K, convert = _fraction_field(E.extract(pick, lam_cols))
+        inverse = _solve_rows([[convert(E[i, j]) for j in lam_cols] for i in pick],
+                              [[convert(int(r == c)) for c in range(len(pick))] for r in range(len(pick))], K)
+        T = [[_to_expr(x, K) for x in row] for row in inverse]
+        rhs = [[(-F[i, j] - J[i] * G_alpha[i][j]) if i < nl else sympy.Integer(0) for j in range(m)] for i in pick]
+        Lam = [[sympy.Add(*[T[r][c] * rhs[c][j] for c in range(len(pick)) if T[r][c] != 0]) for j in range(m)]
+               for r in range(len(lam_cols))]
+    return sympy.Matrix(G_alpha + Lam)
 
 
 def _readable(fraction):

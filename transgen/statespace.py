@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .equations import kinematic_basis
 from .errors import ModeError
 from .graph import build_graph, link_nodes
 from .kinematics import numeric_rank
@@ -116,22 +117,15 @@ def _numeric_C(G_accel: np.ndarray, rows: list[int]) -> np.ndarray:
     return C
 
 
-def _symbolic_C(G_accel, rows: list[int]):
+def _symbolic_C(eq, rows: list[int]):
+    """Exact ``C_speeds``: every link speed in terms of the coordinates ``rows``. For valid
+    coordinates it is what eq. 3.13 gives (``G_accel = C G_accel,gc``); it is computed from the
+    kinematics alone (gear geometry only), which stays small where ``G_accel`` is large."""
     import sympy
 
     if not rows:
-        return sympy.zeros(G_accel.rows, 0)
-    G_gc = G_accel.extract(rows, list(range(G_accel.cols)))
-    numeric = np.array(G_gc.evalf(subs={s: 1.37 + 0.11 * i for i, s in enumerate(sorted(G_gc.free_symbols, key=str))}), dtype=float)
-    cols: list[int] = []
-    for j in range(numeric.shape[1]):
-        if numeric_rank(numeric[:, cols + [j]]) == len(cols) + 1:
-            cols.append(j)
-        if len(cols) == len(rows):
-            break
-    square = G_gc.extract(list(range(len(rows))), cols)
-    C = G_accel.extract(list(range(G_accel.rows)), cols) * square.inv()
-    return C.applyfunc(lambda x: sympy.factor(sympy.cancel(x)))
+        return sympy.zeros(eq.n_links, 0)
+    return sympy.Matrix(kinematic_basis(eq.E, eq.n_links, rows))
 
 
 def _mode_state_space(model: ModeModel, links: list[str], coords, symbolic: bool) -> ModeStateSpace:
@@ -141,7 +135,7 @@ def _mode_state_space(model: ModeModel, links: list[str], coords, symbolic: bool
     G_accel = eq.G_accel
     if symbolic:
         B = G_accel.extract(rows, list(range(G_accel.cols)))
-        C = _symbolic_C(G_accel, rows)
+        C = _symbolic_C(eq, rows)
     else:
         B = G_accel[rows].copy()
         C = _numeric_C(G_accel, rows)
