@@ -23,10 +23,11 @@ for a brake).
 ``G = -E^-1 F`` is partitioned (eq. 3.10) into ``G_accel`` (link accelerations),
 ``G_clutches`` (locked element torques) and ``G_intermediate`` (transformer torques).
 
-Symbolic back-end: an exact sparse elimination over the rational functions of the symbols gives
-every entry as one reduced fraction; for modes with two or more degrees of freedom and symbolic
-gear geometry that reduction does not finish, and the null-space (virtual work) route of
-:func:`_structured_solve` gives the same matrices, exact, in structured form.
+Symbolic back-end: with only the inertias symbolic, an exact sparse elimination over the rational
+functions of the symbols gives every entry as one reduced fraction. With symbolic gear geometry
+that reduction can take hours (multivariate greatest common divisors), and the null-space
+(virtual work) route of :func:`_structured_solve` gives the same matrices, exact, in structured
+form: the kinematic ratios, the reflected (generalized) inertia and the torques built from them.
 """
 from __future__ import annotations
 
@@ -210,9 +211,8 @@ def solve(eq: ModeEquations, g: nx.DiGraph) -> ModeEquations:
         problem = diagnose_singular(g, eq.locked)
         if problem:
             raise ModeError(problem)
-        geometry = any(not str(x).startswith("J_") for x in eq.E.free_symbols)
-        if geometry and eq.n_links - numeric_rank(constraint_matrix(g, eq.locked)) >= 2:
-            # multi-DOF with symbolic gear geometry: reduced fractions would take hours
+        if any(not str(x).startswith("J_") for x in eq.E.free_symbols):
+            # symbolic gear geometry: reduced fractions can take hours (multivariate gcds)
             G = _structured_solve(eq.E, eq.F, eq.n_links, _numeric_values(g))
         else:
             G = _sparse_exact_solve(eq.E, eq.F)
@@ -409,8 +409,8 @@ def _det(M: list[list]):
 
 
 def _structured_solve(E, F, n_links: int, numbers: dict):
-    """``G = -E^-1 F`` by the null-space (virtual work) route, for multi-DOF modes whose gear
-    geometry is symbolic, where the exact elimination drowns in greatest common divisors.
+    """``G = -E^-1 F`` by the null-space (virtual work) route, for modes whose gear geometry is
+    symbolic, where the exact elimination drowns in greatest common divisors.
 
     The rows of ``E z + F u = 0`` are the link balances ``J alpha + R lambda = -F_l u``, the
     kinematic constraints ``A alpha = 0`` and the power relations ``P lambda = 0`` between the
