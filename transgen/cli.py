@@ -144,7 +144,13 @@ def cmd_matrices(args) -> int:
 
     mech = load_checked(args.file)
     which = {"auto": "auto", "all": "all", "declared": "declared", "default": "default"}[args.modes]
-    models = mode_models(mech, which, symbolic=args.symbolic)
+    progress = None
+    if args.symbolic and sys.stderr.isatty():
+        def progress(i, n, mode):
+            print(f"\r  solving mode {mode.name} symbolically ({i + 1}/{n})   ", end="", file=sys.stderr, flush=True)
+    models = mode_models(mech, which, symbolic=args.symbolic, progress=progress)
+    if progress is not None:
+        print(file=sys.stderr)
     if args.list_coordinates:
         sets = valid_coordinate_sets(models, link_nodes(build_graph(mech)))
         if args.json:

@@ -172,10 +172,18 @@ def mode_model(mech: Mechanism, mode: Mode, graph: nx.DiGraph | None = None,
     return ModeModel(mode, combo.kind, dof, combo.dof, eq, problem, symbolic_eq)
 
 
-def mode_models(mech: Mechanism, which: str = "auto", symbolic: bool | str = False) -> list[ModeModel]:
-    """:func:`mode_model` of every mode of :func:`select_modes`."""
+def mode_models(mech: Mechanism, which: str = "auto", symbolic: bool | str = False,
+                progress=None) -> list[ModeModel]:
+    """:func:`mode_model` of every mode of :func:`select_modes`; ``progress(i, n, mode)``, if
+    given, is called before each of the ``n`` modes (symbolic solves take seconds each)."""
     g = build_graph(mech)
-    return [mode_model(mech, m, g, symbolic) for m in select_modes(mech, which)]
+    modes = select_modes(mech, which)
+    out = []
+    for i, m in enumerate(modes):
+        if progress is not None:
+            progress(i, len(modes), m)
+        out.append(mode_model(mech, m, g, symbolic))
+    return out
 
 
 def coordinate_subset(model: ModeModel, links: list[str], coords) -> tuple[str, ...]:
