@@ -359,13 +359,16 @@ def _independent(a: np.ndarray, rank: int) -> list[int]:
     return sorted(int(j) for j in piv[:rank])
 
 
-def _to_expr(x, K):
-    """A field element (or rational number when ``K`` is None) as a sympy expression."""
+def _to_expr(x, K, readable: bool = True):
+    """A field element (or rational number when ``K`` is None) as a sympy expression, factored
+    where cheap when ``readable`` (intermediate results skip that)."""
     import sympy
 
     if x == 0:
         return sympy.Integer(0)
-    return _readable(x) if K is not None else sympy.sympify(x)
+    if K is None:
+        return sympy.sympify(x)
+    return _readable(x) if readable else x.as_expr()
 
 
 def _kinematic_rows(E, n_links: int) -> list[int]:
@@ -435,8 +438,10 @@ def _structured_solve(E, F, n_links: int, numbers: dict):
     nl = n_links
     num = {sym: numbers[str(sym)] for sym in (E.free_symbols | F.free_symbols)}
 
+    E_num = np.array(E.xreplace(num).tolist(), dtype=float)
+
     def numeric(rows, cols) -> np.ndarray:
-        return np.array([[float(E[i, j].subs(num)) for j in cols] for i in rows], dtype=float)
+        return E_num[np.ix_(list(rows), list(cols))]
 
     kin = _kinematic_rows(E, nl)
     a_num = numeric(kin, range(nl))
@@ -465,7 +470,7 @@ def _structured_solve(E, F, n_links: int, numbers: dict):
         K, convert = _fraction_field(E.extract(pick, lam_cols))
         inverse = _solve_rows([[convert(E[i, j]) for j in lam_cols] for i in pick],
                               [[convert(int(r == c)) for c in range(len(pick))] for r in range(len(pick))], K)
-        T = [[_to_expr(x, K) for x in row] for row in inverse]
+        T = [[_to_expr(x, K, readable=False) for x in row] for row in inverse]
         rhs = [[(-F[i, j] - J[i] * G_alpha[i][j]) if i < nl else sympy.Integer(0) for j in range(m)] for i in pick]
         Lam = [[sympy.Add(*[T[r][c] * rhs[c][j] for c in range(len(pick)) if T[r][c] != 0]) for j in range(m)]
                for r in range(len(lam_cols))]
