@@ -238,14 +238,18 @@ def _simulate_switching(pt: Powertrain, options: SolverOptions, progress) -> Res
         seg_dirs = directions.copy()
         slipping = [i for i in range(len(tr.elements)) if i not in locked]
 
-        def point(tt, y, C=mode.C, dof=mode.dof, layout=layout, active=tr.slipping_set(locked, seg_dirs, t, t_stop)):
-            ww = C @ y[:dof]
+        def point(tt, y, C=mode.C, PC=tr.P @ mode.C, dof=mode.dof, layout=layout,
+                  active=tr.slipping_set(locked, seg_dirs, t, t_stop)):
+            q = y[:dof]
+            ww = C @ q
             u, derivs, p_in, diss, p_load = model.external(tt, y, ww, layout)
-            slips = tr.P @ ww
-            for i, col, e, d in active:
-                torque = e.slip_torque(tt, slips[i], d)
-                u[col] += torque
-                diss += torque * slips[i]
+            slips = PC @ q
+            if active:
+                s = slips.tolist()
+                for i, col, e, scale in active:
+                    torque = e.torque_at(tt, s[i], scale)
+                    u[col] += torque
+                    diss += torque * s[i]
             return ww, u, derivs, p_in, diss, p_load, slips
 
         evaluate = memo_last(model, point)

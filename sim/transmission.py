@@ -68,13 +68,17 @@ class ElementConfig:
 
     def slip_torque(self, t: float, slip: float, direction: int, capacity: str = "dynamic") -> float:
         """Torque of the element slipping in ``direction`` (+1/-1) at slip speed ``slip``."""
-        scale = self._scale(direction, capacity)
+        return self.torque_at(t, slip, self._scale(direction, capacity), capacity == "dynamic")
+
+    def torque_at(self, t: float, slip: float, scale: float, friction: bool = True) -> float:
+        """:meth:`slip_torque` with the signed capacity ``scale`` of :meth:`_scale` given (a
+        right-hand side computes it once per segment); ``friction``: apply the friction table."""
         if scale == 0.0:
             return 0.0
         a = self.apply_at(t)
         if a <= 0.0:
             return 0.0
-        if self.friction is not None and capacity == "dynamic":
+        if friction and self.friction is not None:
             a *= float(np.interp(abs(slip), self.friction[0], self.friction[1]))
         return scale * a
 
@@ -198,11 +202,12 @@ class Transmission:
 
     def slipping_set(self, locked: frozenset, directions: np.ndarray, t0: float = -np.inf,
                      t1: float = np.inf) -> tuple[tuple, ...]:
-        """``(element index, input column, element, direction)`` of every element that can
-        transmit torque while slipping in a mode between ``t0`` and ``t1`` (friction elements not
-        locked, with a slip direction, whose apply can rise above zero): what a right-hand side
-        loops over."""
-        return tuple((i, int(self.element_input[i]), e, int(directions[i])) for i, e in enumerate(self.elements)
+        """``(element index, input column, element, signed dynamic capacity)`` of every element
+        that can transmit torque while slipping in a mode between ``t0`` and ``t1`` (friction
+        elements not locked, with a slip direction, whose apply can rise above zero): what a
+        right-hand side loops over (with :meth:`ElementConfig.torque_at`)."""
+        return tuple((i, int(self.element_input[i]), e, e._scale(int(directions[i]), "dynamic"))
+                     for i, e in enumerate(self.elements)
                      if i not in locked and e.kind != "oneway" and directions[i] != 0
                      and e.apply.upper_bound(t0, t1) > 0.0)
 
