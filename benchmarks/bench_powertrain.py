@@ -4,7 +4,7 @@ Run:  python benchmarks/bench_powertrain.py [--plot DIR]
 
 Scenarios ``ht740_turbo`` (basic algorithm) and ``ht740_turbo_iterative``: turbodiesel, torque
 converter with lock-up, HT-740, driveline and vehicle, 20 s, the scenario's solver settings
-(BDF). Prints wall time, real-time factor (simulated / wall time; goal >= 20), right-hand-side
+(BDF). Prints wall time (best of three runs), real-time factor (simulated / wall time; goal >= 20), right-hand-side
 evaluations, integration segments and events, the part of the wall time spent sampling the
 output (``output_dt`` = 0.01 s, every sample re-evaluates the engine), the shift and lock-up
 events, and the turbocharger report comparing the two algorithms. ``--plot DIR`` also writes the
@@ -22,27 +22,35 @@ from transgen.sim.scenario import load_scenario
 SCENARIOS = (("basic", "ht740_turbo"), ("iterative", "ht740_turbo_iterative"))
 
 
-def run(name: str) -> dict:
-    sc = load_scenario(name)
-    sampled = {}
+def run(name: str, repeats: int = 3) -> dict:
+    """The scenario's run, timed as the best of ``repeats`` fresh runs (the machine's load moves
+    single timings by some 20 %)."""
+    sc = None
+    best = (float("inf"), 0.0, None)
     collect = simulate_module._collect
+    for _ in range(repeats):
+        sc = load_scenario(name)
+        sampled = {}
 
-    def timed_collect(*args, **kwargs):
-        t0 = time.perf_counter()
-        out = collect(*args, **kwargs)
-        sampled["wall"] = time.perf_counter() - t0
-        return out
+        def timed_collect(*args, **kwargs):
+            t0 = time.perf_counter()
+            out = collect(*args, **kwargs)
+            sampled["wall"] = time.perf_counter() - t0
+            return out
 
-    simulate_module._collect = timed_collect
-    try:
-        start = time.perf_counter()
-        result = sc.run()
-        wall = time.perf_counter() - start
-    finally:
-        simulate_module._collect = collect
+        simulate_module._collect = timed_collect
+        try:
+            start = time.perf_counter()
+            result = sc.run()
+            wall = time.perf_counter() - start
+        finally:
+            simulate_module._collect = collect
+        if wall < best[0]:
+            best = (wall, sampled.get("wall", 0.0), result)
+    wall, sampling, result = best
     sim_time = sc.options.t_end - sc.options.t_start
     engine = next(c.engine for c in sc.powertrain.components if isinstance(c, TurbodieselSource))
-    return {"result": result, "wall": wall, "rtf": sim_time / wall, "sampling": sampled.get("wall", 0.0),
+    return {"result": result, "wall": wall, "rtf": sim_time / wall, "sampling": sampling,
             "method": sc.options.method, "rtol": sc.options.rtol, "engine": engine}
 
 
