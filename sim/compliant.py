@@ -57,14 +57,19 @@ def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
         t_stop = min([b for b in _breakpoints(pt, t, options.t_end) if b > t + 1e-12] + [options.t_end])
         seg_locked = frozenset(np.flatnonzero(seg_stuck))
 
-        def point(tt, y, seg_stuck=seg_stuck, seg_dirs=seg_dirs, seg_locked=seg_locked):
-            ww = mode.C @ y[: mode.dof]
+        def point(tt, y, seg_stuck=seg_stuck, PC=tr.P @ mode.C,
+                  active=tr.slipping_set(seg_locked, seg_dirs, t, t_stop)):
+            q = y[: mode.dof]
+            ww = mode.C @ q
             u, derivs, p_in, diss, p_load = model.external(tt, y, ww, layout)
-            slips = tr.P @ ww
-            te = tr.slipping_torques(tt, ww, seg_locked, seg_dirs)
-            te = np.where(seg_stuck, k * y[spring] + c * slips, te)  # stuck: spring-damper
+            slips = PC @ q
+            te = np.where(seg_stuck, k * y[spring] + c * slips, 0.0)  # stuck: spring-damper
+            diss += c * float(np.sum(np.where(seg_stuck, slips * slips, 0.0)))
+            s = slips.tolist()
+            for i, _, e, scale in active:  # slipping: as in the mode-switching model
+                te[i] = e.torque_at(tt, s[i], scale)
+                diss += te[i] * s[i]
             u[tr.element_input] += te
-            diss += float(np.sum(np.where(seg_stuck, c * slips ** 2, te * slips)))
             return ww, u, derivs, p_in, diss, p_load, slips, te
 
         evaluate = memo_last(model, point)
