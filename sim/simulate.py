@@ -431,7 +431,7 @@ def sample_block(pt: Powertrain, seg: _Segment, ts: np.ndarray, ys: np.ndarray, 
     for i, e in enumerate(tr.elements):
         out[f"slip_{e.name}"] = slips[i]
         out[f"t_{e.name}"] = torques[i]
-        out[f"apply_{e.name}"] = e.apply.sample(ts).clip(min=0.0) if e.kind != "oneway" else np.ones(n)
+        out[f"apply_{e.name}"] = e.apply_over(ts)
         out[f"P_{e.name}"] = power[i]
         out[f"locked_{e.name}"] = np.full(n, 1.0 if i in seg.locked else 0.0)
     out.setdefault("T_in", U[tr.input_index["T_in"]])

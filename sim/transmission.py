@@ -54,10 +54,14 @@ class ElementConfig:
     def apply_at(self, t: float) -> float:
         return 1.0 if self.kind == "oneway" else max(0.0, self.apply.value(t))
 
+    def apply_over(self, ts: np.ndarray) -> np.ndarray:
+        """:meth:`apply_at` at every time of ``ts`` (output sampling)."""
+        return np.ones(len(ts)) if self.kind == "oneway" else np.maximum(self.apply.sample(ts), 0.0)
+
     def static_capacity(self, t: float) -> float:
         return float("inf") if self.kind == "oneway" else self.static * self.apply_at(t)
 
-    def _scale(self, direction: int, capacity: str) -> float:
+    def signed_capacity(self, direction: int, capacity: str = "dynamic") -> float:
         """Capacity [N*m] times the band-brake gain, signed by ``direction``; 0 for none."""
         if self.kind == "oneway" or direction == 0:
             return 0.0
@@ -68,10 +72,10 @@ class ElementConfig:
 
     def slip_torque(self, t: float, slip: float, direction: int, capacity: str = "dynamic") -> float:
         """Torque of the element slipping in ``direction`` (+1/-1) at slip speed ``slip``."""
-        return self.torque_at(t, slip, self._scale(direction, capacity), capacity == "dynamic")
+        return self.torque_at(t, slip, self.signed_capacity(direction, capacity), capacity == "dynamic")
 
     def torque_at(self, t: float, slip: float, scale: float, friction: bool = True) -> float:
-        """:meth:`slip_torque` with the signed capacity ``scale`` of :meth:`_scale` given (a
+        """:meth:`slip_torque` with the signed capacity ``scale`` of :meth:`signed_capacity` given (a
         right-hand side computes it once per segment); ``friction``: apply the friction table."""
         if scale == 0.0:
             return 0.0
@@ -84,10 +88,10 @@ class ElementConfig:
 
     def slip_torques(self, ts: np.ndarray, slips: np.ndarray, direction: int) -> np.ndarray:
         """:meth:`slip_torque` (dynamic capacity) at the times ``ts`` with the slips ``slips``."""
-        scale = self._scale(direction, "dynamic")
+        scale = self.signed_capacity(direction)
         if scale == 0.0:
             return np.zeros(len(ts))
-        a = np.maximum(self.apply.sample(ts), 0.0)
+        a = self.apply_over(ts)
         if self.friction is not None:
             a = a * np.interp(np.abs(slips), self.friction[0], self.friction[1])
         return scale * a
@@ -206,7 +210,7 @@ class Transmission:
         that can transmit torque while slipping in a mode between ``t0`` and ``t1`` (friction
         elements not locked, with a slip direction, whose apply can rise above zero): what a
         right-hand side loops over (with :meth:`ElementConfig.torque_at`)."""
-        return tuple((i, int(self.element_input[i]), e, e._scale(int(directions[i]), "dynamic"))
+        return tuple((i, int(self.element_input[i]), e, e.signed_capacity(int(directions[i])))
                      for i, e in enumerate(self.elements)
                      if i not in locked and e.kind != "oneway" and directions[i] != 0
                      and e.apply.upper_bound(t0, t1) > 0.0)

@@ -136,6 +136,10 @@ def cmd_modes(args) -> int:
     return 0
 
 
+def _symbolic_progress(i: int, n: int, mode) -> None:
+    print(f"\r  solving mode {mode.name} symbolically ({i + 1}/{n})   ", end="", file=sys.stderr, flush=True)
+
+
 def cmd_matrices(args) -> int:
     from .export import write_state_space
     from .graph import build_graph, link_nodes
@@ -144,10 +148,7 @@ def cmd_matrices(args) -> int:
 
     mech = load_checked(args.file)
     which = {"auto": "auto", "all": "all", "declared": "declared", "default": "default"}[args.modes]
-    progress = None
-    if args.symbolic and sys.stderr.isatty():
-        def progress(i, n, mode):
-            print(f"\r  solving mode {mode.name} symbolically ({i + 1}/{n})   ", end="", file=sys.stderr, flush=True)
+    progress = _symbolic_progress if args.symbolic and sys.stderr.isatty() else None
     models = mode_models(mech, which, symbolic=args.symbolic, progress=progress)
     if progress is not None:
         print(file=sys.stderr)

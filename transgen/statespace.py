@@ -21,7 +21,6 @@ import numpy as np
 from .equations import kinematic_basis
 from .errors import ModeError
 from .graph import build_graph, link_nodes
-from .kinematics import numeric_rank
 from .model import Mechanism
 from .modes import (
     ModeModel,
