@@ -19,8 +19,8 @@ import numpy as np
 from transgen.errors import ModeError, SimulationError
 
 from .result import Event
-from .simulate import (Powertrain, SolverOptions, _breakpoints, _check_finite, _collect, _Layout, _Model, _Segment,
-                       integrate, memo_last, sample_block)
+from .integration import (ComponentEvaluator, Powertrain, Segment, SolverOptions, StateLayout, breakpoints,
+                          check_finite, collect, integrate, memo_last, sample_block)
 
 __all__ = ["simulate_compliant"]
 
@@ -28,7 +28,7 @@ __all__ = ["simulate_compliant"]
 def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
     """Simulate with the compliant clutch model (see the module docstring)."""
     tr = pt.transmission
-    model = _Model(pt)
+    model = ComponentEvaluator(pt)
     wall = _time.perf_counter()
     try:
         mode = tr.mode(frozenset())
@@ -48,13 +48,13 @@ def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
     t = options.t_start
     segments, events = [], [Event(t, "start", tuple(e.name for e, s in zip(tr.elements, stuck) if s), "", _name(tr, stuck))]
     success, message = True, "completed"
-    layout = _Layout(pt.components, mode.dof + n_e)
+    layout = StateLayout(pt.components, mode.dof + n_e)
     spring = slice(mode.dof, mode.dof + n_e)
     zeno_time, zeno_count = -math.inf, 0
     while t < options.t_end - 1e-12:
         seg_stuck, seg_dirs = stuck.copy(), directions.copy()
         y0 = np.concatenate([w[mode.coords], phi] + comp_states + [energy])
-        t_stop = min([b for b in _breakpoints(pt, t, options.t_end) if b > t + 1e-12] + [options.t_end])
+        t_stop = min([b for b in breakpoints(pt, t, options.t_end) if b > t + 1e-12] + [options.t_end])
         seg_locked = frozenset(np.flatnonzero(seg_stuck))
 
         def point(tt, y, seg_stuck=seg_stuck, PC=tr.P @ mode.C,
@@ -106,9 +106,9 @@ def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
             success, message = False, f"{exc} (compliant model, sticking {_name(tr, seg_stuck)})"
             break
         t_end = float(sol.t[-1])
-        segments.append(_Segment(t, t_end, seg_locked, seg_dirs, mode, sol.sol, seg_stuck))
+        segments.append(Segment(t, t_end, seg_locked, seg_dirs, mode, sol.sol, seg_stuck))
         y_end = sol.y[:, -1]
-        _check_finite(t_end, y_end, "compliant model")
+        check_finite(t_end, y_end, "compliant model")
         w = mode.C @ y_end[: mode.dof]
         phi = y_end[spring].copy()
         comp_states = [y_end[sl] for sl in layout.slices]
@@ -147,8 +147,8 @@ def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
         t = t_end
         if progress is not None:
             progress(t)
-    return _collect(pt, options, segments, events, success, message, model, wall,
-                    sampler=lambda p, seg, ts, ys: _sample(p, seg, ts, ys, k, c))
+    return collect(pt, options, segments, events, success, message, model, wall,
+                   lambda p, seg, ts, ys: _sample(p, seg, ts, ys, k, c))
 
 
 def _name(tr, stuck) -> str:

@@ -1,0 +1,213 @@
+"""Runde's mode-switching method (thesis 3.2) with located events.
+
+The states are the generalized coordinates of the current mode, the states of the components
+(engine, driveline, ...) and three energy integrals. Between events the mode and the slip
+direction of every slipping element are fixed, so the right-hand side is smooth. The integrator
+(``scipy.integrate.solve_ivp``, through :func:`.integration.integrate`) locates, by root finding
+on its dense output:
+
+* a slipping element's slip crossing zero (it may lock, or slip the other way);
+* a locked friction element's torque reaching its static capacity ``T_static * apply(t)``;
+* a locked one-way clutch's torque reversing.
+
+At each event, and at each breakpoint of an input signal, the new mode is decided by
+:meth:`Transmission.decide` (every element at zero slip may lock or slip either way; the unique
+consistent combination is taken, otherwise the run stops naming the elements). The new mode's
+states are the link speeds at the event, so no link speed jumps.
+"""
+from __future__ import annotations
+
+import math
+import time as _time
+
+import numpy as np
+
+from transgen.errors import ModeError, SimulationError
+
+from .integration import (ComponentEvaluator, Powertrain, Segment, SolverOptions, StateLayout, breakpoints,
+                          check_finite, collect, integrate, memo_last, sample_block)
+from .result import Event, Result
+
+__all__ = ["simulate_switching"]
+
+
+def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None) -> Result:
+    """Simulate ``pt`` with Runde's mode-switching method (see the module docstring)."""
+    tr = pt.transmission
+    model = ComponentEvaluator(pt)
+    wall = _time.perf_counter()
+    w0 = np.asarray(pt.initial_speeds, dtype=float)
+    comp_states = [c.initial_state(w0) for c in pt.components]
+    t = options.t_start
+    segments: list[Segment] = []
+    events: list[Event] = []
+    message, success = "completed", True
+    locked: frozenset | None = None
+    directions = np.sign(tr.P @ w0).astype(int)
+    energy = np.zeros(3)
+    zeno_time, zeno_count = -math.inf, 0
+    n_events = 0
+    w = w0.copy()
+    forced: dict[int, int] = {}
+
+    def slip_tol(w):
+        return max(1e-9, options.slip_tol * max(1.0, float(np.max(np.abs(w)))))
+
+    while t < options.t_end - 1e-12:
+        # the consistent mode at t
+        dummy_layout = StateLayout(pt.components, 0)
+        y_ext = np.concatenate(comp_states + [energy]) if comp_states else energy.copy()
+        u_ext, *_ = model.external(t, y_ext, w, dummy_layout)
+        previous = locked
+        try:
+            locked, directions = tr.decide(t, w, u_ext, slip_tol(w), forced)
+            mode = tr.mode(locked)
+        except (SimulationError, ModeError) as exc:
+            success, message = False, f"{exc} (mode {tr.mode_name(previous) if previous is not None else 'none'})"
+            break
+        if previous is None:
+            events.append(Event(t, "start", tuple(tr.elements[i].name for i in sorted(locked)), "", tr.mode_name(locked)))
+        elif locked != previous:
+            gained = sorted(locked - previous)
+            lost = sorted(previous - locked)
+            kind = "lock" if gained and not lost else ("unlock" if lost and not gained else "switch")
+            events.append(Event(t, kind, tuple(tr.elements[i].name for i in gained + lost),
+                                tr.mode_name(previous), tr.mode_name(locked)))
+        # zeno / chattering guard: many decisions at (nearly) the same instant
+        if t - zeno_time < 1e-9 * max(1.0, abs(t)):
+            zeno_count += 1
+            if zeno_count > 50:
+                names = sorted({x for ev in events[-10:] for x in ev.elements})
+                success, message = False, (f"t={t:.9g} s: mode chattering (Zeno behaviour) between "
+                                           f"{', '.join(names)} in mode {tr.mode_name(locked)}")
+                break
+        else:
+            zeno_time, zeno_count = t, 0
+        w = mode.C @ w[mode.coords]  # project onto the new mode (no jump: slips of locking elements ~0)
+        layout = StateLayout(pt.components, mode.dof)
+        y0 = np.concatenate([w[mode.coords]] + comp_states + [energy])
+        breaks = breakpoints(pt, t, options.t_end)
+        t_stop = min([b for b in breaks if b > t + 1e-12] + [options.t_end])
+        seg_dirs = directions.copy()
+        slipping = [i for i in range(len(tr.elements)) if i not in locked]
+
+        def point(tt, y, C=mode.C, PC=tr.P @ mode.C, dof=mode.dof, layout=layout,
+                  active=tr.slipping_set(locked, seg_dirs, t, t_stop)):
+            q = y[:dof]
+            ww = C @ q
+            u, derivs, p_in, diss, p_load = model.external(tt, y, ww, layout)
+            slips = PC @ q
+            if active:
+                s = slips.tolist()
+                for i, col, e, scale in active:
+                    torque = e.torque_at(tt, s[i], scale)
+                    u[col] += torque
+                    diss += torque * s[i]
+            return ww, u, derivs, p_in, diss, p_load, slips
+
+        evaluate = memo_last(model, point)
+
+        def rhs(tt, y, mode=mode, layout=layout):
+            ww, u, derivs, p_in, diss, p_load, _ = evaluate(tt, y)
+            return layout.derivative(mode.B @ u, derivs, p_in, diss, p_load)
+
+        event_funcs = []
+        # an element starting at zero slip (open, or a one-way clutch) moves off in the direction
+        # of its slip acceleration; the event must only catch it coming back through zero
+        _, u0, *_ = evaluate(t, y0)
+        start_acc = tr.P @ (mode.C @ (mode.B @ u0))
+        start_slip = tr.P @ w
+        for i in slipping:
+            e = tr.elements[i]
+            moving = seg_dirs[i] if abs(start_slip[i]) > slip_tol(w) else int(np.sign(start_acc[i]))
+
+            def slip_event(tt, y, i=i):
+                return evaluate(tt, y)[6][i]
+
+            slip_event.terminal = True
+            slip_event.direction = -moving
+            if moving == 0:
+                continue
+            slip_event.info = ("slip", i)
+            event_funcs.append(slip_event)
+        for row, i in enumerate(mode.locked_order):
+            e = tr.elements[i]
+
+            def torque_event(tt, y, row=row, e=e, mode=mode):
+                u = evaluate(tt, y)[1]
+                t_e = mode.D[row] @ u
+                if e.kind == "oneway":
+                    return -e.free * t_e
+                return e.static_capacity(tt) - abs(t_e)
+
+            torque_event.terminal = True
+            torque_event.direction = -1
+            torque_event.info = ("torque", i)
+            event_funcs.append(torque_event)
+
+        for controller in pt.controllers:
+            for func, kind in controller.event_functions():
+
+                def control_event(tt, y, func=func, mode=mode):
+                    return func(tt, mode.C @ y[: mode.dof])
+
+                control_event.terminal = True
+                control_event.direction = -1
+                control_event.info = ("control", (controller, kind))
+                event_funcs.append(control_event)
+
+        try:
+            sol = integrate(rhs, t, t_stop, y0, options, event_funcs, layout.energy.start)
+        except SimulationError as exc:
+            success, message = False, f"{exc} (mode {tr.mode_name(locked)})"
+            break
+        t_end = float(sol.t[-1])
+        segments.append(Segment(t, t_end, locked, seg_dirs, mode, sol.sol))
+        y_end = sol.y[:, -1]
+        check_finite(t_end, y_end, f"mode {tr.mode_name(locked)}")
+        w = mode.C @ y_end[: mode.dof]
+        comp_states = [y_end[sl] for sl in layout.slices]
+        energy = y_end[layout.energy]
+        forced = {}
+        if sol.status == 1:
+            n_events += 1
+            u_end = evaluate(t_end, y_end)[1]
+            for f, te in zip(event_funcs, sol.t_events):
+                kind, i = f.info
+                if len(te) and kind == "control":
+                    controller, what = i
+                    description = controller.fire(what, t_end, {e.name: e for e in tr.elements})
+                    if description:
+                        events.append(Event(t_end, "command", (), tr.mode_name(locked), tr.mode_name(locked), description))
+                if len(te) and kind == "torque":
+                    e = tr.elements[i]
+                    t_e = mode.D[mode.locked_order.index(i)] @ u_end
+                    forced[i] = e.free if e.kind == "oneway" else int(np.sign(t_e))
+            if n_events > options.max_events:
+                success, message = False, f"t={t_end:.6g} s: more than {options.max_events} events"
+                break
+        t = t_end
+        if progress is not None:
+            progress(t)
+
+    return collect(pt, options, segments, events, success, message, model, wall, _sample)
+
+
+
+
+def _sample(pt: Powertrain, seg: Segment, ts: np.ndarray, ys: np.ndarray) -> dict[str, np.ndarray]:
+    tr = pt.transmission
+    mode = seg.mode
+    slipping = np.array([i not in seg.locked for i in range(len(tr.elements))])
+
+    def element_state(W, slips, U):
+        te = tr.slipping_torques_at(ts, W, seg.locked, seg.directions)
+        torques = te.copy()
+        if mode.locked_order:
+            full = U.copy()
+            full[tr.element_input] += te
+            torques[list(mode.locked_order)] = mode.D @ full
+        power = np.where(slipping[:, None], np.abs(torques * slips), 0.0)
+        return te, torques, power, 0.0
+
+    return sample_block(pt, seg, ts, ys, 0, element_state)
