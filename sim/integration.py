@@ -21,11 +21,15 @@ from scipy.integrate import solve_ivp
 from transgen.errors import SimulationError
 
 from .components import Component
+from .monitor import InvariantMonitor
 from .result import Event, ModeSpan, Result
-from .transmission import ModeData, Transmission
+from .signals import Constant
+from .transmission import APPLY_THRESHOLD, ModeData, Transmission
 
 __all__ = ["SolverOptions", "Powertrain", "Segment", "StateLayout", "ComponentEvaluator", "breakpoints", "memo_last",
-           "check_finite", "integrate", "collect", "sample_block"]
+           "slip_event", "apply_events",
+           "check_finite", "integrate", "output_times", "Recorder", "collect", "energy_scale",
+           "sample_block"]
 
 
 @dataclass(frozen=True)
@@ -36,7 +40,9 @@ class SolverOptions:
     element is a spring ``stiffness`` [N*m/rad] with damper ``damping`` [N*m*s/rad]).
     ``output_dt``: spacing of the output samples [s]. ``slip_tol``: slip speed [rad/s] below
     which an element counts as at zero slip in the mode decision (relative to the largest link
-    speed, at least 1e-9).
+    speed, at least 1e-9). ``monitor``: check the physical invariants of :mod:`.monitor` on every
+    segment (on by default); ``energy_tol``: the largest energy residual of one segment, relative
+    to the run's energy scale.
     """
 
     t_end: float = 10.0
@@ -49,6 +55,8 @@ class SolverOptions:
     output_dt: float = 1e-3
     slip_tol: float = 1e-7
     max_events: int = 100000
+    monitor: bool = True
+    energy_tol: float = 1e-3
     stiffness: float = 1e5
     damping: float = 100.0
 
@@ -153,34 +161,96 @@ def memo_last(model: "ComponentEvaluator", func):
     return wrapper
 
 
+def slip_event(slips_of, i: int, moving: int, tol: float):
+    """Terminal event of element ``i`` slipping in direction ``moving`` (+1/-1): its slip
+    (``slips_of(t, y)[i]`` [rad/s]) comes back through zero. It fires at ``moving * slip =
+    -tol/1000``, a little past zero but well inside the mode decision's slip tolerance ``tol``, so
+    that the decision finds the element at zero slip, and a slip that starts at zero or within
+    round-off of it on the wrong side (an element whose slip accelerates against the direction it
+    was given) is caught at once instead of running away without a crossing."""
+    half = 1e-3 * tol
+
+    def event(tt, y):
+        return moving * slips_of(tt, y)[i] + half
+
+    event.terminal, event.direction, event.info = True, -1, ("slip", i)
+    return event
+
+
+def apply_events(tr: Transmission, indices, t0: float) -> list:
+    """Terminal events of the friction elements ``indices`` whose apply signal varies: the apply
+    crossing :data:`~.transmission.APPLY_THRESHOLD` (a rise from zero, where an element at zero
+    slip may lock, or a fall to zero; both are kinks of the element torque, which must not be
+    stepped over). Each event watches the crossing away from the state just after ``t0``."""
+    out = []
+    for i in indices:
+        e = tr.elements[i]
+        if e.kind == "oneway" or isinstance(e.apply, Constant):
+            continue
+
+        def event(tt, y, signal=e.apply):
+            return signal.value(tt) - APPLY_THRESHOLD
+
+        event.terminal, event.info = True, ("apply", i)
+        event.direction = -1 if e.applied_just_after(t0) else 1
+        out.append(event)
+    return out
+
+
 def check_finite(t, y, where: str):
     if not np.all(np.isfinite(y)):
         raise SimulationError(f"t={t:.6g} s: non-finite state in {where}")
 
 
-def collect(pt: Powertrain, options: SolverOptions, segments: list[Segment], events: list[Event], success: bool,
-             message: str, model: ComponentEvaluator, wall: float, sampler) -> Result:
-    """Sample every segment on the output grid and compute the named signals.
+def output_times(t0: float, t1: float, dt: float) -> np.ndarray:
+    """The sample times of a segment ``[t0, t1]``: its ends and the output grid (spacing ``dt``)
+    strictly inside."""
+    grid = np.arange(math.ceil((t0 + 1e-12) / dt) * dt, t1, dt)
+    grid = grid[(grid > t0 + 1e-12) & (grid < t1 - 1e-12)]
+    return np.concatenate([[t0], grid, [t1]])
+
+
+class Recorder:
+    """The sampled output of a run, segment by segment, checked by the invariant monitor.
 
     ``sampler(pt, seg, ts, ys)`` gives the signals of one segment at the times ``ts`` from its
     states ``ys`` (one column per time) as a dict of arrays (each clutch model has its own, built
-    on :func:`sample_block`)."""
+    on :func:`sample_block`). :meth:`add` samples a finished segment at once, so that a violated
+    invariant stops the run where it happens (:class:`~.monitor.InvariantViolation`); the
+    violating segment's samples are kept for the plots.
+    """
+
+    def __init__(self, pt: Powertrain, options: SolverOptions, sampler):
+        self.pt, self.options, self.sampler = pt, options, sampler
+        self.segments: list[Segment] = []
+        self.blocks: list[dict[str, np.ndarray]] = []
+        self.times: list[np.ndarray] = []
+        self.monitor = (InvariantMonitor(pt.transmission, options.slip_tol, options.energy_tol)
+                        if options.monitor else None)
+
+    def add(self, seg: Segment) -> None:
+        ts = output_times(seg.t0, seg.t1, self.options.output_dt)
+        block = self.sampler(self.pt, seg, ts, seg.sol(ts))  # the dense output at all samples at once
+        self.segments.append(seg)
+        self.blocks.append(block)
+        self.times.append(ts)
+        if self.monitor is not None:
+            self.monitor.check(ts, block, seg.locked, self.pt.transmission.mode_name(seg.locked))
+
+
+def collect(pt: Powertrain, options: SolverOptions, recorder: Recorder, events: list[Event], success: bool,
+            message: str, model: ComponentEvaluator, wall: float) -> Result:
+    """The :class:`Result` of a run from its recorded segments."""
     tr = pt.transmission
     e_names = [e.name for e in tr.elements]
-    blocks: list[dict[str, np.ndarray]] = []
-    times: list[np.ndarray] = []
     mode_names = []
     order: list[str] = []
-    for seg in segments:
-        grid = np.arange(math.ceil((seg.t0 + 1e-12) / options.output_dt) * options.output_dt, seg.t1, options.output_dt)
-        grid = grid[(grid > seg.t0 + 1e-12) & (grid < seg.t1 - 1e-12)]
-        ts = np.concatenate([[seg.t0], grid, [seg.t1]])
-        blocks.append(sampler(pt, seg, ts, seg.sol(ts)))  # the dense output at all samples at once
-        times.append(ts)
+    for seg, ts in zip(recorder.segments, recorder.times):
         name = tr.mode_name(seg.locked)
         if name not in order:
             order.append(name)
         mode_names.append(np.full(len(ts), order.index(name) + 1.0))
+    blocks, times = recorder.blocks, recorder.times
     units = {f"w_{k}": "rad/s" for k in tr.links}
     for n in e_names:
         units.update({f"slip_{n}": "rad/s", f"t_{n}": "N*m", f"apply_{n}": "1", f"P_{n}": "W", f"locked_{n}": "1"})
@@ -194,7 +264,7 @@ def collect(pt: Powertrain, options: SolverOptions, segments: list[Segment], eve
     arrays["mode"] = np.concatenate(mode_names) if mode_names else np.zeros(0)
     time_arr = np.concatenate(times) if times else np.zeros(0)
     spans = []
-    for seg in segments:
+    for seg in recorder.segments:
         name = tr.mode_name(seg.locked)
         locked = tuple(tr.elements[i].name for i in sorted(seg.locked))
         if spans and spans[-1].name == name and abs(spans[-1].t1 - seg.t0) < 1e-12:
@@ -208,12 +278,21 @@ def collect(pt: Powertrain, options: SolverOptions, segments: list[Segment], eve
         residual = e_in[-1] - (d_stored + e_diss[-1] + e_load[-1])
         energy = {"work_in": float(e_in[-1]), "stored_change": float(d_stored), "dissipated": float(e_diss[-1]),
                   "work_to_load": float(e_load[-1]), "residual": float(residual),
-                  "relative_residual": float(abs(residual) / max(abs(e_in[-1]), 1e-12))}
+                  "relative_residual": float(abs(residual) / energy_scale(arrays))}
     stats = {"wall_time": _time.perf_counter() - wall, "rhs_evaluations": model.calls,
-             "events": sum(1 for e in events if e.kind != "start"), "segments": len(segments)}
+             "events": sum(1 for e in events if e.kind != "start"), "segments": len(recorder.segments)}
+    if recorder.monitor is not None:
+        stats["invariants"] = recorder.monitor.summary()
     meta = {"mechanism": tr.mech.name, "model": options.model, "links": list(tr.links), "elements": e_names,
             "mode_names": order, "coordinates": list(tr.coordinates)}
     return Result(time_arr, arrays, units, spans, events, success, message, energy, stats, meta)
+
+
+def energy_scale(arrays: dict[str, np.ndarray]) -> float:
+    """The energy [J] a run's energy residual is measured against: the largest of the work in,
+    the dissipated energy, the work to the load and the stored energy over the run (never near
+    zero while anything moves, also when no work goes in, e.g. a coast-down), at least 1e-12."""
+    return max([float(np.max(np.abs(arrays[k]))) for k in ("E_in", "E_dissipated", "E_load", "E_stored")] + [1e-12])
 
 
 def sample_block(pt: Powertrain, seg: Segment, ts: np.ndarray, ys: np.ndarray, n_extra: int,

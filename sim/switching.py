@@ -8,7 +8,14 @@ on its dense output:
 
 * a slipping element's slip crossing zero (it may lock, or slip the other way);
 * a locked friction element's torque reaching its static capacity ``T_static * apply(t)``;
-* a locked one-way clutch's torque reversing.
+* a locked one-way clutch's torque reversing;
+* an apply signal rising from zero or falling to zero (a kink of the element's torque, and an
+  element at zero slip may lock).
+
+A slip within the decision's tolerance is at zero slip: the speeds are projected so that it is
+exactly zero, and its slip event fires when the slip, moving off in its direction, comes back a
+thousandth of the tolerance past zero, so that a slip that accelerates the wrong way is caught at
+once, never run away from (:func:`.integration.slip_event`).
 
 At each event, and at each breakpoint of an input signal, the new mode is decided by
 :meth:`Transmission.decide` (every element at zero slip may lock or slip either way; the unique
@@ -24,8 +31,8 @@ import numpy as np
 
 from transgen.errors import ModeError, SimulationError
 
-from .integration import (ComponentEvaluator, Powertrain, Segment, SolverOptions, StateLayout, breakpoints,
-                          check_finite, collect, integrate, memo_last, sample_block)
+from .integration import (ComponentEvaluator, Powertrain, Recorder, Segment, SolverOptions, StateLayout, apply_events,
+                          breakpoints, check_finite, collect, integrate, memo_last, sample_block, slip_event)
 from .result import Event, Result
 
 __all__ = ["simulate_switching"]
@@ -39,7 +46,7 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None) ->
     w0 = np.asarray(pt.initial_speeds, dtype=float)
     comp_states = [c.initial_state(w0) for c in pt.components]
     t = options.t_start
-    segments: list[Segment] = []
+    recorder = Recorder(pt, options, _sample)
     events: list[Event] = []
     message, success = "completed", True
     locked: frozenset | None = None
@@ -83,9 +90,18 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None) ->
                 break
         else:
             zeno_time, zeno_count = t, 0
-        w = mode.C @ w[mode.coords]  # project onto the new mode (no jump: slips of locking elements ~0)
+        # project onto the new mode, and the slips at zero (within the tolerance) onto exactly zero, so
+        # that an element moving off from zero slip starts there and not at round-off on either side
+        # (no jump: these slips are below the tolerance)
+        q = w[mode.coords]
+        tol = slip_tol(w)
+        at_zero = [i for i in range(len(tr.elements)) if i not in locked and abs(tr.P[i] @ w) <= tol]
+        if at_zero:
+            a = tr.P[at_zero] @ mode.C
+            q = q - np.linalg.lstsq(a, a @ q, rcond=None)[0]
+        w = mode.C @ q
         layout = StateLayout(pt.components, mode.dof)
-        y0 = np.concatenate([w[mode.coords]] + comp_states + [energy])
+        y0 = np.concatenate([q] + comp_states + [energy])
         breaks = breakpoints(pt, t, options.t_end)
         t_stop = min([b for b in breaks if b > t + 1e-12] + [options.t_end])
         seg_dirs = directions.copy()
@@ -111,34 +127,15 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None) ->
             ww, u, derivs, p_in, diss, p_load, _ = evaluate(tt, y)
             return layout.derivative(mode.B @ u, derivs, p_in, diss, p_load)
 
-        event_funcs = []
-        # an element starting at zero slip (open, or a one-way clutch) moves off in the direction
-        # of its slip acceleration; the event must only catch it coming back through zero
-        _, u0, *_ = evaluate(t, y0)
-        start_acc = tr.P @ (mode.C @ (mode.B @ u0))
-        start_slip = tr.P @ w
-        for i in slipping:
-            e = tr.elements[i]
-            moving = seg_dirs[i] if abs(start_slip[i]) > slip_tol(w) else int(np.sign(start_acc[i]))
-
-            def slip_event(tt, y, i=i):
-                return evaluate(tt, y)[6][i]
-
-            slip_event.terminal = True
-            slip_event.direction = -moving
-            if moving == 0:
-                continue
-            slip_event.info = ("slip", i)
-            event_funcs.append(slip_event)
+        event_funcs = [slip_event(lambda tt, y: evaluate(tt, y)[6], i, int(seg_dirs[i]), tol)
+                       for i in slipping if seg_dirs[i] != 0]
+        event_funcs += apply_events(tr, slipping, t)
         for row, i in enumerate(mode.locked_order):
             e = tr.elements[i]
 
             def torque_event(tt, y, row=row, e=e, mode=mode):
                 u = evaluate(tt, y)[1]
-                t_e = mode.D[row] @ u
-                if e.kind == "oneway":
-                    return -e.free * t_e
-                return e.static_capacity(tt) - abs(t_e)
+                return e.holding_margin(tt, mode.D[row] @ u)
 
             torque_event.terminal = True
             torque_event.direction = -1
@@ -162,9 +159,13 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None) ->
             success, message = False, f"{exc} (mode {tr.mode_name(locked)})"
             break
         t_end = float(sol.t[-1])
-        segments.append(Segment(t, t_end, locked, seg_dirs, mode, sol.sol))
         y_end = sol.y[:, -1]
-        check_finite(t_end, y_end, f"mode {tr.mode_name(locked)}")
+        try:
+            check_finite(t_end, y_end, f"mode {tr.mode_name(locked)}")
+            recorder.add(Segment(t, t_end, locked, seg_dirs, mode, sol.sol))
+        except SimulationError as exc:
+            success, message = False, str(exc)
+            break
         w = mode.C @ y_end[: mode.dof]
         comp_states = [y_end[sl] for sl in layout.slices]
         energy = y_end[layout.energy]
@@ -190,9 +191,7 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None) ->
         if progress is not None:
             progress(t)
 
-    return collect(pt, options, segments, events, success, message, model, wall, _sample)
-
-
+    return collect(pt, options, recorder, events, success, message, model, wall)
 
 
 def _sample(pt: Powertrain, seg: Segment, ts: np.ndarray, ys: np.ndarray) -> dict[str, np.ndarray]:

@@ -26,7 +26,15 @@ from transgen.statespace import _mode_state_space, state_space
 
 from .signals import Constant, Signal
 
-__all__ = ["ElementConfig", "ModeData", "Transmission"]
+__all__ = ["ElementConfig", "ModeData", "Transmission", "APPLY_THRESHOLD"]
+
+#: An apply fraction at or below this counts as released. The simulator watches every apply signal
+#: crossing it (a rise from zero or a fall to zero is a kink of the element torque and may change the
+#: mode); slightly above zero so that an apply held at exactly zero never looks like a crossing.
+APPLY_THRESHOLD = 1e-12
+#: How far past ``t`` [s, relative to max(1, |t|)] :meth:`ElementConfig.applied_after` looks for a
+#: rising apply.
+APPLY_LOOKAHEAD = 1e-9
 
 
 @dataclass
@@ -57,6 +65,27 @@ class ElementConfig:
     def apply_over(self, ts: np.ndarray) -> np.ndarray:
         """:meth:`apply_at` at every time of ``ts`` (output sampling)."""
         return np.ones(len(ts)) if self.kind == "oneway" else np.maximum(self.apply.sample(ts), 0.0)
+
+    def applied_after(self, t: float) -> bool:
+        """Whether the element can transmit torque just after ``t``: a one-way clutch always, a
+        friction element when its apply is above zero at ``t`` or rises from zero right after it
+        (the right limit, so that an element whose apply starts to rise at ``t`` is decided as
+        applied)."""
+        return self.kind == "oneway" or self.apply_at(t) > 0.0 or self.applied_just_after(t)
+
+    def applied_just_after(self, t: float) -> bool:
+        """Whether the apply signal is above :data:`APPLY_THRESHOLD` just after ``t`` (the side of the
+        threshold a segment starting at ``t`` leaves from)."""
+        return self.apply.value(t + APPLY_LOOKAHEAD * max(1.0, abs(t))) > APPLY_THRESHOLD
+
+    def holding_margin(self, t: float, torque: float) -> float:
+        """How far the torque [N*m] of the element, locked, is inside its holding limit (>= 0: it
+        holds): ``T_static * apply - |t|`` for a friction element, ``-free * t`` for a one-way clutch,
+        each with the round-off allowance that the mode decision accepts (so that a lock decided
+        at its limit starts on the holding side of the unlock event)."""
+        if self.kind == "oneway":
+            return 1e-9 * (1.0 + abs(torque)) - self.free * torque
+        return self.static_capacity(t) * (1.0 + 1e-9) + 1e-9 - abs(torque)
 
     def static_capacity(self, t: float) -> float:
         return float("inf") if self.kind == "oneway" else self.static * self.apply_at(t)
@@ -232,8 +261,11 @@ class Transmission:
         """The consistent mode at time ``t`` and speeds ``w``: which elements at zero slip lock,
         and which way the others slip (complementarity, Pfeiffer & Glocker).
 
-        Elements with ``|slip| <= slip_tol`` that can transmit torque (apply > 0, or one-way) may
-        be locked or start slipping either way (a one-way clutch only in its free direction).
+        Elements with ``|slip| <= slip_tol`` are at zero slip (the slip left is round-off). Those
+        that can transmit torque (:meth:`ElementConfig.applied_after`: one-way, apply > 0, or an
+        apply that rises from zero at ``t``) may be locked or start slipping either way (a one-way
+        clutch only in its free direction); the released ones get the direction of their slip
+        acceleration in the chosen mode (never the sign of round-off).
         For every combination the mode's locked torques and slip accelerations are computed —
         with the static capacity for elements that start to slip, as the sticking test of 3.2.6
         asks — and the combination is consistent when every locked friction element holds
@@ -249,8 +281,9 @@ class Transmission:
         """
         forced = forced or {}
         slips = self.P @ w
-        zero = [i for i, e in enumerate(self.elements)
-                if abs(slips[i]) <= slip_tol and (e.kind == "oneway" or e.apply_at(t) > 0)]
+        at_zero = [i for i in range(len(self.elements)) if abs(slips[i]) <= slip_tol]
+        zero = [i for i in at_zero if self.elements[i].applied_after(t)]
+        released = [i for i in at_zero if i not in zero]
         base_dir = np.sign(slips).astype(int)
         consistent = []
         rejected = 0
@@ -275,17 +308,15 @@ class Transmission:
             t_locked = data.D @ u
             ok = True
             for row, i in enumerate(data.locked_order):
-                e = self.elements[i]
-                if e.kind == "oneway":
-                    # free=+1 overruns with positive slip: locked it transmits t <= 0
-                    if e.free * t_locked[row] > 1e-9 * (1 + abs(t_locked[row])):
-                        ok = False
-                elif abs(t_locked[row]) > e.static_capacity(t) * (1 + 1e-9) + 1e-9:
+                if self.elements[i].holding_margin(t, t_locked[row]) < 0.0:
                     ok = False
             for i, c in zip(zero, choice):
                 if c != 0 and i not in forced and not c * slip_acc[i] > 0:
                     ok = False
             if ok:
+                # a released element at zero slip moves off the way its slip accelerates
+                for i in released:
+                    directions[i] = int(np.sign(slip_acc[i]))
                 consistent.append((locked, directions))
         if len(consistent) == 1:
             return consistent[0]
