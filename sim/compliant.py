@@ -20,7 +20,7 @@ from transgen.errors import ModeError, SimulationError
 
 from .result import Event
 from .integration import (ComponentEvaluator, Powertrain, Recorder, Segment, SolverOptions, StateLayout, apply_events,
-                          breakpoints, check_finite, collect, integrate, memo_last, sample_block, slip_event)
+                          check_finite, collect, integrate, memo_last, next_stop, sample_block, slip_event)
 
 __all__ = ["simulate_compliant"]
 
@@ -56,7 +56,7 @@ def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
         y0 = np.concatenate([w[mode.coords], phi] + comp_states + [energy])
         seg_stuck = stuck.copy()
         seg_locked = frozenset(np.flatnonzero(seg_stuck))
-        t_stop = min([b for b in breakpoints(pt, t, options.t_end) if b > t + 1e-12] + [options.t_end])
+        t_stop = next_stop(pt, t, options.t_end, np.flatnonzero(~seg_stuck))
 
         def point(tt, y, seg_stuck=seg_stuck, PC=tr.P @ mode.C, active=()):
             q = y[: mode.dof]

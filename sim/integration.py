@@ -26,7 +26,7 @@ from .result import Event, ModeSpan, Result
 from .signals import Constant
 from .transmission import APPLY_THRESHOLD, ModeData, Transmission
 
-__all__ = ["SolverOptions", "Powertrain", "Segment", "StateLayout", "ComponentEvaluator", "breakpoints", "memo_last",
+__all__ = ["SolverOptions", "Powertrain", "Segment", "StateLayout", "ComponentEvaluator", "next_stop", "memo_last",
            "slip_event", "apply_events",
            "check_finite", "integrate", "output_times", "Recorder", "collect", "energy_scale",
            "sample_block"]
@@ -107,13 +107,26 @@ class StateLayout:
         return out
 
 
-def breakpoints(pt: Powertrain, t0: float, t1: float) -> list[float]:
+def next_stop(pt: Powertrain, t: float, t_end: float, released=()) -> float:
+    """Where the segment starting at ``t`` must end at the latest: the next breakpoint of an input
+    signal (a kink or jump of an apply, a torque, a throttle, ...), the next crossing of
+    :data:`~.transmission.APPLY_THRESHOLD` by the apply of an element of ``released`` (indices of
+    the elements not locked; a rise from zero may lock one, both directions are kinks of its
+    torque), or ``t_end``."""
+    after = t + 1e-12 * max(1.0, abs(t))
     points = set()
     for e in pt.transmission.elements:
         points.update(e.breakpoints())
     for c in pt.components:
         points.update(c.breakpoints())
-    return sorted(p for p in points if t0 < p < t1)
+    stop = min([p for p in points if after < p < t_end] + [t_end])
+    for i in released:
+        e = pt.transmission.elements[i]
+        if e.kind != "oneway":
+            crossing = e.apply.next_crossing(APPLY_THRESHOLD, after, stop)
+            if crossing is not None and crossing < stop:
+                stop = crossing
+    return stop
 
 
 class ComponentEvaluator:
@@ -348,10 +361,14 @@ def integrate(rhs, t0: float, t1: float, y0: np.ndarray, options: SolverOptions,
     Jacobian over those columns, the others being zero, instead of differencing every state.
     """
     extra = {}
+    # at most an eighth of the segment per step: a segment starts and ends at kinks, often where a
+    # forcing is zero (an apply between two zero crossings), and a solver whose first step is chosen
+    # from a zero derivative would otherwise step over the whole pulse with no error to see (BDF does)
+    max_step = min(options.max_step, (t1 - t0) / 8.0) if t1 > t0 else options.max_step
     if n_dynamic is not None and options.method in ("LSODA", "BDF", "Radau"):
         extra["jac"] = _partial_jacobian(rhs, len(y0), n_dynamic)
     sol = solve_ivp(rhs, (t0, t1), y0, method=options.method, rtol=options.rtol, atol=options.atol,
-                    max_step=options.max_step, events=events, dense_output=True, **extra)
+                    max_step=max_step, events=events, dense_output=True, **extra)
     if sol.status == -1:
         raise SimulationError(f"t={sol.t[-1]:.6g} s: integrator failed: {sol.message}")
     return sol

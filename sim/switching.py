@@ -32,7 +32,7 @@ import numpy as np
 from transgen.errors import ModeError, SimulationError
 
 from .integration import (ComponentEvaluator, Powertrain, Recorder, Segment, SolverOptions, StateLayout, apply_events,
-                          breakpoints, check_finite, collect, integrate, memo_last, sample_block, slip_event)
+                          check_finite, collect, integrate, memo_last, next_stop, sample_block, slip_event)
 from .result import Event, Result
 
 __all__ = ["simulate_switching"]
@@ -102,10 +102,9 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None) ->
         w = mode.C @ q
         layout = StateLayout(pt.components, mode.dof)
         y0 = np.concatenate([q] + comp_states + [energy])
-        breaks = breakpoints(pt, t, options.t_end)
-        t_stop = min([b for b in breaks if b > t + 1e-12] + [options.t_end])
-        seg_dirs = directions.copy()
         slipping = [i for i in range(len(tr.elements)) if i not in locked]
+        t_stop = next_stop(pt, t, options.t_end, slipping)
+        seg_dirs = directions.copy()
 
         def point(tt, y, C=mode.C, PC=tr.P @ mode.C, dof=mode.dof, layout=layout,
                   active=tr.slipping_set(locked, seg_dirs, t, t_stop)):
