@@ -36,7 +36,7 @@ from pathlib import Path
 
 import networkx as nx
 
-from .export import atomic_path
+from ..export import atomic_path
 
 __all__ = [
     "draw_graph",
@@ -443,7 +443,7 @@ def draw_graph(g, ax=None):
     from matplotlib.patches import FancyBboxPatch
 
     if not isinstance(g, nx.Graph):
-        from .graph import build_graph
+        from ..graph import build_graph
 
         g = build_graph(g)
     lay = _graph_layout(g)
@@ -744,7 +744,7 @@ def draw_std(std, ax=None, leaving: bool = False):
     from matplotlib.patches import Ellipse, FancyArrowPatch
 
     if not hasattr(std, "transitions"):
-        from .std import state_transition_diagram
+        from ..std import state_transition_diagram
 
         std = state_transition_diagram(std)
     middle_stubs = leaving and len({len(m.locked) for m in std.modes}) > 2
@@ -865,7 +865,7 @@ def graph_to_dot(g) -> str:
         groups for the transformer, link, shift-element and housing rows.
     """
     if not isinstance(g, nx.Graph):
-        from .graph import build_graph
+        from ..graph import build_graph
 
         g = build_graph(g)
     lines = [f"digraph {_q(g.graph.get('name', 'mechanism'))} {{",
@@ -905,7 +905,7 @@ def std_to_dot(std, leaving: bool = False) -> str:
         of locked elements.
     """
     if not hasattr(std, "transitions"):
-        from .std import state_transition_diagram
+        from ..std import state_transition_diagram
 
         std = state_transition_diagram(std)
     lines = [f"digraph {_q('STD ' + str(std.mechanism))} {{",
@@ -980,7 +980,7 @@ def graph_to_graphml(g) -> str:
         The GraphML document (``networkx.generate_graphml``).
     """
     if not isinstance(g, nx.Graph):
-        from .graph import build_graph
+        from ..graph import build_graph
 
         g = build_graph(g)
     h = nx.DiGraph() if g.is_directed() else nx.Graph()
