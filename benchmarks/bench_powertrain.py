@@ -15,7 +15,7 @@ import time
 import warnings
 
 import transgen.sim.simulate as simulate_module
-from transgen.sim.maps import RPM
+from transgen.sim.engine import RPM
 from transgen.sim.powertrain import TurbodieselSource, turbo_report
 from transgen.sim.scenario import load_scenario
 
@@ -82,7 +82,7 @@ def main() -> None:
     print(turbo_report(iterative).text())
     print(turbo_report(basic, iterative, engine=runs["basic"]["engine"]).text())
     if args.plot:
-        from transgen.sim.engine_plots import plot_turbo_comparison
+        from transgen.sim.engine.plots import plot_turbo_comparison
 
         for p in plot_turbo_comparison({"basic": basic, "iterative": iterative}, args.plot):
             print(f"  wrote {p}")

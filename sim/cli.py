@@ -175,7 +175,7 @@ def _comparison_plots(scenario, result, other_s, other, directory: Path, formats
             for fmt in formats:
                 written.append(str(save_figure(compare(runs, signal), directory / f"compare_{signal}.{fmt}")))
     if all("omega_tc" in r.signals for r in runs.values()):
-        from .engine_plots import plot_turbo_comparison
+        from .engine.plots import plot_turbo_comparison
 
         written += [str(p) for p in plot_turbo_comparison(runs, directory, formats=formats)]
     return written
@@ -207,7 +207,7 @@ def _comparison_text(scenario, a, qa, name_b, b, qb) -> str:
 
 def cmd_maps(args) -> int:
     """``transgen maps``: pre-process a map, print (or JSON) its summary, optionally plot it."""
-    from .engine_plots import load_named_map, map_summary, map_summary_text, plot_map_file
+    from .engine.plots import load_named_map, map_summary, map_summary_text, plot_map_file
 
     path, m = load_named_map(args.map)
     summary = map_summary(path, m)

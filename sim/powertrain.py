@@ -38,9 +38,9 @@ from transgen.errors import SimulationError
 from .causality import AlgebraicLoopError, Block, Causality, CausalityError, check_connections
 from .components import Component, Driveline, EngineOnLink, EngineWithConverter, InputTorque, LinkLoad
 from .engine import EngineParams, SpeedGovernor, TurbochargedDiesel
-from .maps import RPM
+from .engine import RPM
 from .signals import Signal
-from .torque_converter import TorqueConverter
+from .engine.torque_converter import TorqueConverter
 
 __all__ = [
     "TurbodieselSource",
@@ -599,7 +599,7 @@ def algorithm_difference(result, engine: TurbochargedDiesel, bins: int = 5, poin
     ``grows_with_flow``: ``|d chi|`` larger in the highest bin than in the lowest. Points where
     the iterative algorithm has no solution (choked ports) are skipped and counted.
     """
-    from .turbocharger import BasicTurbo, IterativeTurbo, PortAreas, TurboSolveError
+    from .engine.turbocharger import BasicTurbo, IterativeTurbo, PortAreas, TurboSolveError
 
     own = engine.turbo
     basic = BasicTurbo(own.compressor, own.turbine, own.shaft)

@@ -455,7 +455,7 @@ def _components(r: _Reader, data: dict, mech: Mechanism, tr: Transmission) -> li
         if kind == "engine_map":
             comps.append(EngineOnLink(engine, thr_signal, li[mech.input]))
         else:
-            from .torque_converter import TorqueConverter
+            from .engine.torque_converter import TorqueConverter
 
             conv_ref = inp.get("converter")
             try:

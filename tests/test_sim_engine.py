@@ -10,7 +10,7 @@ from transgen.errors import SimulationError
 from transgen.sim.causality import check_connections
 from transgen.sim.engine import (EngineParams, NonFiniteError, SpeedGovernor, TurbochargedDiesel,
                                  exhaust_temperature, rate)
-from transgen.sim.maps import RPM
+from transgen.sim.engine import RPM
 
 
 @pytest.fixture(autouse=True)

@@ -5,13 +5,13 @@ import warnings
 import pytest
 
 from transgen.errors import SimulationError
-from transgen.sim.compressor import Compressor
+from transgen.sim.engine.compressor import Compressor
 from transgen.sim.engine import TurbochargedDiesel
-from transgen.sim.maps import (AIR, EXHAUST, RPM, compression_outlet_temperature,
+from transgen.sim.engine import (AIR, EXHAUST, RPM, compression_outlet_temperature,
                                default_compressor_table, default_turbine_table,
                                expansion_outlet_temperature)
-from transgen.sim.turbine import Turbine
-from transgen.sim.turbocharger import (BasicTurbo, ChokedFlowError, IterativeTurbo, PortAreas,
+from transgen.sim.engine.turbine import Turbine
+from transgen.sim.engine.turbocharger import (BasicTurbo, ChokedFlowError, IterativeTurbo, PortAreas,
                                        TurboConvergenceError, TurboShaft, make_turbo,
                                        mach_from_total_temperature, mach_number, total_pressure,
                                        total_temperature)

@@ -9,7 +9,7 @@ The maps are computed by :func:`transgen.sim.maps.generate_compressor_map` and
 """
 from pathlib import Path
 
-from transgen.sim.maps import generate_compressor_map, generate_turbine_map, save_map
+from transgen.sim.engine import generate_compressor_map, generate_turbine_map, save_map
 
 
 def main(folder: Path = Path(__file__).resolve().parent) -> None:

@@ -145,7 +145,7 @@ Wahlström & Eriksson clamp their turbo-speed integrator at 100 rpm for the same
 turbine still delivers power at zero speed, so ``P/omega`` would be unbounded.
 """
 
-DATA_DIR = Path(__file__).resolve().parent / "data"
+DATA_DIR = Path(__file__).resolve().parent.parent / "data"
 """Folder of the shipped example maps and tables."""
 
 MIN_CHI_SPAN = 1e-4

@@ -61,8 +61,8 @@ from scipy.optimize import root
 
 from transgen.errors import SimulationError
 
-from .causality import Block, Causality, ports
-from .maps import AIR, EXHAUST, RPM, Gas
+from ..causality import Block, Causality, ports
+from .map_file import AIR, EXHAUST, RPM, Gas
 from .turbocharger import BasicTurbo, TurboShaft, make_turbo
 
 __all__ = [

@@ -28,8 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .engine import EngineParams
-from .maps import (DATA_DIR, RPM, CompressorMap, CompressorTable, MapError, TurbineMap, TurbineTable, load_map,
+from .diesel import EngineParams
+from .map_file import (DATA_DIR, RPM, CompressorMap, CompressorTable, MapError, TurbineMap, TurbineTable, load_map,
                    preprocess_compressor, preprocess_turbine)
 
 __all__ = [

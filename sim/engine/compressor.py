@@ -14,8 +14,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar, Mapping
 
-from .causality import Causality, ports
-from .maps import (AIR, OMEGA_FLOOR, CompressorTable, Gas, actual_flow,
+from ..causality import Causality, ports
+from .map_file import (AIR, OMEGA_FLOOR, CompressorTable, Gas, actual_flow,
                    compression_outlet_temperature, corrected_speed, torque_from_power)
 
 __all__ = ["Compressor", "CompressorPoint"]

@@ -13,8 +13,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar, Mapping
 
-from .causality import Causality, ports
-from .maps import (EXHAUST, OMEGA_FLOOR, Gas, TurbineTable, actual_flow, corrected_speed,
+from ..causality import Causality, ports
+from .map_file import (EXHAUST, OMEGA_FLOOR, Gas, TurbineTable, actual_flow, corrected_speed,
                    expansion_outlet_temperature, torque_from_power)
 
 __all__ = ["Turbine", "TurbinePoint"]
