@@ -16,7 +16,8 @@ import warnings
 
 import transgen.sim.simulate as simulate_module
 from transgen.sim.engine import RPM
-from transgen.sim.powertrain import TurbodieselSource, turbo_report
+from transgen.sim.engine.turbo_report import turbo_report
+from transgen.sim.powertrain import TurbodieselSource
 from transgen.sim.scenario import load_scenario
 
 SCENARIOS = (("basic", "ht740_turbo"), ("iterative", "ht740_turbo_iterative"))

@@ -62,7 +62,7 @@ from scipy.optimize import root
 from transgen.errors import SimulationError
 
 from ..causality import Block, Causality, ports
-from .map_file import AIR, EXHAUST, RPM, Gas
+from .gas import AIR, EXHAUST, RPM, Gas
 from .turbocharger import BasicTurbo, TurboShaft, make_turbo
 
 __all__ = [
@@ -259,8 +259,8 @@ class TurbochargedDiesel:
     ----------
     params : EngineParams
     turbo : {"basic", "iterative"} or BasicTurbo
-        Turbocharger algorithm (:class:`~transgen.sim.turbocharger.BasicTurbo` or
-        :class:`~transgen.sim.turbocharger.IterativeTurbo`) built with ``params.shaft`` and the
+        Turbocharger algorithm (:class:`~transgen.sim.engine.turbocharger.BasicTurbo` or
+        :class:`~transgen.sim.engine.turbocharger.IterativeTurbo`) built with ``params.shaft`` and the
         shipped maps, or an instance (which keeps its own maps and shaft).
     rack : float or callable
         Rack position in [0, 1], constant or a function of time [s].

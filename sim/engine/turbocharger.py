@@ -46,7 +46,8 @@ from transgen.errors import SimulationError
 
 from ..causality import Causality, ports
 from .compressor import Compressor, CompressorPoint
-from .map_file import (OMEGA_FLOOR, Gas, default_compressor_table, default_turbine_table)
+from .gas import OMEGA_FLOOR, Gas
+from .preprocessor import default_compressor_table, default_turbine_table
 from .turbine import Turbine, TurbinePoint
 
 __all__ = [
