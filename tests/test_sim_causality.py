@@ -3,9 +3,8 @@ import pytest
 
 from transgen.sim.causality import AlgebraicLoopError, Block, Causality, CausalityError, \
     check_connections
+from transgen.sim.engine import TurbochargedDiesel, default_compressor_table
 from transgen.sim.engine.compressor import Compressor
-from transgen.sim.engine import TurbochargedDiesel
-from transgen.sim.engine import default_compressor_table
 from transgen.sim.engine.torque_converter import TorqueConverter
 from transgen.sim.engine.turbocharger import BasicTurbo, IterativeTurbo, TurboShaft
 

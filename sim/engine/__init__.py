@@ -17,8 +17,8 @@ Data flow one way, from the top of the list to the bottom:
   (thesis 4.3);
 * :mod:`~transgen.sim.engine.turbocharger` - the two turbocharger algorithms, basic and
   iterative with kinetic energy (thesis 4.4, 4.5);
-* :mod:`~transgen.sim.engine.diesel` - the mean-value turbodiesel, its steady state, full-load
-  curve and rating;
+* :mod:`~transgen.sim.engine.diesel` - the mean-value turbodiesel and its steady state;
+* :mod:`~transgen.sim.engine.rating` - its full-load curve and rating (:func:`rate`);
 * :mod:`~transgen.sim.engine.torque_converter` - the hydrodynamic torque converter;
 * :mod:`~transgen.sim.engine.turbo_report`, :mod:`~transgen.sim.engine.plots`,
   :mod:`~transgen.sim.engine.map_summary` - the turbocharger report of a run, the thesis'
@@ -43,6 +43,8 @@ from .map_generator import *  # noqa: F401,F403
 from .map_generator import __all__ as _map_generator
 from .preprocessor import *  # noqa: F401,F403
 from .preprocessor import __all__ as _preprocessor
+from .rating import *  # noqa: F401,F403
+from .rating import __all__ as _rating
 from .torque_converter import *  # noqa: F401,F403
 from .torque_converter import __all__ as _torque_converter
 from .turbine import *  # noqa: F401,F403
@@ -55,4 +57,4 @@ from .turbomachine import *  # noqa: F401,F403
 from .turbomachine import __all__ as _turbomachine
 
 __all__ = [*_gas, *_map_file, *_preprocessor, *_map_generator, *_turbomachine, *_compressor, *_turbine,
-           *_turbocharger, *_diesel, *_torque_converter, *_turbo_report]
+           *_turbocharger, *_diesel, *_rating, *_torque_converter, *_turbo_report]

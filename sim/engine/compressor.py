@@ -28,19 +28,9 @@ __all__ = ["Compressor", "CompressorPoint"]
 class CompressorPoint(MachinePoint):
     """One quasi-steady compressor operating point: the :class:`MachinePoint` attributes (outlet
     temperature by eq. 4.7, power ``m_dot*cp*(T_out - T_in)`` absorbed, torque by eq. 4.9,
-    isentropic efficiency) and
-
-    Attributes
-    ----------
-    pressure_ratio : float
-        Total pressure ratio p02/p01 [-].
-    chi : float
-        Normalised pressure coordinate (eq. 4.25), unclamped.
-    corrected_speed : float
-        [rad/s] (eq. 4.21).
-    corrected_flow : float
-        [kg/s] (eq. 4.22).
-    """
+    isentropic efficiency), the total pressure ratio ``pressure_ratio`` p02/p01 [-], the
+    unclamped normalised pressure coordinate ``chi`` [-] (eq. 4.25), and the corrected speed
+    [rad/s] and flow [kg/s] of eqs 4.21-4.22."""
 
     pressure_ratio: float
     chi: float
@@ -50,19 +40,10 @@ class CompressorPoint(MachinePoint):
 
 @dataclass(frozen=True)
 class Compressor(Turbomachine):
-    """A compressor described by its causal table.
-
-    Parameters
-    ----------
-    table : CompressorTable
-        ``m_corr(N_corr, chi)``, ``eta(N_corr, chi)`` from
-        :func:`~transgen.sim.engine.preprocessor.preprocess_compressor`.
-    gas : Gas
-        Working gas (air).
-    omega_floor : float
-        Speed floor [rad/s] for ``torque = power/speed``
-        (see :data:`~transgen.sim.engine.gas.OMEGA_FLOOR`).
-    """
+    """A compressor described by its causal table ``m_corr(N_corr, chi)``, ``eta(N_corr, chi)``
+    (a :class:`~transgen.sim.engine.preprocessor.CompressorTable` from
+    :func:`~transgen.sim.engine.preprocessor.preprocess_compressor`); working gas air by
+    default; parameters as for :class:`~transgen.sim.engine.turbomachine.Turbomachine`."""
 
     table: CompressorTable
     gas: Gas = AIR

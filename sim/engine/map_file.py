@@ -160,23 +160,20 @@ class CompressorMap:
     provenance: tuple[tuple[str, str], ...] = ()
 
     def __post_init__(self):
-        problems: list[str] = []
-        _check_reference(self, problems)
-        _check_speed_lines(self.speed_lines, problems)
-        for s in self.speed_lines:
-            what = f"speed line {s.speed / RPM:.6g} rpm"
-            _check_lengths(what, problems, mass_flow=s.mass_flow,
-                           pressure_ratio=s.pressure_ratio, efficiency=s.efficiency)
-            if any(not 0.0 < e <= 1.0 for e in s.efficiency):
-                problems.append(f"{what}: efficiency must be in (0, 1]")
-            if any(m < 0.0 for m in s.mass_flow) or any(p <= 0.0 for p in s.pressure_ratio):
-                problems.append(f"{what}: mass flow must be >= 0 and pressure ratio > 0")
+        problems = _map_problems(self, ("mass_flow", "pressure_ratio", "efficiency"))
         for label, line in (("surge line", self.surge_line), ("stall line", self.stall_line)):
             _check_lengths(label, problems, speed=line.speed, mass_flow=line.mass_flow,
                            pressure_ratio=line.pressure_ratio)
             if any(b <= a for a, b in zip(line.speed, line.speed[1:])):
                 problems.append(f"{label}: speeds must be strictly increasing")
         _raise_problems(problems, f"compressor map '{self.name}'")
+
+    @staticmethod
+    def _line_problems(s: CompressorSpeedLine):
+        if not _efficiencies_valid(s):
+            yield _EFFICIENCY_RANGE
+        if any(m < 0.0 for m in s.mass_flow) or any(p <= 0.0 for p in s.pressure_ratio):
+            yield "mass flow must be >= 0 and pressure ratio > 0"
 
 
 @dataclass(frozen=True)
@@ -193,33 +190,42 @@ class TurbineMap:
     provenance: tuple[tuple[str, str], ...] = ()
 
     def __post_init__(self):
-        problems: list[str] = []
-        _check_reference(self, problems)
-        _check_speed_lines(self.speed_lines, problems)
-        for s in self.speed_lines:
-            what = f"speed line {s.speed / RPM:.6g} rpm"
-            _check_lengths(what, problems, expansion_ratio=s.expansion_ratio,
-                           mass_flow=s.mass_flow, efficiency=s.efficiency)
-            if any(b <= a for a, b in zip(s.expansion_ratio, s.expansion_ratio[1:])):
-                problems.append(f"{what}: expansion ratios must be strictly increasing")
-            if any(e < 1.0 for e in s.expansion_ratio):
-                problems.append(f"{what}: expansion ratios must be >= 1")
-            if any(not 0.0 < e <= 1.0 for e in s.efficiency):
-                problems.append(f"{what}: efficiency must be in (0, 1]")
-            if any(m < 0.0 for m in s.mass_flow):
-                problems.append(f"{what}: mass flow must be >= 0")
+        problems = _map_problems(self, ("expansion_ratio", "mass_flow", "efficiency"))
         _raise_problems(problems, f"turbine map '{self.name}'")
 
+    @staticmethod
+    def _line_problems(s: TurbineSpeedLine):
+        if any(b <= a for a, b in zip(s.expansion_ratio, s.expansion_ratio[1:])):
+            yield "expansion ratios must be strictly increasing"
+        if any(e < 1.0 for e in s.expansion_ratio):
+            yield "expansion ratios must be >= 1"
+        if not _efficiencies_valid(s):
+            yield _EFFICIENCY_RANGE
+        if any(m < 0.0 for m in s.mass_flow):
+            yield "mass flow must be >= 0"
 
-def _check_speed_lines(lines, problems: list[str]) -> None:
-    speeds = [s.speed for s in lines]
-    if len(speeds) < 2 or any(b <= a for a, b in zip(speeds, speeds[1:])):
-        problems.append("speed lines: need at least 2, in strictly increasing speed")
+
+_EFFICIENCY_RANGE = "efficiency must be in (0, 1]"
 
 
-def _check_reference(m, problems: list[str]) -> None:
+def _efficiencies_valid(s) -> bool:
+    return all(0.0 < e <= 1.0 for e in s.efficiency)
+
+
+def _map_problems(m: CompressorMap | TurbineMap, columns: tuple[str, ...]) -> list[str]:
+    """The problems of a map's reference state and speed lines: the speeds, the lengths of the
+    ``columns`` of each line, and what the map's ``_line_problems(line)`` finds on it."""
+    problems: list[str] = []
     if not (m.T_ref > 0.0 and m.p_ref > 0.0):
         problems.append(f"reference state must be positive (T_ref={m.T_ref}, p_ref={m.p_ref})")
+    speeds = [s.speed for s in m.speed_lines]
+    if len(speeds) < 2 or any(b <= a for a, b in zip(speeds, speeds[1:])):
+        problems.append("speed lines: need at least 2, in strictly increasing speed")
+    for s in m.speed_lines:
+        what = f"speed line {s.speed / RPM:.6g} rpm"
+        _check_lengths(what, problems, **{c: getattr(s, c) for c in columns})
+        problems += [f"{what}: {p}" for p in m._line_problems(s)]
+    return problems
 
 
 _FORMATS = {"transgen-compressor-map": "compressor", "transgen-turbine-map": "turbine"}

@@ -29,6 +29,8 @@ with the speed (an out-of-data warning is issued).
 
 :func:`preprocess_turbine` resamples the turbine speed lines on a common expansion-ratio grid,
 giving ``m_corr(N_corr, ER)`` and ``eta(N_corr, ER)`` (eqs 4.30-4.31).
+:func:`default_compressor_table` and :func:`default_turbine_table` are the tables of the shipped
+maps (``sim/data/we_compressor.toml``, ``sim/data/we_turbine.toml``).
 
 Out-of-data use
 ---------------

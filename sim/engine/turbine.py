@@ -25,17 +25,9 @@ __all__ = ["Turbine", "TurbinePoint"]
 class TurbinePoint(MachinePoint):
     """One quasi-steady turbine operating point: the :class:`MachinePoint` attributes (outlet
     temperature by eq. 4.16, power ``m_dot*cp*(T_in - T_out)`` delivered, torque by eq. 4.18,
-    efficiency - for the shipped map W&E's eta_tm, mechanical losses included) and
-
-    Attributes
-    ----------
-    expansion_ratio : float
-        Total expansion ratio p01/p02 [-].
-    corrected_speed : float
-        [rad/s] (eq. 4.28).
-    corrected_flow : float
-        [kg/s] (eq. 4.29).
-    """
+    efficiency - for the shipped map W&E's eta_tm, mechanical losses included), the total
+    expansion ratio ``expansion_ratio`` p01/p02 [-], and the corrected speed [rad/s] and flow
+    [kg/s] of eqs 4.28-4.29."""
 
     expansion_ratio: float
     corrected_speed: float
@@ -44,18 +36,10 @@ class TurbinePoint(MachinePoint):
 
 @dataclass(frozen=True)
 class Turbine(Turbomachine):
-    """A turbine described by its causal table.
-
-    Parameters
-    ----------
-    table : TurbineTable
-        ``m_corr(N_corr, ER)``, ``eta(N_corr, ER)`` from
-        :func:`~transgen.sim.engine.preprocessor.preprocess_turbine`.
-    gas : Gas
-        Working gas (exhaust).
-    omega_floor : float
-        Speed floor [rad/s] for ``torque = power/speed``.
-    """
+    """A turbine described by its causal table ``m_corr(N_corr, ER)``, ``eta(N_corr, ER)`` (a
+    :class:`~transgen.sim.engine.preprocessor.TurbineTable` from
+    :func:`~transgen.sim.engine.preprocessor.preprocess_turbine`); working gas exhaust by
+    default; parameters as for :class:`~transgen.sim.engine.turbomachine.Turbomachine`."""
 
     table: TurbineTable
     gas: Gas = EXHAUST
