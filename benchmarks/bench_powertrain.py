@@ -15,8 +15,9 @@ import time
 import warnings
 
 import transgen.sim.switching as switching_module
-from transgen.sim.maps import RPM
-from transgen.sim.powertrain import TurbodieselSource, turbo_report
+from transgen.sim.engine import RPM
+from transgen.sim.engine.turbo_report import turbo_report
+from transgen.sim.powertrain import TurbodieselSource
 from transgen.sim.scenario import load_scenario
 
 SCENARIOS = (("basic", "ht740_turbo"), ("iterative", "ht740_turbo_iterative"))
@@ -82,7 +83,7 @@ def main() -> None:
     print(turbo_report(iterative).text())
     print(turbo_report(basic, iterative, engine=runs["basic"]["engine"]).text())
     if args.plot:
-        from transgen.sim.engine_plots import plot_turbo_comparison
+        from transgen.sim.engine.plots import plot_turbo_comparison
 
         for p in plot_turbo_comparison({"basic": basic, "iterative": iterative}, args.plot):
             print(f"  wrote {p}")

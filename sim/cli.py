@@ -106,14 +106,14 @@ def cmd_simulate(args) -> int:
         summary = result.summary()
         summary["report"] = report_dict(result, qualities)
         if "omega_tc" in result.signals:
-            from .powertrain import turbo_report
+            from .engine.turbo_report import turbo_report
 
             summary["turbo"] = turbo_report(result).to_dict()
         if other is not None:
             summary["compare"] = {"scenario": compare, "model": other_s.options.model, "summary": other.summary(),
                                   "report": report_dict(other, other_q)}
             if "omega_tc" in result.signals and "omega_tc" in other.signals:
-                from .powertrain import turbo_report
+                from .engine.turbo_report import turbo_report
 
                 summary["compare"]["turbo"] = turbo_report(result, other, engine=_engine_of(scenario)).to_dict()
         summary["written"] = written
@@ -130,7 +130,7 @@ def cmd_simulate(args) -> int:
             print()
             print(report_text(result, qualities))
             if "omega_tc" in result.signals:
-                from .powertrain import turbo_report
+                from .engine.turbo_report import turbo_report
 
                 print(turbo_report(result).text())
         if other is not None:
@@ -175,7 +175,7 @@ def _comparison_plots(scenario, result, other_s, other, directory: Path, formats
             for fmt in formats:
                 written.append(str(save_figure(compare(runs, signal), directory / f"compare_{signal}.{fmt}")))
     if all("omega_tc" in r.signals for r in runs.values()):
-        from .engine_plots import plot_turbo_comparison
+        from .engine.plots import plot_turbo_comparison
 
         written += [str(p) for p in plot_turbo_comparison(runs, directory, formats=formats)]
     return written
@@ -199,7 +199,7 @@ def _comparison_text(scenario, a, qa, name_b, b, qb) -> str:
                      f"{x.flare_max_rpm:>7.1f} {y.flare_max_rpm:>8.1f}")
     lines.append(f"  energy dissipated [kJ]: {a.energy.get('dissipated', 0) / 1e3:.1f} vs {b.energy.get('dissipated', 0) / 1e3:.1f}")
     if "omega_tc" in a.signals and "omega_tc" in b.signals:
-        from .powertrain import turbo_report
+        from .engine.turbo_report import turbo_report
 
         lines.append(turbo_report(a, b, engine=_engine_of(scenario)).text())
     return "\n".join(lines)
@@ -207,7 +207,8 @@ def _comparison_text(scenario, a, qa, name_b, b, qb) -> str:
 
 def cmd_maps(args) -> int:
     """``transgen maps``: pre-process a map, print (or JSON) its summary, optionally plot it."""
-    from .engine_plots import load_named_map, map_summary, map_summary_text, plot_map_file
+    from .engine.map_summary import load_named_map, map_summary, map_summary_text
+    from .engine.plots import plot_map_file
 
     path, m = load_named_map(args.map)
     summary = map_summary(path, m)

@@ -187,7 +187,7 @@ class EngineWithConverter(Component):
 
     State: engine speed ``omega_e`` [rad/s]. ``converter.torques(omega_pump, omega_turbine)``
     gives (pump torque absorbed, turbine torque delivered) [N*m] (see
-    :mod:`transgen.sim.torque_converter`). ``idle`` is a minimum-speed governor: below it the
+    :mod:`transgen.sim.engine.torque_converter`). ``idle`` is a minimum-speed governor: below it the
     throttle rises linearly to hold idle. Energy: the engine's combustion work is the work in;
     the converter's loss is dissipation; the engine inertia's kinetic energy is stored energy.
     """

@@ -23,7 +23,6 @@ Matplotlib is imported only inside the functions and only its object API is used
 """
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
@@ -294,28 +293,18 @@ def plot_all(result: Result, qualities=None, directory=".", formats=("png",), ti
     """Write every plot of :data:`PLOTS` to ``directory`` as ``<prefix><name>.<format>``
     (``speeds.png``, ``slips.png``, ``torques.png``, ``io_torques.png``, ``power.png``,
     ``mode.png``, ``apply.png``), atomically: each file is written to a temporary file in the
-    same directory and renamed over the target. Returns the paths written."""
-    import tempfile
+    same directory and renamed over the target (:func:`transgen.export.atomic_path`). Returns the
+    paths written."""
+    from transgen.export import atomic_path
 
     directory = Path(directory)
-    directory.mkdir(parents=True, exist_ok=True)
     paths = []
     for name, func in PLOTS.items():
         fig = func(result, qualities, time_window=time_window)
         for fmt in formats:
             path = directory / f"{prefix}{name}.{fmt}"
-            fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".{fmt}", dir=directory)
-            os.close(fd)
-            try:
+            with atomic_path(path, suffix=f".{fmt}") as tmp:
                 fig.savefig(tmp, format=fmt)
-                os.chmod(tmp, 0o644)  # mkstemp creates 0600
-                os.replace(tmp, path)
-            except BaseException:
-                try:
-                    os.unlink(tmp)
-                except OSError:
-                    pass
-                raise
             paths.append(path)
     return paths
 

@@ -390,7 +390,7 @@ def load_scenario(path: str | Path) -> Scenario:
     out_t = r.table(data, ("output",), {"signals", "dt"})
     outputs = [str(x) for x in out_t.get("signals", [])]
     pt = Powertrain(tr, components, w0, controllers)
-    from .powertrain import check_scenario_causality
+    from .assembly import check_scenario_causality
 
     check_scenario_causality(r, pt)  # thesis 2.4: an algebraic loop in the assembly is refused before the run
     conv = data.get("converter", {})
@@ -455,7 +455,7 @@ def _components(r: _Reader, data: dict, mech: Mechanism, tr: Transmission) -> li
         if kind == "engine_map":
             comps.append(EngineOnLink(engine, thr_signal, li[mech.input]))
         else:
-            from .torque_converter import TorqueConverter
+            from .engine.torque_converter import TorqueConverter
 
             conv_ref = inp.get("converter")
             try:
