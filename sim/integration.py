@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from transgen.errors import SimulationError
+from transgen.errors import SimulationError, StateOutOfDomain
 
 from .components import Component
 from .monitor import InvariantMonitor
@@ -360,17 +360,37 @@ def integrate(rhs, t0: float, t1: float, y0: np.ndarray, options: SolverOptions,
     are quadratures, the energy integrals); the implicit methods then get a finite-difference
     Jacobian over those columns, the others being zero, instead of differencing every state.
     """
+    outside: list[StateOutOfDomain] = []
+
+    def guarded(t, y):
+        # a trial state outside a component's domain: NaN makes the solver reject the step and retry
+        # a shorter one (an accepted state is checked again by the events and the monitor)
+        try:
+            return rhs(t, y)
+        except StateOutOfDomain as exc:
+            outside.append(exc)
+            return np.full(len(y), np.nan)
+
     extra = {}
     # at most an eighth of the segment per step: a segment starts and ends at kinks, often where a
     # forcing is zero (an apply between two zero crossings), and a solver whose first step is chosen
     # from a zero derivative would otherwise step over the whole pulse with no error to see (BDF does)
     max_step = min(options.max_step, (t1 - t0) / 8.0) if t1 > t0 else options.max_step
     if n_dynamic is not None and options.method in ("LSODA", "BDF", "Radau"):
+        # the Jacobian is taken at accepted states: a state outside the domain there stops the run
         extra["jac"] = _partial_jacobian(rhs, len(y0), n_dynamic)
-    sol = solve_ivp(rhs, (t0, t1), y0, method=options.method, rtol=options.rtol, atol=options.atol,
-                    max_step=max_step, events=events, dense_output=True, **extra)
+    try:
+        sol = solve_ivp(guarded, (t0, t1), y0, method=options.method, rtol=options.rtol, atol=options.atol,
+                        max_step=max_step, events=events, dense_output=True, **extra)
+    except ValueError as exc:  # a solver's linear algebra refusing the NaN of a rejected trial state
+        if outside:
+            raise outside[-1] from None
+        raise SimulationError(f"t={t0:.6g} s: integrator failed: {exc}") from None
     if sol.status == -1:
-        raise SimulationError(f"t={sol.t[-1]:.6g} s: integrator failed: {sol.message}")
+        why = f" (last trial state outside its domain: {outside[-1]})" if outside else ""
+        raise SimulationError(f"t={sol.t[-1]:.6g} s: integrator failed: {sol.message}{why}")
+    if not np.all(np.isfinite(sol.y[:, -1])) and outside:
+        raise outside[-1]
     return sol
 
 

@@ -75,3 +75,12 @@ class ScenarioError(TransgenError, ValueError):
 
 class SimulationError(TransgenError, RuntimeError):
     """A simulation could not go on; the message names time, mode and reason."""
+
+
+class StateOutOfDomain(SimulationError):
+    """A state outside a model's domain (a negative manifold pressure, a NaN in an engine block).
+
+    An integrator's trial state may be one (an explicit Runge-Kutta stage can overshoot where the
+    accepted step does not): the integration core then makes the solver retry a shorter step. An
+    accepted state may not: the run stops with this message."""
+

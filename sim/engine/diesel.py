@@ -62,7 +62,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import root
 
-from transgen.errors import SimulationError
+from transgen.errors import SimulationError, StateOutOfDomain
 
 from ..causality import Block, Causality, ports
 from .gas import AIR, EXHAUST, RPM, Gas
@@ -79,7 +79,7 @@ __all__ = [
 ]
 
 
-class NonFiniteError(SimulationError):
+class NonFiniteError(StateOutOfDomain):
     """A NaN or infinity appeared in the engine model; the message names where."""
 
 
@@ -301,7 +301,7 @@ class TurbochargedDiesel:
         _check_finite("engine state", t, (p_im, p_em, w_tc),
                       {"p_im": p_im, "p_em": p_em, "omega_tc": w_tc, "omega_engine": omega_e})
         if p_im <= 0.0 or p_em <= 0.0:
-            raise SimulationError(f"engine: non-physical manifold pressure at t = {t:.6g} s "
+            raise StateOutOfDomain(f"engine: non-physical manifold pressure at t = {t:.6g} s "
                                   f"(p_im = {p_im:.6g} Pa, p_em = {p_em:.6g} Pa)")
         n_e = abs(omega_e) / RPM
         # cylinders (flow block)
