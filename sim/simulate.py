@@ -390,7 +390,7 @@ def _collect(pt: Powertrain, options: SolverOptions, segments: list[_Segment], e
         residual = e_in[-1] - (d_stored + e_diss[-1] + e_load[-1])
         energy = {"work_in": float(e_in[-1]), "stored_change": float(d_stored), "dissipated": float(e_diss[-1]),
                   "work_to_load": float(e_load[-1]), "residual": float(residual),
-                  "relative_residual": float(abs(residual) / max(abs(e_in[-1]), 1e-12))}
+                  "relative_residual": float(abs(residual) / max(abs(e_in[-1]), abs(e_load[-1]), abs(e_diss[-1]), np.abs(e_st).max(), np.abs(e_st - e_st[0]).max(), 1e-300))}
     stats = {"wall_time": _time.perf_counter() - wall, "rhs_evaluations": model.calls,
              "events": sum(1 for e in events if e.kind != "start"), "segments": len(segments)}
     meta = {"mechanism": tr.mech.name, "model": options.model, "links": list(tr.links), "elements": e_names,
