@@ -308,9 +308,9 @@ def converter_component(r, conv: dict, keys: tuple, mech, tr) -> ConverterCompon
         names[key] = tname
     if names["pump"] == names["turbine"]:
         raise r.error(keys + ("turbine",), "the pump and the turbine must be different links")
+    file = r.text(conv, keys, "file", "")
     try:
-        converter = (TorqueConverter.load(r.source.path.parent / r.text(conv, keys, "file")) if "file" in conv
-                     else TorqueConverter.load())
+        converter = TorqueConverter.load(r.source.path.parent / file) if file else TorqueConverter.load()
     except (OSError, ValueError) as exc:
         raise r.error(keys + ("file",), f"cannot load the torque converter: {exc}") from None
     return ConverterComponent(converter, tr.link_index[names["pump"]], tr.link_index[names["turbine"]],

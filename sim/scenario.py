@@ -15,6 +15,7 @@ from __future__ import annotations
 import difflib
 import math
 import re
+import sys
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -133,7 +134,7 @@ def _shown(value) -> str:
 
 def _non_finite(node, path: tuple = ()):
     """The key path of the first NaN or infinite number in parsed TOML data, else None."""
-    if isinstance(node, float) and not math.isfinite(node):
+    if isinstance(node, float) and not math.isfinite(node) or isinstance(node, int) and abs(node) > sys.float_info.max:
         return path
     items = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()
     for k, v in items:
@@ -535,11 +536,11 @@ def _build(data: dict, source: _Source, path: Path) -> Scenario:
                                                               "output speeds [rpm] (a row per upshift, a column per throttle)")]
                     for key in ("upshift_rpm", "downshift_rpm"))
         throttle = r.signal(auto_t.get("throttle_signal", 1.0), keys + ("throttle_signal",))
+        template = _template(r, data, keys + ("template",))
+        min_interval = r.number(auto_t, keys, "min_interval", 2.0, minimum=0.0)
         try:
             controllers.append(AutoShift(order, thr, up, down, throttle, tr.link_index[mech.output], gears,
-                                         _template(r, data, keys + ("template",)),
-                                         r.number(auto_t, keys, "min_interval", 2.0, minimum=0.0),
-                                         gear=init_gear if "gear" in init_t else order[0]))
+                                         template, min_interval, gear=init_gear if "gear" in init_t else order[0]))
         except ValueError as exc:
             raise r.error(keys, str(exc)) from None
     out_t = r.table(data, ("output",), {"signals", "dt"})
@@ -711,16 +712,15 @@ def _components(r: _Reader, data: dict, mech: Mechanism, tr: Transmission) -> li
         grade = r.number(dl, keys, "grade", 0.0)
         if "grade_percent" in dl:
             grade = math.atan(r.number(dl, keys, "grade_percent") / 100.0)
+        params = (r.number(dl, keys, "stiffness", positive=True), r.number(dl, keys, "damping", 0.0, minimum=0.0),
+                  r.number(dl, keys, "output_inertia", 0.0, minimum=0.0),
+                  r.number(dl, keys, "final_drive", 1.0, positive=True),
+                  r.number(dl, keys, "wheel_radius", 0.5, positive=True),
+                  r.number(dl, keys, "vehicle_mass", 0.0, minimum=0.0),
+                  r.number(dl, keys, "rolling_resistance", 0.0, minimum=0.0), r.number(dl, keys, "cd_a", 0.0, minimum=0.0),
+                  r.number(dl, keys, "air_density", 1.2, positive=True), grade)
         try:
-            comps.append(Driveline(li[mech.output], r.number(dl, keys, "stiffness", positive=True),
-                                   r.number(dl, keys, "damping", 0.0, minimum=0.0),
-                                   r.number(dl, keys, "output_inertia", 0.0, minimum=0.0),
-                                   r.number(dl, keys, "final_drive", 1.0, positive=True),
-                                   r.number(dl, keys, "wheel_radius", 0.5, positive=True),
-                                   r.number(dl, keys, "vehicle_mass", 0.0, minimum=0.0),
-                                   r.number(dl, keys, "rolling_resistance", 0.0, minimum=0.0),
-                                   r.number(dl, keys, "cd_a", 0.0, minimum=0.0),
-                                   r.number(dl, keys, "air_density", 1.2, positive=True), grade))
+            comps.append(Driveline(li[mech.output], *params))
         except ValueError as exc:
             raise r.error(keys, str(exc)) from None
     elif "output_torque" in dl:
