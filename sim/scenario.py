@@ -7,8 +7,12 @@ lists shared parameter files (a vehicle, an engine) whose tables are merged in f
 including file's own values win (the thesis' hierarchical initialization files, 2.3.4). Paths are
 relative to the file that names them.
 
-Errors are :class:`~transgen.errors.ScenarioError` with ``FILE:LINE: error: message``; a TOML
-syntax error keeps tomllib's line and column. Parsing never evaluates code.
+Errors are :class:`~transgen.errors.ScenarioError` with ``FILE:LINE:COL: error: message``, the
+line and a caret, located at the key or list entry that is wrong (positions from
+:mod:`~transgen.sim.tomlpos`), in the included file when the value comes from one; a TOML syntax
+error keeps tomllib's line and column. Everything is checked before a run: NaN and infinity
+anywhere, types, names (with suggestions), ``[output]`` signals, shift times. Parsing never
+evaluates code.
 """
 from __future__ import annotations
 

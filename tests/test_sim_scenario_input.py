@@ -19,21 +19,9 @@ from transgen.sim.tomlpos import key_positions
 
 sys.path.insert(0, str(Path(__file__).parent))
 from fuzz.fuzz_scenario import dumps, fuzz_scenarios, windowed_breakpoints  # noqa: E402
+from test_sim_simulate import BASE as SIMPLE2  # noqa: E402
 
-BASE = """\
-mechanism = "simple2"
-[simulation]
-t_end = 1.0
-[initial]
-gear = "1"
-speeds = { Li = 100.0 }
-[input]
-torque = 100.0
-[driveline]
-output_inertia = 100.0
-stiffness = 12000.0
-damping = 200.0
-"""
+BASE = SIMPLE2.lstrip("\n") + "[driveline]\noutput_inertia = 100.0\nstiffness = 12000.0\ndamping = 200.0\n"
 
 
 def _refused(text: str, path="s.toml") -> str:
@@ -145,19 +133,18 @@ def test_an_error_in_an_included_file_is_reported_in_that_file(tmp_path):
     assert str(exc.value).startswith(f"{main_file}:11:1: error: 'stiffness' must be"), str(exc.value)
 
 
-@pytest.mark.parametrize("include, words", [
-    ('["nowhere.toml"]', "included file 'nowhere.toml' not found"),
-    ('["s.toml"]', "include cycle"),
-    ("5", "include must be a file name or a list of file names"),
-    ('[["a.toml"]]', "include must be a file name or a list of file names"),
-])
-def test_bad_includes_are_located_at_the_include(tmp_path, include, words):
+def test_bad_includes_are_located_at_the_include(tmp_path):
     p = tmp_path / "s.toml"
-    p.write_text(f"include = {include}\n" + BASE, encoding="utf-8")
-    with pytest.raises(ScenarioError) as exc:
-        load_scenario(p)
-    assert str(exc.value).startswith(f"{p}:1:"), str(exc.value)
-    assert words in str(exc.value)
+    (tmp_path / "junk.toml").write_text("not [toml\n", encoding="utf-8")
+    for include, where, words in (('["nowhere.toml"]', f"{p}:1:12", "included file 'nowhere.toml' not found"),
+                                  ('["s.toml"]', f"{p}:1:12", "include cycle"),
+                                  ("5", f"{p}:1:1", "include must be a file name or a list of file names"),
+                                  ('[["a.toml"]]', f"{p}:1:1", "include must be a file name or a list"),
+                                  ('"junk.toml"', f"{tmp_path / 'junk.toml'}:1:5", "TOML syntax")):
+        p.write_text(f"include = {include}\n" + BASE, encoding="utf-8")
+        with pytest.raises(ScenarioError) as exc:
+            load_scenario(p)
+        assert str(exc.value).startswith(where + ": error: ") and words in str(exc.value), str(exc.value)
 
 
 def test_cli_refuses_nan_torque_with_exit_2_instead_of_hanging(tmp_path, capsys):

@@ -50,20 +50,6 @@ __all__ = ["FuzzReport", "fuzz_scenarios", "windowed_breakpoints"]
 LOCATED = re.compile(r"^[^\n]+:\d+:\d+: error: ", re.S)
 FAILURES = ("crash", "unlocated", "hang", "nan")
 
-SYNTHETIC = """
-mechanism = "simple2"
-[simulation]
-t_end = 0.3
-[initial]
-gear = "1"
-speeds = { Li = 100.0 }
-[input]
-torque = 100.0
-[driveline]
-output_inertia = 100.0
-stiffness = 12000.0
-damping = 200.0
-"""
 
 
 class _Raw(str):
@@ -125,6 +111,10 @@ def dumps(data: dict) -> str:
             body += [f"{_key(a)} = {_value(b)}" for a, b in v.items()]
     return "\n".join(head + body) + "\n"
 
+
+SYNTHETIC = dumps({"mechanism": "simple2", "simulation": {"t_end": 0.3}, "initial": {"gear": "1", "speeds": {"Li": 100.0}},
+                   "input": {"torque": 100.0}, "driveline": {"output_inertia": 100.0, "stiffness": 1.2e4, "damping": 200.0}})
+"""A small scenario of the thesis' simple transmission, mutated like the bundled ones."""
 
 # ----------------------------------------------------------------------------- mutations
 
