@@ -157,13 +157,15 @@ def _read(path: Path, text: str | None = None, seen: tuple[Path, ...] = ()) -> t
             raise ScenarioError(f"{path}:1:1: error: cannot read scenario file ({exc})") from None
     try:
         data = tomllib.loads(text)
+        source = _Source(path, text)
+        bad = _non_finite(data)
+    except RecursionError:
+        raise _located(path, text.splitlines(), 1, 1, "arrays or tables nested too deeply") from None
     except tomllib.TOMLDecodeError as exc:
         m = re.search(r"\(at line (\d+), column (\d+)\)", str(exc))
         line, col = (int(m.group(1)), int(m.group(2))) if m else (1, 1)
         msg = re.sub(r"\s*\(at line \d+, column \d+\)", "", str(exc))
         raise _located(path, text.splitlines(), line, col, f"TOML syntax: {msg}") from None
-    source = _Source(path, text)
-    bad = _non_finite(data)
     if bad is not None:
         name = ".".join(str(k) for k in bad)
         raise source.error(bad, f"'{name}' is not a finite number (NaN and infinity are refused; "

@@ -204,6 +204,6 @@ def key_positions(text: str) -> dict[tuple, tuple[int, int]]:
     walker = _Walker(text)
     try:
         walker.walk()
-    except (_Unexpected, IndexError, ValueError):
+    except (_Unexpected, IndexError, ValueError, RecursionError):
         pass
     return walker.found

@@ -243,9 +243,12 @@ def _mutate_text(text: str, rng) -> str:
     if choice < 0.6:
         i = int(rng.integers(len(text) + 1))
         return text[:i] + str(rng.choice(list("[]{}=\",#\n.'"))) + text[i:]
-    if choice < 0.8 and lines:
+    if choice < 0.75 and lines:
         i = int(rng.integers(len(lines)))
         return "".join(lines[:i + 1] + lines[i:])
+    if choice < 0.8:  # nested deeper than any parser's recursion
+        n = int(rng.choice([10, 400, 3000]))
+        return text + "deep = " + "[" * n + "]" * n + "\n"
     return text[:int(rng.integers(len(text) + 1))]
 
 
