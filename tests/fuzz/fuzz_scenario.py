@@ -41,8 +41,8 @@ from pathlib import Path
 import numpy as np
 
 from transgen.errors import TransgenError
-from transgen.sim import compliant as _compliant
-from transgen.sim import simulate as _simulate
+import transgen.sim.compliant as _compliant
+import transgen.sim.simulate as _simulate
 from transgen.sim.scenario import bundled_scenarios, load_scenario, parse_scenario
 
 __all__ = ["FuzzReport", "fuzz_scenarios", "windowed_breakpoints"]
@@ -285,15 +285,17 @@ def _windowed(pt, t0: float, t1: float) -> list[float]:
 @contextlib.contextmanager
 def windowed_breakpoints():
     """The simulator asking for breakpoints in its window ``(t, t_end)`` (periodic signals have
-    infinitely many): the call ``sim/simulate.py``'s ``_breakpoints`` is to make,
-    ``e.breakpoints(t0, t1)`` and ``c.breakpoints(t0, t1)``. Stands in for that change until it
-    is made there; harmless after."""
-    saved = _simulate._breakpoints, _compliant._breakpoints
-    _simulate._breakpoints = _compliant._breakpoints = _windowed
+    infinitely many): ``e.breakpoints(t0, t1)`` and ``c.breakpoints(t0, t1)``, the call the
+    simulator's breakpoint collection is to make. Replaces the old ``_breakpoints`` of
+    ``simulate``/``compliant`` where they still exist; does nothing where they are gone."""
+    saved = [(m, m._breakpoints) for m in (_simulate, _compliant) if hasattr(m, "_breakpoints")]
+    for m, _ in saved:
+        m._breakpoints = _windowed
     try:
         yield
     finally:
-        _simulate._breakpoints, _compliant._breakpoints = saved
+        for m, old in saved:
+            m._breakpoints = old
 
 
 def _case(rng, sources: dict[str, tuple[Path, str]]):
