@@ -233,8 +233,17 @@ class Pulse(Signal):
         starts = [self.t0 + k * self.period for k in _period_indices(self.t0, self.period, t0, t1) if k >= 0]
         return _window([x for s in starts for x in (s, s + self.width)], t0, t1)
 
+    def _next_edge(self, t: float) -> float:
+        """The first edge after ``t`` (``inf`` after a single pulse)."""
+        if t < self.t0:
+            return self.t0
+        start = self.t0 if self.period is None else _period_start(t, self.t0, self.period)
+        if t < start + self.width:
+            return start + self.width
+        return math.inf if self.period is None else start + self.period
+
     def upper_bound(self, t0: float, t1: float) -> float:
-        if self.breakpoints(t0, t1):  # both levels may be taken
+        if self._next_edge(t0) <= t1:  # both levels are taken
             return max(self.low, self.high)
         return self.value(t0)
 

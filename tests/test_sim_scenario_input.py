@@ -147,6 +147,12 @@ def test_bad_includes_are_located_at_the_include(tmp_path):
         assert str(exc.value).startswith(where + ": error: ") and words in str(exc.value), str(exc.value)
 
 
+def test_deep_nesting_and_misspelled_bundled_names():
+    assert _refused("a = " + "[" * 3000 + "]" * 3000 + "\n").startswith("s.toml:1:1: error: arrays or tables nested too deeply")
+    with pytest.raises(ScenarioError, match="did you mean 'ht740_improved'"):
+        load_scenario("ht740_improvd")
+
+
 def test_cli_refuses_nan_torque_with_exit_2_instead_of_hanging(tmp_path, capsys):
     p = tmp_path / "s.toml"
     p.write_text(BASE.replace("torque = 100.0", "torque = nan"), encoding="utf-8")
@@ -230,6 +236,7 @@ def test_signal_upper_bounds_hold_for_the_new_kinds():
             grid = np.concatenate([np.linspace(a, b, 400), [x for x in s.breakpoints(a, b)]])
             assert max(s.value(t) for t in grid) <= s.upper_bound(a, b) + 1e-12, (s, a, b)
     assert Pulse(1.0, 0.5).upper_bound(0.0, 0.9) == 0.0 and Pulse(1.0, 0.5).upper_bound(0.0, 1.0) == 1.0
+    assert Pulse(0.0, 1e-6, high=-1.0, period=1e-3).upper_bound(0.0, 1e9) == 0.0  # no enumeration of edges
 
 
 def test_sums_and_splices_pass_the_window_on():
