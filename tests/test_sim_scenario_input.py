@@ -2,7 +2,6 @@
 the new signal kinds (pulses, square waves, periodic tables, jumps in tables) and the fuzzer."""
 from __future__ import annotations
 
-import math
 import sys
 import textwrap
 from pathlib import Path
