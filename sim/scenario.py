@@ -177,20 +177,29 @@ def _read(path: Path, text: str | None = None, seen: tuple[Path, ...] = ()) -> t
         raise source.error(("include",), "include must be a file name or a list of file names")
     merged: dict = {}
     for k, inc in enumerate(includes):
-        inc_path = (path.parent / inc).resolve()
-        if not inc_path.is_file():
+        inc_path = path.parent / inc
+        if not _is_file(inc_path):
             raise source.error(("include", k), f"included file '{inc}' not found (looked in {path.parent})")
         chain = seen + (path.resolve(),)
         if inc_path in chain:
             raise source.error(("include", k), f"include cycle: {' -> '.join(str(p) for p in chain + (inc_path,))}")
         inc_data, inc_source = _read(inc_path, None, chain)
         mech = inc_data.get("mechanism")
-        if isinstance(mech, str) and (inc_path.parent / mech).exists():
+        inc_path = inc_path.resolve()
+        if isinstance(mech, str) and _is_file(inc_path.parent / mech):
             inc_data["mechanism"] = str((inc_path.parent / mech).resolve())
         source.includes.append(inc_source)
         _merge(merged, inc_data)
     _merge(merged, data)
     return merged, source
+
+
+def _is_file(path: Path) -> bool:
+    """Whether ``path`` is a file (False, not an error, for a name the system refuses, e.g. too long)."""
+    try:
+        return path.is_file()
+    except (OSError, ValueError):
+        return False
 
 
 def _merge(base: dict, extra: dict) -> None:
@@ -375,9 +384,9 @@ def _as_float(v) -> float | None:
 def load_scenario(path: str | Path) -> Scenario:
     """Read a scenario file (or the name of a bundled scenario) into a runnable :class:`Scenario`."""
     path = Path(path)
-    if not path.exists() and path.stem in bundled_scenarios() and path.suffix in ("", ".toml"):
+    if not _is_file(path) and path.stem in bundled_scenarios() and path.suffix in ("", ".toml"):
         path = bundled_scenarios()[path.stem]
-    if not path.is_file():
+    if not _is_file(path):
         close = difflib.get_close_matches(path.stem, list(bundled_scenarios()), n=1)
         hint = f"; did you mean '{close[0]}'?" if close else f" (bundled: {', '.join(bundled_scenarios())})"
         raise ScenarioError(f"{path}:1:1: error: no such scenario file{hint}")
@@ -403,7 +412,7 @@ def _build(data: dict, source: _Source, path: Path) -> Scenario:
     mech_ref = r.text(data, (), "mechanism")
     mech_path = path.parent / mech_ref
     try:
-        mech = load_mechanism(mech_path if mech_path.is_file() else mech_ref)
+        mech = load_mechanism(mech_path if _is_file(mech_path) else mech_ref)
     except (MechError, OSError) as exc:
         raise r.error(("mechanism",), f"mechanism '{mech_ref}' has errors:\n{exc}") from None
 

@@ -216,9 +216,16 @@ def _mutate_data(data: dict, rng, folder: Path) -> None:
         data["output"] = {"signals": [str(rng.choice(["T_out", "w_L1", "w_Li", "T_ot", "slip_C1", "mode", "E_in", "x"]))
                                       for _ in range(int(rng.integers(1, 4)))]}
     else:  # includes
-        kind = rng.choice(["missing", "self", "number", "not_toml", "faulty", "nested_list"])
+        kind = rng.choice(["missing", "self", "number", "not_toml", "faulty", "nested_list", "long", "mechanism",
+                           "converter"])
         if kind == "missing":
             data["include"] = ["nowhere.toml"]
+        elif kind == "long":  # a name the file system refuses
+            data["include"] = ["x" * 5000 + ".toml"]
+        elif kind == "mechanism":  # a scenario, a folder, a missing file, an over-long name as the mechanism
+            data["mechanism"] = str(rng.choice(["case.toml", ".", "nowhere.mech", "m" * 5000, ""]))
+        elif kind == "converter":
+            data["converter"] = {"file": str(rng.choice(["case.toml", "nowhere.toml", ".", "c" * 5000]))}
         elif kind == "self":
             data["include"] = ["case.toml"]
         elif kind == "number":
