@@ -180,12 +180,12 @@ def _read(path: Path, text: str | None = None, seen: tuple[Path, ...] = ()) -> t
         inc_path = path.parent / inc
         if not _is_file(inc_path):
             raise source.error(("include", k), f"included file '{inc}' not found (looked in {path.parent})")
+        inc_path = inc_path.resolve()
         chain = seen + (path.resolve(),)
         if inc_path in chain:
             raise source.error(("include", k), f"include cycle: {' -> '.join(str(p) for p in chain + (inc_path,))}")
         inc_data, inc_source = _read(inc_path, None, chain)
         mech = inc_data.get("mechanism")
-        inc_path = inc_path.resolve()
         if isinstance(mech, str) and _is_file(inc_path.parent / mech):
             inc_data["mechanism"] = str((inc_path.parent / mech).resolve())
         source.includes.append(inc_source)

@@ -134,9 +134,11 @@ def test_an_error_in_an_included_file_is_reported_in_that_file(tmp_path):
 
 def test_bad_includes_are_located_at_the_include(tmp_path):
     p = tmp_path / "s.toml"
+    (tmp_path / "sub").mkdir()
     (tmp_path / "junk.toml").write_text("not [toml\n", encoding="utf-8")
     for include, where, words in (('["nowhere.toml"]', f"{p}:1:12", "included file 'nowhere.toml' not found"),
                                   ('["s.toml"]', f"{p}:1:12", "include cycle"),
+                                  ('["./sub/../s.toml"]', f"{p}:1:12", "include cycle"),
                                   ("5", f"{p}:1:1", "include must be a file name or a list of file names"),
                                   ('[["a.toml"]]', f"{p}:1:1", "include must be a file name or a list"),
                                   ('"junk.toml"', f"{tmp_path / 'junk.toml'}:1:5", "TOML syntax")):
