@@ -227,7 +227,7 @@ def _mutate_data(data: dict, rng, folder: Path) -> None:
         elif kind == "converter":
             data["converter"] = {"file": str(rng.choice(["case.toml", "nowhere.toml", ".", "c" * 5000]))}
         elif kind == "self":
-            data["include"] = ["case.toml"]
+            data["include"] = [str(rng.choice(["case.toml", "./shared/../case.toml", "../scenarios/case.toml"]))]
         elif kind == "number":
             data["include"] = 5
         elif kind == "nested_list":
