@@ -114,12 +114,17 @@ def next_stop(pt: Powertrain, t: float, t_end: float, released=()) -> float:
     the elements not locked; a rise from zero may lock one, both directions are kinks of its
     torque), or ``t_end``."""
     after = t + 1e-12 * max(1.0, abs(t))
-    points = set()
-    for e in pt.transmission.elements:
-        points.update(e.breakpoints())
-    for c in pt.components:
-        points.update(c.breakpoints())
-    stop = min([p for p in points if after < p < t_end] + [t_end])
+    stop = t_end
+    # the next breakpoint, looked for in growing windows (a periodic signal has one every period)
+    window = min(t_end - after, 1e-3 * max(1.0, t_end - t))
+    owners = [*pt.transmission.elements, *pt.components]
+    while window > 0:
+        t1 = min(t_end, after + window)
+        points = [p for o in owners for p in o.breakpoints(after, t1) if after < p < t_end]
+        if points or t1 >= t_end:
+            stop = min(points + [t_end])
+            break
+        window *= 8
     for i in released:
         e = pt.transmission.elements[i]
         if e.kind != "oneway":

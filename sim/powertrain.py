@@ -157,8 +157,8 @@ class TurbodieselSource(Component):
         sig["dT_t"] = sig["T_em"] - sig["T_t_out"]
         return sig
 
-    def breakpoints(self):
-        return self.fuel.breakpoints() if self.fuel is not None else ()
+    def breakpoints(self, t0=float("-inf"), t1=float("inf")):
+        return self.fuel.breakpoints(t0, t1) if self.fuel is not None else ()
 
     def causal_structure(self, link_block) -> tuple[list[Block], list[tuple[str, str]]]:
         """Blocks and joints: the engine's air path (control volumes and flow blocks, thesis
@@ -246,7 +246,7 @@ def turbodiesel_component(r, inp: dict, keys: tuple, mech, tr) -> TurbodieselSou
     (default) or ``"inertial"`` (refused: algebraic loop with the input link). The crank,
     flywheel and impeller inertia is the mechanism's input link.
     """
-    turbo = inp.get("turbo", "basic")
+    turbo = r.text(inp, keys, "turbo", "basic")
     if turbo not in ("basic", "iterative"):
         raise r.error(keys + ("turbo",), f"turbo must be 'basic' or 'iterative', not {turbo!r}")
     fuel = r.signal(inp.get("fuel_signal", 1.0), keys + ("fuel_signal",))
@@ -258,10 +258,10 @@ def turbodiesel_component(r, inp: dict, keys: tuple, mech, tr) -> TurbodieselSou
             raise r.error(gkeys, "governor is a table like { idle_rpm = 600, gain = 20 }")
         for k in gov:
             if k not in ("idle_rpm", "gain"):
-                raise r.error(gkeys, f"unknown key '{k}' in governor (known: gain, idle_rpm)")
+                raise r.error(gkeys + (k,), f"unknown key '{k}' in governor (known: gain, idle_rpm)")
         governor = SpeedGovernor(r.number(gov, gkeys, "idle_rpm", 600.0, positive=True) * RPM,
                                  r.number(gov, gkeys, "gain", 20.0, positive=True))
-    crank_model = inp.get("crank_model", "torque")
+    crank_model = r.text(inp, keys, "crank_model", "torque")
     if crank_model not in CRANK_MODELS:
         raise r.error(keys + ("crank_model",),
                       f"crank_model must be {' or '.join(repr(c) for c in CRANK_MODELS)}, not {crank_model!r}")
@@ -278,14 +278,14 @@ def converter_component(r, conv: dict, keys: tuple, mech, tr) -> ConverterCompon
     optional ``file`` (converter table, relative to the scenario; default the bundled one)."""
     names = {}
     for key, default in (("pump", "E"), ("turbine", "L1")):
-        link = str(conv.get(key, default))
+        link = r.text(conv, keys, key, default)
         if link not in tr.link_index:
             raise r.error(keys + (key,), f"{key} link {link!r} is not a link of the mechanism "
                                          f"(links: {', '.join(tr.links)})")
         names[key] = link
     declared = {t.name: t.link for t in mech.loads}
     for key, default, link in (("pump_torque", "Tp", names["pump"]), ("turbine_torque", "Tt", names["turbine"])):
-        tname = str(conv.get(key, default))
+        tname = r.text(conv, keys, key, default)
         if tname not in declared:
             raise r.error(keys + (key,), f"{key} {tname!r} is not a 'torque NAME LINK' of the mechanism "
                                          f"(declared: {', '.join(declared) or 'none'}); add 'torque {tname} {link}'")
@@ -295,9 +295,9 @@ def converter_component(r, conv: dict, keys: tuple, mech, tr) -> ConverterCompon
         names[key] = tname
     if names["pump"] == names["turbine"]:
         raise r.error(keys + ("turbine",), "the pump and the turbine must be different links")
+    file = r.text(conv, keys, "file", "")
     try:
-        converter = (TorqueConverter.load(r.source.path.parent / str(conv["file"])) if "file" in conv
-                     else TorqueConverter.load())
+        converter = TorqueConverter.load(r.source.path.parent / file) if file else TorqueConverter.load()
     except (OSError, ValueError) as exc:
         raise r.error(keys + ("file",), f"cannot load the torque converter: {exc}") from None
     return ConverterComponent(converter, tr.link_index[names["pump"]], tr.link_index[names["turbine"]],

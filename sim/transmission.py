@@ -125,8 +125,9 @@ class ElementConfig:
             a = a * np.interp(np.abs(slips), self.friction[0], self.friction[1])
         return scale * a
 
-    def breakpoints(self) -> tuple[float, ...]:
-        return self.apply.breakpoints()
+    def breakpoints(self, t0: float = float("-inf"), t1: float = float("inf")) -> tuple[float, ...]:
+        """The apply signal's breakpoints in ``[t0, t1]`` (a window is needed when it is periodic)."""
+        return self.apply.breakpoints(t0, t1)
 
 
 @dataclass

@@ -270,7 +270,7 @@ def test_inertial_engine_on_the_inertial_input_link_is_refused(tmp_path):
     with pytest.raises(ScenarioError) as err:
         load_scenario(path)
     msg = str(err.value)
-    assert f"{path}:4: error:" in msg                       # located at the crank_model line
+    assert f"{path}:4:1: error:" in msg                      # located at the crank_model line
     assert "algebraic loop between 'engine'" in msg and "'link E'" in msg
     assert "refused before the run" in msg and 'crank_model = "torque"' in msg
     # the same assembly checked directly names both blocks

@@ -172,10 +172,10 @@ torque = 100.0
 
 
 @pytest.mark.parametrize("extra, line, words", [
-    ("[driveline]\nstiffnes = 3\n", 11, "did you mean 'stiffness'"),
-    ("[elements.C1]\napply = { type = \"sawtooth\" }\n", 11, "signal type must be one of"),
-    ("[elements.C9]\napply = 1.0\n", 10, "unknown key 'C9'"),
-    ("[simulation2]\nx = 1\n", 10, "did you mean 'simulation'"),
+    ("[driveline]\nstiffnes = 3\n", "11:1", "did you mean 'stiffness'"),
+    ("[elements.C1]\napply = { type = \"sawtooth\" }\n", "11:1", "signal type must be one of"),
+    ("[elements.C9]\napply = 1.0\n", "10:1", "unknown key 'C9'"),
+    ("[simulation2]\nx = 1\n", "10:1", "did you mean 'simulation'"),
 ])
 def test_scenario_errors_are_located(tmp_path, extra, line, words):
     p = _scenario(tmp_path, BASE + extra)
