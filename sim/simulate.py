@@ -8,7 +8,9 @@ integrator (``scipy.integrate.solve_ivp``) locates, by root finding on its dense
 
 * a slipping element's slip crossing zero (it may lock, or slip the other way);
 * a locked friction element's torque reaching its static capacity ``T_static * apply(t)``;
-* a locked one-way clutch's torque reversing.
+* a locked one-way clutch's torque reversing;
+* a locked group of elements in parallel leaving its combined holding range
+  (:meth:`Transmission.holding_margin`, which also gives the two cases above).
 
 At each event, and at each breakpoint of an input signal, the new mode is decided by
 :meth:`Transmission.decide` (every element at zero slip may lock or slip either way; the unique
@@ -278,14 +280,9 @@ def _simulate_switching(pt: Powertrain, options: SolverOptions, progress) -> Res
             slip_event.info = ("slip", i)
             event_funcs.append(slip_event)
         for row, i in enumerate(mode.locked_order):
-            e = tr.elements[i]
 
-            def torque_event(tt, y, row=row, e=e, mode=mode):
-                u = evaluate(tt, y)[1]
-                t_e = mode.D[row] @ u
-                if e.kind == "oneway":
-                    return -e.free * t_e
-                return e.static_capacity(tt) - abs(t_e)
+            def torque_event(tt, y, row=row, mode=mode):
+                return tr.holding_margin(mode, row, tt, mode.D[row] @ evaluate(tt, y)[1])
 
             torque_event.terminal = True
             torque_event.direction = -1
@@ -327,9 +324,8 @@ def _simulate_switching(pt: Powertrain, options: SolverOptions, progress) -> Res
                     if description:
                         events.append(Event(t_end, "command", (), tr.mode_name(locked), tr.mode_name(locked), description))
                 if len(te) and kind == "torque":
-                    e = tr.elements[i]
-                    t_e = mode.D[mode.locked_order.index(i)] @ u_end
-                    forced[i] = e.free if e.kind == "oneway" else int(np.sign(t_e))
+                    row = mode.locked_order.index(i)
+                    forced.update(tr.unlock_directions(mode, row, t_end, mode.D[row] @ u_end))
             if n_events > options.max_events:
                 success, message = False, f"t={t_end:.6g} s: more than {options.max_events} events"
                 break
@@ -452,7 +448,7 @@ def _sample(pt: Powertrain, seg: _Segment, ts: np.ndarray, ys: np.ndarray) -> di
         if mode.locked_order:
             full = U.copy()
             full[tr.element_input] += te
-            torques[list(mode.locked_order)] = mode.D @ full
+            torques += tr.split_locked_torques(mode, ts, mode.D @ full)
         power = np.where(slipping[:, None], np.abs(torques * slips), 0.0)
         return te, torques, power, 0.0
 
