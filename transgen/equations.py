@@ -305,14 +305,16 @@ def diagnose_singular(g: nx.DiGraph, locked=()) -> str:
     """
     locked = tuple(locked)
     links = link_nodes(g)
-    reps = tuple(grp.first for grp in locked_constraints(g, locked))
+    groups = locked_constraints(g, locked)
+    reps = tuple(grp.first for grp in groups)
+    label = {grp.first: grp.label for grp in groups}
     a = constraint_matrix(g, reps)
     problems = []
     if numeric_rank(a) < a.shape[0]:
         left = null_space(a.T, a.shape[0])  # y with y^T A = 0
         rows = [c.name for c in constraints(g, reps)]
         involved = [rows[i] for i in range(a.shape[0]) if np.linalg.norm(left[i]) > 1e-9]
-        elements = [x for x in involved if x in reps]
+        elements = [label[x] for x in involved if x in reps]
         transformers = [x for x in involved if x not in reps]
         if elements:
             problems.append("the torques of the locked elements " + ", ".join(elements)
