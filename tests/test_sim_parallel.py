@@ -259,7 +259,7 @@ def test_modes_std_and_simulator_agree(name):
     # every mode the STD lists (default selection) is one the simulator builds
     for mode in state_transition_diagram(mech).modes:
         tr.mode([tr.element_index[x] for x in mode.locked])
-    if len(mech.elements) > 7:
+    if len(mech.elements) > 7 and name != "mb722_6_w5a330_1996":  # (one 8-element gearbox: 256 modes)
         return
     every = select_modes(mech, "all")
     std = state_transition_diagram(mech, every)
