@@ -14,7 +14,7 @@ import argparse
 import time
 import warnings
 
-import transgen.sim.simulate as simulate_module
+import transgen.sim.switching as switching_module
 from transgen.sim.maps import RPM
 from transgen.sim.powertrain import TurbodieselSource, turbo_report
 from transgen.sim.scenario import load_scenario
@@ -27,7 +27,7 @@ def run(name: str, repeats: int = 3) -> dict:
     single timings by some 20 %)."""
     sc = None
     best = (float("inf"), 0.0, None)
-    collect = simulate_module._collect
+    collect = switching_module.collect
     for _ in range(repeats):
         sc = load_scenario(name)
         sampled = {}
@@ -38,13 +38,13 @@ def run(name: str, repeats: int = 3) -> dict:
             sampled["wall"] = time.perf_counter() - t0
             return out
 
-        simulate_module._collect = timed_collect
+        switching_module.collect = timed_collect
         try:
             start = time.perf_counter()
             result = sc.run()
             wall = time.perf_counter() - start
         finally:
-            simulate_module._collect = collect
+            switching_module.collect = collect
         if wall < best[0]:
             best = (wall, sampled.get("wall", 0.0), result)
     wall, sampling, result = best

@@ -45,6 +45,27 @@ class Signal:
         rise above zero in it."""
         return math.inf
 
+    def next_crossing(self, level: float, t0: float, t1: float) -> float | None:
+        """The first time in ``(t0, t1)`` [s] at which the signal crosses ``level`` strictly inside
+        one of its smooth pieces (crossings at breakpoints are breakpoints already); ``inf`` when
+        there is none, ``None`` when the signal cannot tell (the simulator then relies on its event
+        function alone). An apply signal crossing zero is a kink of the element torque: the
+        simulator restarts its integrator there, so that no solver steps over a short pulse."""
+        return None
+
+
+def _linear_crossing(level: float, t0: float, t1: float, knots) -> float:
+    """:meth:`Signal.next_crossing` of the piecewise-linear function through ``knots``
+    ``[(t, value), ...]`` (times increasing)."""
+    for (ta, va), (tb, vb) in zip(knots, knots[1:]):
+        if tb <= t0 or ta >= t1:
+            continue
+        if (va - level) * (vb - level) < 0.0:
+            tc = ta + (level - va) / (vb - va) * (tb - ta)
+            if t0 < tc < t1:
+                return tc
+    return math.inf
+
 
 @dataclass(frozen=True)
 class Constant(Signal):
@@ -58,6 +79,12 @@ class Constant(Signal):
 
     def upper_bound(self, t0: float, t1: float) -> float:
         return self.v
+
+    def knots(self) -> tuple:
+        return ((-math.inf, self.v), (math.inf, self.v))
+
+    def next_crossing(self, level, t0, t1):
+        return math.inf
 
 
 @dataclass(frozen=True)
@@ -74,6 +101,12 @@ class Step(Signal):
 
     def upper_bound(self, t0: float, t1: float) -> float:
         return max(self.value(t0), self.value(t1))
+
+    def knots(self) -> tuple:
+        return ((-math.inf, self.before), (self.t, self.before), (self.t, self.after), (math.inf, self.after))
+
+    def next_crossing(self, level, t0, t1):
+        return math.inf  # constant pieces; the jump is a breakpoint
 
 
 @dataclass(frozen=True)
@@ -95,6 +128,12 @@ class Ramp(Signal):
 
     def upper_bound(self, t0: float, t1: float) -> float:
         return max(self.value(t0), self.value(t1))  # monotonic
+
+    def knots(self) -> tuple:
+        return ((-math.inf, self.v0), (self.t0, self.v0), (self.t1, self.v1), (math.inf, self.v1))
+
+    def next_crossing(self, level, t0, t1):
+        return _linear_crossing(level, t0, t1, self.knots())
 
 
 @dataclass(frozen=True)
@@ -121,6 +160,12 @@ class Table(Signal):
     def breakpoints(self) -> tuple[float, ...]:
         return tuple(self.times)
 
+    def knots(self) -> tuple:
+        return tuple(zip(self.times, self.values))
+
+    def next_crossing(self, level, t0, t1):
+        return _linear_crossing(level, t0, t1, self.knots())
+
 
 @dataclass(frozen=True)
 class Sine(Signal):
@@ -134,6 +179,24 @@ class Sine(Signal):
 
     def upper_bound(self, t0: float, t1: float) -> float:
         return self.offset + abs(self.amplitude)
+
+    def next_crossing(self, level, t0, t1):
+        if self.amplitude == 0.0 or self.frequency == 0.0:
+            return math.inf
+        r = (level - self.offset) / self.amplitude
+        if not -1.0 < r < 1.0:
+            return math.inf  # never crosses (at most touches)
+        omega = 2 * math.pi * self.frequency
+        base = math.asin(r)
+        theta0 = omega * t0 + self.phase
+        best = math.inf
+        for root in (base, math.pi - base):  # sin(theta) = r at root + 2 pi k
+            k = math.floor((theta0 - root) / (2 * math.pi)) + 1
+            t = (root + 2 * math.pi * k - self.phase) / omega
+            if t <= t0:  # round-off at the window's start
+                t += 2 * math.pi / omega
+            best = min(best, t)
+        return best if best < t1 else math.inf
 
 
 @dataclass(frozen=True)
@@ -150,6 +213,23 @@ class Sum(Signal):
 
     def breakpoints(self) -> tuple[float, ...]:
         return tuple(sorted({b for p in self.parts for b in p.breakpoints()}))
+
+    def next_crossing(self, level, t0, t1):
+        if not all(hasattr(p, "knots") for p in self.parts):
+            return None
+        # piecewise linear between the union of the parts' knots (jumps are breakpoints)
+        times = sorted({t for p in self.parts for t, _ in p.knots() if math.isfinite(t)} | {t0, t1})
+        times = [t for t in times if t0 <= t <= t1]
+        knots = []
+        for a, b in zip(times, times[1:]):
+            if b > a:
+                eps = 1e-12 * max(1.0, abs(a), abs(b))
+                knots.append(((a, self.value(a + eps)), (b, self.value(b - eps))))
+        for (ta, va), (tb, vb) in knots:
+            tc = _linear_crossing(level, t0, t1, ((ta, va), (tb, vb)))
+            if tc < math.inf:
+                return tc
+        return math.inf
 
 
 @dataclass(frozen=True)
@@ -174,3 +254,12 @@ class Spliced(Signal):
     def breakpoints(self) -> tuple[float, ...]:
         return tuple(sorted({self.t} | {b for b in self.before.breakpoints() if b < self.t}
                             | {b for b in self.after.breakpoints() if b > self.t}))
+
+    def next_crossing(self, level, t0, t1):
+        if t0 < self.t:
+            first = self.before.next_crossing(level, t0, min(t1, self.t))
+            if first is None or first < math.inf:
+                return first
+        if t1 > self.t:
+            return self.after.next_crossing(level, max(t0, self.t), t1)
+        return math.inf

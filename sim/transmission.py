@@ -48,7 +48,15 @@ from transgen.statespace import _mode_state_space, state_space
 
 from .signals import Constant, Signal
 
-__all__ = ["ElementConfig", "ModeData", "Transmission"]
+__all__ = ["ElementConfig", "ModeData", "Transmission", "APPLY_THRESHOLD"]
+
+#: An apply fraction at or below this counts as released. The simulator watches every apply signal
+#: crossing it (a rise from zero or a fall to zero is a kink of the element torque and may change the
+#: mode); slightly above zero so that an apply held at exactly zero never looks like a crossing.
+APPLY_THRESHOLD = 1e-12
+#: How far past ``t`` [s, relative to max(1, |t|)] :meth:`ElementConfig.applied_after` looks for a
+#: rising apply.
+APPLY_LOOKAHEAD = 1e-9
 
 
 @dataclass
@@ -79,6 +87,27 @@ class ElementConfig:
     def apply_over(self, ts: np.ndarray) -> np.ndarray:
         """:meth:`apply_at` at every time of ``ts`` (output sampling)."""
         return np.ones(len(ts)) if self.kind == "oneway" else np.maximum(self.apply.sample(ts), 0.0)
+
+    def applied_after(self, t: float) -> bool:
+        """Whether the element can transmit torque just after ``t``: a one-way clutch always, a
+        friction element when its apply is above zero at ``t`` or rises from zero right after it
+        (the right limit, so that an element whose apply starts to rise at ``t`` is decided as
+        applied)."""
+        return self.kind == "oneway" or self.apply_at(t) > 0.0 or self.applied_just_after(t)
+
+    def applied_just_after(self, t: float) -> bool:
+        """Whether the apply signal is above :data:`APPLY_THRESHOLD` just after ``t`` (the side of the
+        threshold a segment starting at ``t`` leaves from)."""
+        return self.apply.value(t + APPLY_LOOKAHEAD * max(1.0, abs(t))) > APPLY_THRESHOLD
+
+    def holding_margin(self, t: float, torque: float) -> float:
+        """How far the torque [N*m] of the element, locked, is inside its holding limit (>= 0: it
+        holds): ``T_static * apply - |t|`` for a friction element, ``-free * t`` for a one-way clutch,
+        each with the round-off allowance that the mode decision accepts (so that a lock decided
+        at its limit starts on the holding side of the unlock event)."""
+        if self.kind == "oneway":
+            return 1e-9 * (1.0 + abs(torque)) - self.free * torque
+        return self.static_capacity(t) * (1.0 + 1e-9) + 1e-9 - abs(torque)
 
     def static_capacity(self, t: float) -> float:
         return float("inf") if self.kind == "oneway" else self.static * self.apply_at(t)
@@ -315,11 +344,16 @@ class Transmission:
 
     def holding_margin(self, mode: ModeData, row: int, t: float, torque: float) -> float:
         """How far the row's torque ``torque`` is inside its holding range (:meth:`holding_limits`):
-        positive while the constraint holds, zero where it unlocks (a root for the integrator's
-        torque event; for a lone friction element ``T_static*apply - |t|``, for a lone one-way
-        clutch ``-free*t``)."""
+        >= 0 while the constraint holds, crossing zero where it unlocks (the root of the
+        integrator's torque event, and the mode decision's test). A lone element's is
+        :meth:`ElementConfig.holding_margin` (``T_static*apply - |t|``, or ``-free*t``); a group's
+        has the same round-off allowance, relative to its friction capacity and the torque."""
+        members = mode.groups[row]
+        if len(members) == 1:
+            return self.elements[members[0]].holding_margin(t, torque)
         lo, hi = self.holding_limits(mode, row, t)
-        return min(hi - torque, torque - lo)
+        friction = sum(self.elements[i].static_capacity(t) for i in members if self.elements[i].kind != "oneway")
+        return min(hi - torque, torque - lo) + 1e-9 * (1.0 + friction + abs(torque))
 
     def unlock_directions(self, mode: ModeData, row: int, t: float, torque: float) -> dict[int, int]:
         """At the unlock of row ``row`` (its torque ``torque`` at a limit): the direction each of
@@ -374,15 +408,19 @@ class Transmission:
         """The consistent mode at time ``t`` and speeds ``w``: which elements at zero slip lock,
         and which way the others slip (complementarity, Pfeiffer & Glocker).
 
-        Elements in parallel (:attr:`groups`) have one slip and are decided as one. A group with
-        ``|slip| <= slip_tol`` and a member that can transmit torque (apply > 0, or one-way) may
-        lock — with all such members — or start slipping either way (only in the free direction
-        of its one-way members). For every combination the mode's locked torques and slip
-        accelerations are computed — with the static capacity for elements that start to slip,
-        as the sticking test of 3.2.6 asks — and the combination is consistent when every locked
-        row's torque is within its holding range (:meth:`holding_limits`: ``|t| <=
-        T_static*apply`` for a lone friction element, the locking direction for a lone one-way
-        clutch) and every group starting to slip accelerates in its slip direction. The unique
+        Elements at zero slip (``|slip| <= slip_tol``: the slip left is round-off) are decided by
+        groups: elements in parallel (:attr:`groups`) have one slip and are decided as one. A
+        group at zero slip with a member that can transmit torque
+        (:meth:`ElementConfig.applied_after`: one-way, apply > 0, or an apply that rises from zero
+        at ``t``) may lock — with all such members — or start slipping either way (only in the
+        free direction of its one-way members); the released elements at zero slip get the
+        direction of their slip acceleration in the chosen mode (never the sign of round-off).
+        For every combination the mode's locked torques and slip accelerations are computed —
+        with the static capacity for elements that start to slip, as the sticking test of 3.2.6
+        asks — and the combination is consistent when every locked row's torque is within its
+        holding range (:meth:`holding_margin`: ``|t| <= T_static*apply`` for a lone friction
+        element, the locking direction for a lone one-way clutch, the combined range for a
+        group) and every group starting to slip accelerates in its slip direction. The unique
         consistent combination is returned with the slip directions; none or several raise
         :class:`SimulationError` naming the elements.
 
@@ -395,9 +433,11 @@ class Transmission:
         slips = self.P @ w
         zero = []  # (members, signs, members that can transmit, choices) of the groups at zero slip
         for members, signs in self.groups:
-            capable = tuple(i for i in members if self.elements[i].kind == "oneway" or self.elements[i].apply_at(t) > 0)
+            capable = tuple(i for i in members if self.elements[i].applied_after(t))
             if capable and abs(slips[members[0]]) <= slip_tol:
                 zero.append((members, signs, capable, self._choices(members, signs, forced)))
+        deciding = {i for z in zero for i in z[0]}
+        released = [i for i in range(len(self.elements)) if abs(slips[i]) <= slip_tol and i not in deciding]
         base_dir = np.sign(slips).astype(int)
         consistent = []
         rejected = 0
@@ -422,14 +462,15 @@ class Transmission:
             t_locked = data.D @ u
             ok = True
             for row in range(len(data.locked_order)):
-                lo, hi = self.holding_limits(data, row, t)
-                tol = 1e-9 * (1 + abs(t_locked[row]))
-                if not lo - tol <= t_locked[row] <= hi + tol:
+                if self.holding_margin(data, row, t, t_locked[row]) < 0.0:
                     ok = False
             for (members, _, _, _), c in zip(zero, choice):
                 if c != 0 and not any(i in forced for i in members) and not c * slip_acc[members[0]] > 0:
                     ok = False
             if ok:
+                # a released element at zero slip moves off the way its slip accelerates
+                for i in released:
+                    directions[i] = int(np.sign(slip_acc[i]))
                 consistent.append((locked, directions))
         if len(consistent) == 1:
             return consistent[0]
