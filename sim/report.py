@@ -105,6 +105,18 @@ def _shift_text(q: ShiftQuality) -> str:
     return "\n".join(lines)
 
 
+def _invariants_text(summary: dict | None) -> list[str]:
+    """The invariant monitor's summary (:meth:`~transgen.sim.monitor.InvariantMonitor.summary`):
+    which invariants were checked, how often, and the worst margin (1 = at the tolerance)."""
+    if not summary:
+        return ["", "Invariants: NOT checked (the monitor was switched off)"]
+    lines = ["", f"Invariants checked on {summary['segments']} segments (worst = violation measure / tolerance, "
+                 f"a run stops above 1)"]
+    for name, v in summary["invariants"].items():
+        lines.append(f"  {name:<24}{v['checks']:>10} checks   worst {v['worst']:9.3g}")
+    return lines
+
+
 def report_text(result: Result, qualities: list[ShiftQuality] | None = None) -> str:
     """A readable report: one table per shift (units in the headers), the energy balance and the
     run statistics."""
@@ -125,9 +137,11 @@ def report_text(result: Result, qualities: list[ShiftQuality] | None = None) -> 
         bal.append(f"  {'relative residual':<24}{eb['relative_residual']:>16.3e}")
     bal.append(f"  {'check':<24}{'PASS' if eb.get('passed') else 'FAIL'} "
                f"(|residual| <= {ENERGY_TOL:.1%} of the input work)")
-    stats = ["", "Run statistics"]
+    stats = _invariants_text((result.stats or {}).get("invariants")) + ["", "Run statistics"]
     units = {"wall_time": "s"}
     for k, v in (result.stats or {}).items():
+        if k == "invariants":
+            continue
         stats.append(f"  {k:<24}{(f'{v:.4g}' if isinstance(v, float) else str(v)):>16} {units.get(k, '')}".rstrip())
     modes = [f"{m.name} {m.t0:.3f}-{m.t1:.3f} s" for m in result.modes]
     if modes:
