@@ -298,3 +298,16 @@ def test_zf3hp22_std_knows_manual_first():
     report = modes_report(mech, "all")
     assert report["diagnosis"]["parallel"] == [["BLR", "OWC"]]
     assert ["FWD", "BLR", "OWC"] not in report["diagnosis"]["non_unique_torques"]
+
+
+def test_cli_names_the_groups_and_the_modes_it_cannot_model(capsys):
+    from transgen.cli import main
+
+    assert main(["modes", "zf3hp22_small"]) == 0
+    out = capsys.readouterr().out
+    assert "reverse R; BLR+OWC in parallel" in out
+    assert "elements in parallel (same motion; locked together they are one constraint): BLR OWC" in out
+    assert main(["std", "zf3hp22_small", "--all"]) == 0
+    out = capsys.readouterr().out
+    assert ": apply BLR: BLR is applied while OWC holds the motion (slip 0)" in out
+    assert "(FWD DIR B2 BLR OWC) cannot be modelled: " in out and "BLR+OWC are not unique" in out

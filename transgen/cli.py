@@ -123,8 +123,8 @@ def cmd_modes(args) -> int:
     print(f"{mech.name}: {len(report['modes'])} modes ({report['selection']})")
     print(f"  {'mode':<5} {'locked':<18} {'DOF':>3}  {'kind':<8} label / problem")
     for m in report["modes"]:
-        extra = m["label"] + "".join(f"; {'+'.join(grp)} in parallel" for grp in m["parallel"]) + (
-            f"  !! {m['problem']}" if m["problem"] else "")
+        notes = [m["label"]] * bool(m["label"]) + [f"{'+'.join(grp)} in parallel" for grp in m["parallel"]]
+        extra = "; ".join(notes) + (f"  !! {m['problem']}" if m["problem"] else "")
         print(f"  {m['name']:<5} {' '.join(m['locked']) or '(none)':<18} {m['dof']:>3}  {m['kind']:<8} {extra}")
     diag = report["diagnosis"]
     print(f"\n  static diagnosis over all {diag['combinations']} combinations:")
