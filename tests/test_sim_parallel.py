@@ -311,3 +311,20 @@ def test_cli_names_the_groups_and_the_modes_it_cannot_model(capsys):
     out = capsys.readouterr().out
     assert ": apply BLR: BLR is applied while OWC holds the motion (slip 0)" in out
     assert "(FWD DIR B2 BLR OWC) cannot be modelled: " in out and "BLR+OWC are not unique" in out
+
+
+@pytest.mark.parametrize("name", ["freewheel_clutch", "zf3hp22_manual_first_coast"])
+def test_parallel_scenarios_do_not_depend_on_the_solver(name):
+    """The same event sequence (times within 1 ms) and final speeds within 0.1 % on all five
+    solvers."""
+    sc = load_scenario(name)
+    runs = {m: simulate(sc.powertrain, dataclasses.replace(sc.options, method=m))
+            for m in ("DOP853", "RK45", "LSODA", "Radau", "BDF")}
+    ref = runs["DOP853"]
+    for method, r in runs.items():
+        assert r.success, (method, r.message)
+        assert [(e.kind, e.elements) for e in r.events] == [(e.kind, e.elements) for e in ref.events], method
+        assert max(abs(a.t - b.t) for a, b in zip(r.events, ref.events)) < 1e-3, method
+        for link in sc.powertrain.transmission.links:
+            a, b = r.signals[f"w_{link}"][-1], ref.signals[f"w_{link}"][-1]
+            assert abs(a - b) <= 1e-3 * max(1.0, abs(b)), (method, link)
