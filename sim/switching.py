@@ -9,6 +9,8 @@ on its dense output:
 * a slipping element's slip crossing zero (it may lock, or slip the other way);
 * a locked friction element's torque reaching its static capacity ``T_static * apply(t)``;
 * a locked one-way clutch's torque reversing;
+* a locked group of elements in parallel leaving its combined holding range
+  (:meth:`Transmission.holding_margin` gives all three);
 * an apply signal rising from zero or falling to zero (a kink of the element's torque, and an
   element at zero slip may lock).
 
@@ -129,12 +131,10 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None) ->
         event_funcs = [slip_event(lambda tt, y: evaluate(tt, y)[6], i, int(seg_dirs[i]), tol)
                        for i in slipping if seg_dirs[i] != 0]
         event_funcs += apply_events(tr, slipping, t)
-        for row, i in enumerate(mode.locked_order):
-            e = tr.elements[i]
+        for row, i in enumerate(mode.locked_order):  # one row per locked element or group in parallel
 
-            def torque_event(tt, y, row=row, e=e, mode=mode):
-                u = evaluate(tt, y)[1]
-                return e.holding_margin(tt, mode.D[row] @ u)
+            def torque_event(tt, y, row=row, mode=mode):
+                return tr.holding_margin(mode, row, tt, mode.D[row] @ evaluate(tt, y)[1])
 
             torque_event.terminal = True
             torque_event.direction = -1
@@ -180,9 +180,8 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None) ->
                     if description:
                         events.append(Event(t_end, "command", (), tr.mode_name(locked), tr.mode_name(locked), description))
                 if len(te) and kind == "torque":
-                    e = tr.elements[i]
-                    t_e = mode.D[mode.locked_order.index(i)] @ u_end
-                    forced[i] = e.free if e.kind == "oneway" else int(np.sign(t_e))
+                    row = mode.locked_order.index(i)
+                    forced.update(tr.unlock_directions(mode, row, t_end, mode.D[row] @ u_end))
             if n_events > options.max_events:
                 success, message = False, f"t={t_end:.6g} s: more than {options.max_events} events"
                 break
@@ -204,7 +203,7 @@ def _sample(pt: Powertrain, seg: Segment, ts: np.ndarray, ys: np.ndarray) -> dic
         if mode.locked_order:
             full = U.copy()
             full[tr.element_input] += te
-            torques[list(mode.locked_order)] = mode.D @ full
+            torques += tr.split_locked_torques(mode, ts, mode.D @ full)  # per element, by the split rule
         power = np.where(slipping[:, None], np.abs(torques * slips), 0.0)
         return te, torques, power, 0.0
 

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import itertools
 
-from .equations import diagnose_singular
+from .equations import diagnose_singular, locking_groups
 from .graph import build_graph
 from .kinematics import analyze
 from .model import Mechanism
@@ -47,7 +47,11 @@ def mechanism_to_dict(m: Mechanism) -> dict:
 
 def modes_report(mech: Mechanism, which: str = "auto") -> dict:
     """Modes with locked elements, DOF, kind and problems, and a static diagnosis of every
-    combination: tie-ups, non-unique locked torques, undetermined massless members."""
+    combination: tie-ups, non-unique locked torques, undetermined massless members.
+
+    ``parallel`` (per mode, and ``diagnosis.parallel`` for the mechanism): the elements in
+    parallel (same two links) that lock one motion as one constraint — not a problem: the
+    motion is unique, the simulator splits their torque by its documented rule."""
     models = mode_models(mech, which)
     g = build_graph(mech)
     names = list(mech.element_names)
@@ -66,9 +70,11 @@ def modes_report(mech: Mechanism, which: str = "auto") -> dict:
         "selection": "all combinations" if which == "all" else ("declared" if mech.modes else "default"),
         "modes": [
             {"name": m.name, "locked": list(m.locked), "dof": m.dof, "kinematic_dof": m.kinematic_dof,
-             "kind": m.kind, "label": m.mode.label, "problem": m.problem}
+             "kind": m.kind, "label": m.mode.label, "problem": m.problem,
+             "parallel": [list(grp.members) for grp in m.parallel]}
             for m in models
         ],
         "diagnosis": {"combinations": len(combos), "tie_ups": tie_ups, "non_unique_torques": non_unique,
-                      "undetermined_massless": massless},
+                      "undetermined_massless": massless,
+                      "parallel": [list(grp.members) for grp in locking_groups(g) if len(grp.members) > 1]},
     }

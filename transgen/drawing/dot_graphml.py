@@ -89,7 +89,7 @@ def std_to_dot(std, leaving: bool = False) -> str:
     for m in std.modes:
         lines.append(f"  {_q(m.name)} [label={_q(mode_text(m))}, fillcolor={_q(mode_color(m.label))}];")
     for t in std.internal:
-        color = LOCK_COLOR if t.event == "lock" else UNLOCK_COLOR
+        color = LOCK_COLOR if t.adds else UNLOCK_COLOR
         lines.append(f"  {_q(t.source)} -> {_q(t.target)} [label={_q(f'{t.event} {t.element}')}, "
                      f"color={_q(color)}, fontcolor={_q(color)}];")
     if leaving:

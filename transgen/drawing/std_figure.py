@@ -38,13 +38,13 @@ def _leaving_stubs(std, lay: StdLayout) -> list[tuple]:
             continue
         i = row_of[t.source]
         if last == 0:
-            phi = 90.0 if t.event == "lock" else 270.0
+            phi = 90.0 if t.adds else 270.0
         elif i == 0:
             phi = 90.0
         elif i == last:
             phi = 270.0
         else:
-            phi = 0.0 if t.event == "lock" else 180.0
+            phi = 0.0 if t.adds else 180.0
         groups.setdefault((t.source, phi), []).append(t)
     out = []
     for (source, phi), group in groups.items():
@@ -55,8 +55,8 @@ def _leaving_stubs(std, lay: StdLayout) -> list[tuple]:
             theta = math.radians(phi + ((n - 1) / 2 - i) * step)
             c, s_ = math.cos(theta), math.sin(theta)
             x0, y0 = e.x + e.a * c, e.y + e.b * s_
-            color = LOCK_COLOR if t.event == "lock" else UNLOCK_COLOR
-            sign = "+" if t.event == "lock" else "\u2212"
+            color = LOCK_COLOR if t.adds else UNLOCK_COLOR
+            sign = "+" if t.adds else "\u2212"
             out.append((x0, y0, x0 + _STUB * c, y0 + _STUB * s_, x0 + (_STUB + 0.15) * c,
                         y0 + (_STUB + 0.1) * s_, f"{sign}{t.element}", color, f"leaving:{source}:{t.element}"))
     return out
@@ -141,7 +141,7 @@ def draw_std(std, ax=None, leaving: bool = False):
         paired = (t.target, t.source) in pairs
         length = math.hypot(b.x - a.x, b.y - a.y) or 1.0
         rad = min(0.35, 2 * (0.3 if paired else 0.12) / length)  # the arc bulges 0.3 in / 0.12 in
-        color = LOCK_COLOR if t.event == "lock" else UNLOCK_COLOR
+        color = LOCK_COLOR if t.adds else UNLOCK_COLOR
         arrow = FancyArrowPatch((a.x, a.y), (b.x, b.y), patchA=patches[t.source], patchB=patches[t.target],
                                 connectionstyle=f"arc3,rad={rad}", arrowstyle="-|>", mutation_scale=13 * scale,
                                 shrinkA=1.5, shrinkB=1.5, color=color, linewidth=1.2, zorder=1,
