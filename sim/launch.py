@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -101,38 +102,22 @@ class VehicleClass:
         return TorqueConverter.load(DATA_DIR / self.converter if self.converter else DEFAULT_TORQUE_CONVERTER)
 
 
-VEHICLES: dict[str, VehicleClass] = {
-    "car": VehicleClass(
-        "car", "passenger car, 1700 kg, 340 N*m engine (estimates of the class)",
-        speed_rpm=(600, 1000, 1500, 2000, 2500, 3000, 3500, 4000, 4500, 5000, 5500, 6000, 6500),
-        throttle=(0.0, 0.5, 1.0),
-        torque_table=((-12, -15, -18, -21, -24, -27, -30, -33, -36, -39, -42, -45, -48),
-                      (90, 130, 160, 170, 165, 155, 140, 120, 100, 75, 50, 20, -30),
-                      (150, 220, 280, 320, 340, 340, 335, 325, 310, 290, 260, 200, 0)),
-        J_engine=0.25, idle_rpm=750, throttle_signal=0.35, converter="torque_converter_car.toml",
-        mass=1700.0, wheel_radius=0.33, rolling_resistance=0.011, cd_a=0.7,
-        output_inertia=0.05, stiffness=8000.0, damping=150.0, overall_first=12.5, last_upshift_speed=25.0,
-        upshift_rpm=(1500.0, 4500.0), downshift_rpm=(1000.0, 2200.0),
-        comments={"engine": "petrol engine, about 340 N*m at 2500-3000 rpm, governed run-out to 6500 rpm",
-                  "J_engine": "crankshaft, flywheel and converter impeller",
-                  "output_inertia": "propeller shaft and axle input",
-                  "stiffness": "propeller shaft and half shafts referred to the gearbox output"}),
-    "truck": VehicleClass(
-        "truck", "M915-class tractor-trailer, 36 t, 1.6 kN*m diesel (as the bundled HT-740 scenarios)",
-        speed_rpm=(600, 800, 1000, 1200, 1400, 1600, 1800, 2000, 2100, 2200, 2300),
-        throttle=(0.0, 0.5, 1.0),
-        torque_table=((-60, -70, -80, -95, -110, -125, -140, -160, -170, -180, -190),
-                      (420, 590, 710, 760, 745, 718, 670, 620, 592, 410, -95),
-                      (900, 1250, 1500, 1615, 1600, 1560, 1480, 1400, 1354, 1000, 0)),
-        J_engine=2.5, idle_rpm=650, throttle_signal=0.72, converter=None,
-        mass=36000.0, wheel_radius=0.52, rolling_resistance=0.008, cd_a=6.0,
-        output_inertia=0.5, stiffness=20000.0, damping=300.0, overall_first=20.5, last_upshift_speed=20.0,
-        upshift_rpm=(1300.0, 2100.0), downshift_rpm=(900.0, 1300.0),
-        comments={"engine": "about 298 kW at 2100 rpm, 1.6 kN*m at 1200 rpm, governed run-out to 2300 rpm",
-                  "J_engine": "crankshaft, flywheel and converter impeller",
-                  "output_inertia": "driveshaft and axle input",
-                  "stiffness": "driveshaft and axle torsional stiffness"}),
-}
+def _load_vehicles() -> dict[str, VehicleClass]:
+    """The vehicle classes of ``data/vehicle_classes.toml``."""
+    doc = tomllib.loads((DATA_DIR / "vehicle_classes.toml").read_text(encoding="utf-8"))
+    out = {}
+    for name, spec in doc["vehicle"].items():
+        spec = dict(spec)
+        for key in ("speed_rpm", "throttle", "upshift_rpm", "downshift_rpm"):
+            spec[key] = tuple(float(x) for x in spec[key])
+        spec["torque_table"] = tuple(tuple(float(x) for x in row) for row in spec["torque_table"])
+        spec["converter"] = spec.get("converter") or None
+        out[name] = VehicleClass(name=name, **spec)
+    return out
+
+
+VEHICLES: dict[str, VehicleClass] = _load_vehicles()
+"""Vehicle classes by name (``car``, ``truck``), from ``sim/data/vehicle_classes.toml``."""
 
 
 @dataclass(frozen=True)
