@@ -309,8 +309,13 @@ def _sequence(mech: Mechanism, gears: list[ForwardGear]):
     table = {g.name: g.engaged for g in gears}
     oneway = frozenset(e.name for e in mech.elements if e.kind == "oneway")
     order, shifts, skipped = [gears[0].name], [], []
+    ratios = {g.name: g.ratio for g in gears}
+    table_ratio = ratios.__getitem__
     for gear in gears[1:]:
         source = order[-1]
+        if gear.ratio >= table_ratio(source) * (1 - 1e-6):
+            skipped.append((gear.name, f"same ratio as gear {source} ({gear.ratio:.4f})"))
+            continue
         try:
             on, off = gear_swap(table, source, gear.name, oneway)
         except ValueError as exc:

@@ -271,3 +271,11 @@ def test_cli_scenario_new_bad_input_exits_2_and_writes_nothing(tmp_path, capsys)
     with pytest.raises(SystemExit) as exc:
         main(["scenario", "--help"])
     assert exc.value.code == 0 and "new" in capsys.readouterr().out
+
+
+def test_a_second_gear_with_the_same_ratio_is_left_out():
+    mech = load_mechanism("ht740")
+    text = mech.text.replace("gear 3 = C1 C3", "gear 2b = C4 C1 ratio=2.02\ngear 3 = C1 C3")
+    launch = derive_launch(parse_mechanism(text, mech.source))
+    assert launch.order == ("1", "2", "3", "4")
+    assert launch.skipped == (("2b", "same ratio as gear 2 (2.0196)"),)
