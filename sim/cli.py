@@ -1,11 +1,11 @@
-"""Simulator commands of the ``transgen`` command line: ``simulate`` (and ``maps``)."""
+"""Simulator commands of the ``transgen`` command line: ``simulate``, ``scenario`` and ``maps``."""
 from __future__ import annotations
 
 import json
 import sys
 from pathlib import Path
 
-__all__ = ["add_commands", "cmd_simulate", "cmd_maps"]
+__all__ = ["add_commands", "cmd_simulate", "cmd_scenario_new", "cmd_maps"]
 
 
 def add_commands(sub) -> None:
@@ -30,6 +30,25 @@ def add_commands(sub) -> None:
     s.add_argument("--quiet", action="store_true", help="no progress on standard error")
     s.add_argument("--list", action="store_true", help="list the bundled scenarios")
     s.set_defaults(func=cmd_simulate)
+
+    s = sub.add_parser("scenario", help="write scenario files (scenario new: a launch through every forward gear)",
+                       description="Scenario files from a mechanism. 'transgen scenario new FILE' writes a commented "
+                                   "launch scenario: from rest through every forward gear with an automatic schedule "
+                                   "derived from the gear table, for a car or a truck.")
+    group = s.add_subparsers(dest="scenario_command", metavar="COMMAND", required=True)
+    n = group.add_parser("new", help="a launch scenario derived from a .mech file alone",
+                         description="Derive a launch scenario from a mechanism: the forward gears and their ratios, "
+                                     "the elements swapped per upshift (single or double swaps; one-way clutches "
+                                     "overrun or lock by themselves), capacities checked against the vehicle class's "
+                                     "engine and converter (the engine torque is limited where they do not hold), "
+                                     "final drive, shift lines and t_end. Without -o the TOML goes to standard output.")
+    n.add_argument("file", metavar="FILE", help=".mech file or bundled mechanism name")
+    n.add_argument("--vehicle", choices=("car", "truck"), default="car",
+                   help="vehicle class: car (1700 kg, 340 N*m) or truck (M915 class, 36 t; default car)")
+    n.add_argument("-o", "--output", metavar="FILE", help="write the scenario here (default: standard output)")
+    n.add_argument("--json", action="store_true",
+                   help="print what was derived as JSON (with -o; without -o the JSON replaces the TOML)")
+    n.set_defaults(func=cmd_scenario_new)
 
     s = sub.add_parser("maps", help="pre-process a compressor or turbine map and summarise it (thesis 4.4)",
                        description="Run the map pre-processor on a compressor or turbine map file (or a bundled "
@@ -203,6 +222,40 @@ def _comparison_text(scenario, a, qa, name_b, b, qb) -> str:
 
         lines.append(turbo_report(a, b, engine=_engine_of(scenario)).text())
     return "\n".join(lines)
+
+
+def cmd_scenario_new(args) -> int:
+    """``transgen scenario new``: derive a launch scenario, write it (atomically) or print it."""
+    import os
+
+    from transgen.export import write_text
+    from transgen.language import load_mechanism
+
+    from .launch import derive_launch, launch_scenario
+
+    mech = load_mechanism(args.file)
+    launch = derive_launch(mech, args.vehicle)
+    ref = mech.name
+    if Path(args.file).exists():  # a path: relative to where the scenario is written
+        where = Path(args.output).resolve().parent if args.output else Path.cwd()
+        ref = Path(os.path.relpath(Path(args.file).resolve(), where)).as_posix()
+    else:
+        ref = Path(args.file).stem
+    text = launch_scenario(mech, args.vehicle, ref, launch)
+    for w in launch.warnings:
+        print(f"warning: {w}", file=sys.stderr)
+    if args.output:
+        write_text(args.output, text)
+    if args.json:
+        summary = launch.to_dict()
+        summary["written"] = [args.output] if args.output else []
+        print(json.dumps(summary, indent=2))
+    elif args.output:
+        print(f"wrote {args.output}: {mech.name}, {args.vehicle}, gears {' '.join(launch.order)}, "
+              f"t_end {launch.t_end:g} s")
+    else:
+        sys.stdout.write(text)
+    return 0
 
 
 def cmd_maps(args) -> int:
