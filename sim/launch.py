@@ -44,9 +44,9 @@ from transgen.model import Mechanism
 from transgen.modes import Mode, mode_model
 
 from .components import GRAVITY, EngineMap
-from .maps import DATA_DIR
+from .engine.map_file import DATA_DIR
 from .schedule import ShiftTemplate, gear_swap
-from .torque_converter import DEFAULT_TORQUE_CONVERTER, TorqueConverter
+from .engine.torque_converter import DEFAULT_TORQUE_CONVERTER, TorqueConverter
 
 __all__ = ["VehicleClass", "VEHICLES", "ForwardGear", "LaunchShift", "ElementSizing", "Launch",
            "derive_launch", "launch_scenario", "static_element_torques", "HOLD_FACTOR", "SHIFT_FACTOR"]
