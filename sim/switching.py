@@ -69,7 +69,7 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None) ->
         u_ext, *_ = model.external(t, y_ext, w, dummy_layout)
         previous = locked
         try:
-            locked, directions = tr.decide(t, w, u_ext, slip_tol(w), forced)
+            locked, directions = tr.decide(t, w, u_ext, slip_tol(w), forced, previous or frozenset())
             mode = tr.mode(locked)
         except (SimulationError, ModeError) as exc:
             success, message = False, f"{exc} (mode {tr.mode_name(previous) if previous is not None else 'none'})"
@@ -98,9 +98,10 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None) ->
         q = w[mode.coords]
         tol = slip_tol(w)
         at_zero = [i for i in range(len(tr.elements)) if i not in locked and abs(tr.P[i] @ w) <= tol]
-        if at_zero:
-            a = tr.P[at_zero] @ mode.C
-            q = q - np.linalg.lstsq(a, a @ q, rcond=None)[0]
+        a = tr.P[at_zero] @ mode.C
+        a = a[np.linalg.norm(a, axis=1) > 1e-9 * max(1.0, float(np.max(np.abs(mode.C))))]  # not held at zero already
+        if len(a):
+            q = q - np.linalg.lstsq(a, a @ q, rcond=1e-9)[0]
         w = mode.C @ q
         layout = StateLayout(pt.components, mode.dof)
         y0 = np.concatenate([q] + comp_states + [energy])

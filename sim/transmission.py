@@ -42,6 +42,7 @@ import numpy as np
 from transgen.equations import locking_groups
 from transgen.errors import ModeError, SimulationError
 from transgen.graph import build_graph, link_nodes
+from transgen.kinematics import constraint_matrix, numeric_rank
 from transgen.model import HOUSING, Mechanism
 from transgen.modes import Mode, mode_model, mode_models
 from transgen.statespace import _mode_state_space, state_space
@@ -405,7 +406,7 @@ class Transmission:
 
     # ------------------------------------------------------ mode consistency
     def decide(self, t: float, w: np.ndarray, external_u: np.ndarray, slip_tol: float,
-               forced: dict[int, int] | None = None) -> tuple[frozenset, np.ndarray]:
+               forced: dict[int, int] | None = None, previous: frozenset = frozenset()) -> tuple[frozenset, np.ndarray]:
         """The consistent mode at time ``t`` and speeds ``w``: which elements at zero slip lock,
         and which way the others slip (complementarity, Pfeiffer & Glocker).
 
@@ -424,6 +425,17 @@ class Transmission:
         group) and every group starting to slip accelerates in its slip direction. The unique
         consistent combination is returned with the slip directions; none or several raise
         :class:`SimulationError` naming the elements.
+
+        A lock that the other locked elements already imply through the gearing (a third clutch
+        applied on a planetary set that two locked clutches already turn as one block) has no
+        unique torque: such a group stays out of the mode's constraints, at zero slip and without
+        torque, while the elements locked before it (``previous``) keep carrying the load; it
+        takes its share when one of them lets go (the next decision finds it at zero slip, now
+        needed). Groups in parallel on the same two links are handled by :attr:`groups` instead.
+
+        An element forced to slip (below) whose slip the chosen locks hold at zero through the
+        gearing cannot slip: it is left without torque in that mode (its load has passed to the
+        elements that lock the same motion).
 
         ``forced`` maps elements whose unlocking condition has just been met (their row's torque
         reached its holding limit: :meth:`unlock_directions`) to the direction they start to slip
@@ -447,14 +459,24 @@ class Transmission:
             try:
                 data = self.mode(locked)
             except ModeError:
-                rejected += 1
-                continue
+                locked = self._without_implied(locked, previous)
+                try:
+                    data = self.mode(locked)
+                except ModeError:
+                    rejected += 1
+                    continue
             directions = base_dir.copy()
+            implied = set()  # slipping groups whose slip the mode's locks hold at zero kinematically
             for (members, signs, _, _), c in zip(zero, choice):
                 directions[list(members)] = c * np.asarray(signs)
+                if c != 0 and not np.any(np.abs(self.P[members[0]] @ data.C) > 1e-12):
+                    implied.add(members)
+                    directions[list(members)] = 0  # it cannot slip: no torque, the locks carry it
+            if any(not any(i in forced for i in m) for m in implied):
+                continue  # an unforced group that cannot slip is the lock choice, decided there
             u = external_u.copy()
             torques = self.slipping_torques(t, w, locked, directions)
-            starting = [i for z, c in zip(zero, choice) if c != 0 for i in z[0]]
+            starting = [i for z, c in zip(zero, choice) if c != 0 and z[0] not in implied for i in z[0]]
             if starting:  # elements leaving zero slip are tested at their static capacity
                 torques[starting] = self.slipping_torques(t, w, locked, directions, "static")[starting]
             u[self.element_input] += torques
@@ -472,7 +494,8 @@ class Transmission:
                 # a released element at zero slip moves off the way its slip accelerates
                 for i in released:
                     directions[i] = int(np.sign(slip_acc[i]))
-                consistent.append((locked, directions))
+                if not any(lk == locked and np.array_equal(d, directions) for lk, d in consistent):
+                    consistent.append((locked, directions))
         if len(consistent) == 1:
             return consistent[0]
         names = ", ".join(self.elements[i].name for z in zero for i in z[0]) or "none"
@@ -482,6 +505,20 @@ class Transmission:
                 f"{rejected} candidate mode(s) have non-unique locked torques or undetermined members")
         options = "; ".join("+".join(self.elements[i].name for i in sorted(lk)) or "none" for lk, _ in consistent)
         raise SimulationError(f"t={t:.6g} s: several consistent modes for the elements at zero slip ({names}): {options}")
+
+    def _without_implied(self, locked: frozenset, previous: frozenset) -> frozenset:
+        """``locked`` without the groups whose lock the other locked elements already imply
+        kinematically (their slip row lies in the span of the gear constraints and the other
+        locks), the newcomers (not in ``previous``) dropped first."""
+        current = set(locked)
+        groups = [m for m, _ in self.groups if any(i in locked for i in m)]
+        groups.sort(key=lambda m: any(i in previous for i in m))
+        for members in groups:
+            rest = sorted(current - set(members))
+            a = constraint_matrix(self.graph, [self.elements[i].name for i in rest])
+            if numeric_rank(np.vstack([a, self.P[members[0]]])) == numeric_rank(a):
+                current -= set(members)
+        return frozenset(current)
 
     def _choices(self, members: tuple[int, ...], signs: tuple[int, ...], forced: dict[int, int]) -> tuple[int, ...]:
         """A group's options at zero slip: lock (0) or slip +1/-1 in its first member's
