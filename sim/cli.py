@@ -61,6 +61,18 @@ def add_commands(sub) -> None:
     s.set_defaults(func=cmd_maps)
 
 
+def _plot_formats(spec: str) -> tuple[str, ...]:
+    """The plot formats of ``--format`` (comma-separated), each checked (ValueError: exit 2)."""
+    from transgen.drawing import FIGURE_FORMATS
+
+    formats = tuple(f.strip().lower() for f in spec.split(",") if f.strip())
+    known = sorted(set(FIGURE_FORMATS.values()))
+    bad = [f for f in formats if f not in known]
+    if bad or not formats:
+        raise ValueError(f"unknown plot format {', '.join(map(repr, bad)) or repr(spec)}: choose from {', '.join(known)}")
+    return formats
+
+
 def _progress(t_end: float, quiet: bool):
     if quiet or not sys.stderr.isatty():
         return None
@@ -86,6 +98,7 @@ def cmd_simulate(args) -> int:
         items = {name: str(path) for name, path in bundled_scenarios().items()}
         print(json.dumps(items, indent=2) if args.json else "\n".join(f"  {k:<24} {v}" for k, v in items.items()))
         return 0
+    formats = _plot_formats(args.format)  # checked before anything runs or is written
     scenario = _with_model(load_scenario(args.scenario), args.model)
     progress = _progress(scenario.options.t_end, args.quiet or args.json)
     if not args.quiet and not args.json:
@@ -100,27 +113,28 @@ def cmd_simulate(args) -> int:
             print(json.dumps(result.summary(), indent=2, default=float))
         return 1
     qualities = shift_report(result, scenario.shifts or None) if len(result.time) else []
-    written = []
-    if args.output:
-        result.to_csv(args.output, scenario.outputs or None)
-        written.append(args.output)
-    if args.plot and len(result.time):
-        from .plots import plot_all
-
-        formats = tuple(f.strip() for f in args.format.split(",") if f.strip())
-        written += [str(p) for p in plot_all(result, qualities, Path(args.plot), formats=formats)]
     other = other_q = None
     compare = args.compare or (args.scenario if args.compare_model else None)
-    if compare:
+    if compare:  # both runs before anything is written: the outputs are all or none
         other_s = _with_model(load_scenario(compare), args.compare_model or args.model)
         other = other_s.run()
         if not other.success:
             print(f"error: {compare}: {other.message}", file=sys.stderr)
             return 1
         other_q = shift_report(other, other_s.shifts or None)
-        if args.plot:
-            written += _comparison_plots(scenario, result, other_s, other, Path(args.plot),
-                                         tuple(f.strip() for f in args.format.split(",") if f.strip()))
+    written = []
+    from transgen.export import output_set
+
+    with output_set():
+        if args.output:
+            result.to_csv(args.output, scenario.outputs or None)
+            written.append(args.output)
+        if args.plot and len(result.time):
+            from .plots import plot_all
+
+            written += [str(p) for p in plot_all(result, qualities, Path(args.plot), formats=formats)]
+        if compare and args.plot:
+            written += _comparison_plots(scenario, result, other_s, other, Path(args.plot), formats)
     if args.json:
         summary = result.summary()
         summary["report"] = report_dict(result, qualities)
@@ -263,12 +277,15 @@ def cmd_maps(args) -> int:
     from .engine.map_summary import load_named_map, map_summary, map_summary_text
     from .engine.plots import plot_map_file
 
+    formats = _plot_formats(args.format)
     path, m = load_named_map(args.map)
     summary = map_summary(path, m)
     written = []
     if args.plot:
-        formats = tuple(f.strip() for f in args.format.split(",") if f.strip())
-        written = [str(p) for p in plot_map_file(m, Path(args.plot), formats=formats)]
+        from transgen.export import output_set
+
+        with output_set():
+            written = [str(p) for p in plot_map_file(m, Path(args.plot), formats=formats)]
     if args.json:
         summary["written"] = written
         print(json.dumps(summary, indent=2))

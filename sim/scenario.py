@@ -417,7 +417,7 @@ def _build(data: dict, source: _Source, path: Path) -> Scenario:
         raise r.error(("mechanism",), f"mechanism '{mech_ref}' has errors:\n{exc}") from None
 
     sim_t = r.table(data, ("simulation",), {"t_start", "t_end", "model", "method", "rtol", "atol", "max_step",
-                                             "output_dt", "slip_tol", "coordinates", "modes"})
+                                             "output_dt", "slip_tol", "energy_tol", "coordinates", "modes"})
     comp_t = r.table(data, ("compliant",), {"stiffness", "damping"})
     model = r.text(sim_t, ("simulation",), "model", "switching")
     if model not in ("switching", "compliant"):
@@ -432,6 +432,7 @@ def _build(data: dict, source: _Source, path: Path) -> Scenario:
         max_step=r.number(sim_t, ("simulation",), "max_step", math.inf, positive=True),
         output_dt=r.number(sim_t, ("simulation",), "output_dt", 1e-3, positive=True),
         slip_tol=r.number(sim_t, ("simulation",), "slip_tol", 1e-7, positive=True),
+        energy_tol=r.number(sim_t, ("simulation",), "energy_tol", 1e-3, positive=True),
         stiffness=r.number(comp_t, ("compliant",), "stiffness", 1e5, positive=True),
         damping=r.number(comp_t, ("compliant",), "damping", 100.0, minimum=0.0),
     )

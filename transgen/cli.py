@@ -7,6 +7,7 @@ Errors are printed without a traceback.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import sys
 from pathlib import Path
@@ -302,8 +303,18 @@ def _add_sim_commands(sub) -> None:
     add_commands(sub)
 
 
+def _terminate(signum, frame):
+    """SIGTERM ends the run like Ctrl-C: the temporary files of the outputs are removed."""
+    raise KeyboardInterrupt
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; return the exit code."""
+    import signal
+
+    if signal.getsignal(signal.SIGTERM) is signal.SIG_DFL:
+        with contextlib.suppress(ValueError):  # not the main thread
+            signal.signal(signal.SIGTERM, _terminate)
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
