@@ -20,7 +20,7 @@ from transgen.errors import ModeError, SimulationError
 
 from .result import Event
 from .integration import (ComponentEvaluator, Powertrain, Recorder, Segment, SolverOptions, StateLayout, apply_events,
-                          check_finite, collect, integrate, memo_last, next_stop, sample_block, slip_event)
+                          collect, memo_last, next_stop, sample_block, slip_event)
 
 __all__ = ["simulate_compliant"]
 
@@ -97,18 +97,14 @@ def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
                 event_funcs.append(slip_event(lambda tt, y: evaluate(tt, y)[6], i, int(seg_dirs[i]), tol))
         event_funcs += apply_events(tr, np.flatnonzero(~seg_stuck), t)
         try:
-            sol = integrate(rhs, t, t_stop, y0, options, event_funcs, layout.energy.start)
+            sol = recorder.integrate(rhs, t, t_stop, y0, event_funcs, layout.energy.start,
+                                     lambda t1, dense: Segment(t, t1, seg_locked, seg_dirs, mode, dense, seg_stuck),
+                                     f"compliant model, sticking {_name(tr, seg_stuck)}")
         except SimulationError as exc:
-            success, message = False, f"{exc} (compliant model, sticking {_name(tr, seg_stuck)})"
+            success, message = False, str(exc)
             break
         t_end = float(sol.t[-1])
         y_end = sol.y[:, -1]
-        try:
-            check_finite(t_end, y_end, "compliant model")
-            recorder.add(Segment(t, t_end, seg_locked, seg_dirs, mode, sol.sol, seg_stuck))
-        except SimulationError as exc:
-            success, message = False, f"{exc} (compliant model)"
-            break
         w = mode.C @ y_end[: mode.dof]
         phi = y_end[spring].copy()
         comp_states = [y_end[sl] for sl in layout.slices]

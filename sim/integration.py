@@ -246,6 +246,20 @@ class Recorder:
         self.monitor = (InvariantMonitor(pt.transmission, options.slip_tol, options.energy_tol)
                         if options.monitor else None)
 
+    def integrate(self, rhs, t0: float, t1: float, y0: np.ndarray, events: list, n_dynamic: int, segment,
+                  where: str):
+        """Integrate one segment (:func:`integrate`), check its end state and record it (:meth:`add`);
+        ``segment(t_end, dense_output)`` builds its :class:`Segment`. Returns the solver's solution.
+        A failure raises :class:`SimulationError` naming ``where`` (the mode); a violated
+        invariant names its own."""
+        try:
+            sol = integrate(rhs, t0, t1, y0, self.options, events, n_dynamic)
+            check_finite(float(sol.t[-1]), sol.y[:, -1], where)
+        except SimulationError as exc:
+            raise SimulationError(f"{exc} ({where})") from None
+        self.add(segment(float(sol.t[-1]), sol.sol))
+        return sol
+
     def add(self, seg: Segment) -> None:
         ts = output_times(seg.t0, seg.t1, self.options.output_dt)
         block = self.sampler(self.pt, seg, ts, seg.sol(ts))  # the dense output at all samples at once

@@ -522,7 +522,7 @@ def launch_scenario(mech: Mechanism, vehicle: str = "car", mechanism_ref: str | 
     first = lc.gear(lc.order[0])
     lines = [
         f"# Launch scenario for {mech.name}: {vc.description}.",
-        f"# Written by 'transgen scenario new' from the gear table alone: the vehicle starts from rest in gear",
+        "# Written by 'transgen scenario new' from the gear table alone: the vehicle starts from rest in gear",
         f"# {first.name} at part throttle and the automatic schedule shifts up through gears {' '.join(lc.order)}.",
         "# Every number below is an estimate of the vehicle class or derived from the mechanism; edit freely.",
         "#",

@@ -34,7 +34,7 @@ import numpy as np
 from transgen.errors import ModeError, SimulationError
 
 from .integration import (ComponentEvaluator, Powertrain, Recorder, Segment, SolverOptions, StateLayout, apply_events,
-                          check_finite, collect, integrate, memo_last, next_stop, sample_block, slip_event)
+                          collect, memo_last, next_stop, sample_block, slip_event)
 from .result import Event, Result
 
 __all__ = ["simulate_switching"]
@@ -154,18 +154,14 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None) ->
                 event_funcs.append(control_event)
 
         try:
-            sol = integrate(rhs, t, t_stop, y0, options, event_funcs, layout.energy.start)
-        except SimulationError as exc:
-            success, message = False, f"{exc} (mode {tr.mode_name(locked)})"
-            break
-        t_end = float(sol.t[-1])
-        y_end = sol.y[:, -1]
-        try:
-            check_finite(t_end, y_end, f"mode {tr.mode_name(locked)}")
-            recorder.add(Segment(t, t_end, locked, seg_dirs, mode, sol.sol))
+            sol = recorder.integrate(rhs, t, t_stop, y0, event_funcs, layout.energy.start,
+                                     lambda t1, dense: Segment(t, t1, locked, seg_dirs, mode, dense),
+                                     f"mode {tr.mode_name(locked)}")
         except SimulationError as exc:
             success, message = False, str(exc)
             break
+        t_end = float(sol.t[-1])
+        y_end = sol.y[:, -1]
         w = mode.C @ y_end[: mode.dof]
         comp_states = [y_end[sl] for sl in layout.slices]
         energy = y_end[layout.energy]
