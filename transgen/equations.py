@@ -30,6 +30,9 @@ functions of the symbols gives every entry as one reduced fraction. With symboli
 that reduction can take hours (multivariate greatest common divisors), and the null-space
 (virtual work) route of :func:`_structured_solve` gives the same matrices, exact, in structured
 form: the kinematic ratios, the reflected (generalized) inertia and the torques built from them.
+
+Size: about 570 lines, over the project's 500: the numeric and the exact symbolic solve of the
+same equations stay beside their one assembly, so that both back-ends read one set of unknowns.
 """
 from __future__ import annotations
 
