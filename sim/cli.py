@@ -67,7 +67,7 @@ def cmd_simulate(args) -> int:
         items = {name: str(path) for name, path in bundled_scenarios().items()}
         print(json.dumps(items, indent=2) if args.json else "\n".join(f"  {k:<24} {v}" for k, v in items.items()))
         return 0
-    scenario = _with_model(load_scenario(args.scenario), args.model)
+    scenario = _with_model(load_scenario(_scenario_path(args.scenario)), args.model)
     progress = _progress(scenario.options.t_end, args.quiet or args.json)
     if not args.quiet and not args.json:
         print(f"{scenario.title}: {scenario.mechanism.name}, {scenario.options.model} model, "
@@ -93,7 +93,7 @@ def cmd_simulate(args) -> int:
     other = other_q = None
     compare = args.compare or (args.scenario if args.compare_model else None)
     if compare:
-        other_s = _with_model(load_scenario(compare), args.compare_model or args.model)
+        other_s = _with_model(load_scenario(_scenario_path(compare)), args.compare_model or args.model)
         other = other_s.run()
         if not other.success:
             print(f"error: {compare}: {other.message}", file=sys.stderr)
@@ -139,6 +139,24 @@ def cmd_simulate(args) -> int:
         for w in written:
             print(f"  wrote {w}")
     return 0 if result.success else 1
+
+
+def _scenario_path(name: str) -> str:
+    """``name`` unchanged if it is a file or a bundled scenario; else a :class:`ScenarioError`
+    that suggests the closest bundled scenario."""
+    import difflib
+
+    from transgen.errors import ScenarioError
+
+    from .scenario import bundled_scenarios
+
+    path = Path(name)
+    bundled = bundled_scenarios()
+    if path.exists() or path.suffix not in ("", ".toml") or path.stem in bundled:
+        return name
+    close = difflib.get_close_matches(path.stem, list(bundled), n=1, cutoff=0.5)
+    hint = f"; did you mean '{close[0]}'?" if close else f" (bundled: {', '.join(bundled)})"
+    raise ScenarioError(f"{name}:1: error: no such scenario file{hint}")
 
 
 def _with_model(scenario, model: str | None):

@@ -1,11 +1,9 @@
 """Plain-data (JSON-ready) descriptions of a mechanism and of its modes."""
 from __future__ import annotations
 
-import itertools
-
 from .equations import diagnose_singular
 from .graph import build_graph
-from .kinematics import analyze
+from .kinematics import analyze, engaged_combinations
 from .model import Mechanism
 from .modes import mode_models
 
@@ -50,9 +48,8 @@ def modes_report(mech: Mechanism, which: str = "auto") -> dict:
     combination: tie-ups, non-unique locked torques, undetermined massless members."""
     models = mode_models(mech, which)
     g = build_graph(mech)
-    names = list(mech.element_names)
     tie_ups, non_unique, massless = [], [], []
-    combos = [c for r in range(len(names) + 1) for c in itertools.combinations(names, r)]
+    combos = engaged_combinations(mech.element_names)
     for combo in combos:
         if analyze(mech, combo, g).kind == "tie-up":
             tie_ups.append(list(combo))
@@ -69,6 +66,7 @@ def modes_report(mech: Mechanism, which: str = "auto") -> dict:
              "kind": m.kind, "label": m.mode.label, "problem": m.problem}
             for m in models
         ],
-        "diagnosis": {"combinations": len(combos), "tie_ups": tie_ups, "non_unique_torques": non_unique,
+        "diagnosis": {"combinations": len(combos), "of": 2 ** len(mech.element_names),
+                      "max_engaged": max(map(len, combos), default=0), "tie_ups": tie_ups, "non_unique_torques": non_unique,
                       "undetermined_massless": massless},
     }

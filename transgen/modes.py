@@ -31,7 +31,7 @@ import numpy as np
 from .equations import ModeEquations, assemble, diagnose_singular, solve
 from .errors import ModeError
 from .graph import build_graph
-from .kinematics import analyze, numeric_rank
+from .kinematics import analyze, engaged_combinations, numeric_rank
 from .model import Mechanism
 
 __all__ = [
@@ -101,8 +101,7 @@ def select_modes(mech: Mechanism, which: str = "auto") -> list[Mode]:
     if which == "declared":
         return [Mode(d.name, d.locked, "declared") for d in mech.modes]
     if which == "all":
-        names = list(mech.element_names)
-        combos = [c for r in range(len(names) + 1) for c in itertools.combinations(names, r)]
+        combos = engaged_combinations(mech.element_names)
         return [Mode(f"M{i + 1}", c, "") for i, c in enumerate(combos)]
     if which != "default":
         raise ValueError(f"unknown mode selection {which!r}")
