@@ -14,7 +14,7 @@ import warnings
 from pathlib import Path
 
 from . import __version__
-from .errors import MechError, MechValidationError, ModeError, ScenarioError, SimulationError, TransgenError
+from .errors import MechValidationError, ModeError, SimulationError, TransgenError
 
 __all__ = ["main", "load_checked"]
 
@@ -342,10 +342,7 @@ def main(argv: list[str] | None = None) -> int:
         except SimulationError as exc:
             print(f"error: {exc}", file=sys.stderr)
             return 1
-        except (MechError, ScenarioError, ModeError) as exc:
-            print(str(exc), file=sys.stderr)
-            return 2
-        except TransgenError as exc:  # a ValueError is bad input (e.g. a map file), else a failed run
+        except TransgenError as exc:  # a ValueError is bad input (.mech, scenario, map, modes), else a failed run
             print(exc if _located(str(exc)) else f"error: {exc}", file=sys.stderr)
             return 2 if isinstance(exc, ValueError) else 1
         except ValueError as exc:  # invalid option values found by the library (e.g. output format)
