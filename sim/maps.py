@@ -424,7 +424,8 @@ def load_map(path: str | Path) -> CompressorMap | TurbineMap:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         at = re.search(r"\(at line (\d+), column (\d+)\)", str(exc))
-        line, col = (int(at.group(1)), int(at.group(2))) if at else (1, 1)
+        line, col = (int(at.group(1)), int(at.group(2))) if at else (
+            (text.count("\n") + 1, 1) if "end of document" in str(exc) else (1, 1))
         message = re.sub(r"\s*\(at line \d+, column \d+\)", "", str(exc))
         raise MapError(f"{path}:{line}:{col}: error: not valid TOML: {message}") from None
     problems: list[str] = []
