@@ -9,7 +9,7 @@ cycles, many shift elements and no gear table.
 The contract checked (issue 10): every input is either processed or refused with one of the
 project's :class:`~transgen.errors.TransgenError` subclasses carrying a bounded message (a
 ``.mech`` error located at ``LINE:COL``); anything else is a failure: another exception, a
-NaN or infinity in a result, a message of unbounded size, or more than ``time_limit`` seconds
+NaN or infinity in a result, a message of unbounded size, or more than ``time_limit`` CPU seconds
 for one input. On the command line every call exits 0 or 2, never prints ``Traceback`` and
 leaves no output file behind when it refuses the input.
 
@@ -19,9 +19,9 @@ is reproduced with :func:`generate` (``python benchmarks/fuzz_mech.py --show S I
 from __future__ import annotations
 
 import math
+import os
 import random
 import re
-import resource
 import signal
 import subprocess
 import sys
@@ -257,15 +257,15 @@ class FuzzReport:
     inputs: int = 0
     outcomes: dict[str, int] = field(default_factory=dict)  # "modelled", "refused by ModeError", ...
     failures: list[Failure] = field(default_factory=list)
-    seconds: float = 0.0
-    slowest: float = 0.0
+    seconds: float = 0.0  # wall clock, the whole run
+    slowest: float = 0.0  # CPU seconds, the slowest input
 
     def count(self, outcome: str) -> None:
         self.outcomes[outcome] = self.outcomes.get(outcome, 0) + 1
 
     def summary(self) -> str:
         parts = ", ".join(f"{k} {v}" for k, v in sorted(self.outcomes.items()))
-        return (f"{self.inputs} inputs in {self.seconds:.1f} s (slowest {self.slowest:.2f} s): {parts}; "
+        return (f"{self.inputs} inputs in {self.seconds:.1f} s (slowest {self.slowest:.2f} CPU s): {parts}; "
                 f"{len(self.failures)} failures")
 
 
@@ -321,12 +321,12 @@ def _pipeline(text: str | bytes, directory: Path, stage: list[str]) -> str:
 
 def check_api(seed: int, index: int, directory: Path, time_limit: float = 10.0) -> tuple[str, Failure | None, float]:
     """Generate input ``index`` of ``seed`` and run it through the API: ``(outcome, failure or
-    None, seconds)``."""
+    None, CPU seconds)``."""
     origin, text = generate(seed, index)
     stage = ["generate"]
     previous = signal.signal(signal.SIGPROF, _alarm)
     signal.setitimer(signal.ITIMER_PROF, time_limit)  # CPU seconds: a loaded machine is no hang
-    start = time.perf_counter()
+    start = time.process_time()
     failure = None
     try:
         with warnings.catch_warnings():
@@ -352,23 +352,27 @@ def check_api(seed: int, index: int, directory: Path, time_limit: float = 10.0) 
     finally:
         signal.setitimer(signal.ITIMER_PROF, 0)
         signal.signal(signal.SIGPROF, previous)
-    return outcome, failure, time.perf_counter() - start
+    return outcome, failure, time.process_time() - start
 
 
 def fuzz_api(seed: int, count: int, time_limit: float = 10.0, progress=None) -> FuzzReport:
     """Run inputs ``0 .. count-1`` of ``seed`` through the API (:func:`check_api`)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        return _collect((check_api(seed, i, Path(tmp), time_limit) for i in range(count)), progress)
+
+
+def _collect(results, progress=None) -> FuzzReport:
+    """The report of ``(outcome, failure, seconds)`` triples, timed as they are produced."""
     report = FuzzReport()
     start = time.perf_counter()
-    with tempfile.TemporaryDirectory() as tmp:
-        for i in range(count):
-            outcome, failure, seconds = check_api(seed, i, Path(tmp), time_limit)
-            report.inputs += 1
-            report.count(outcome)
-            report.slowest = max(report.slowest, seconds)
-            if failure is not None:
-                report.failures.append(failure)
-            if progress is not None:
-                progress(i, report)
+    for i, (outcome, failure, seconds) in enumerate(results):
+        report.inputs += 1
+        report.count(outcome)
+        report.slowest = max(report.slowest, seconds)
+        if failure is not None:
+            report.failures.append(failure)
+        if progress is not None:
+            progress(i, report)
     report.seconds = time.perf_counter() - start
     return report
 
@@ -418,9 +422,13 @@ def _cli_input(seed: int, index: int, rng: random.Random, directory: Path) -> tu
     return origin, str(path)
 
 
+# the same transgen as this process (PYTHONPATH), plots without a display
+_ENV = {"MPLBACKEND": "Agg", "PATH": "/usr/bin:/bin", **{k: v for k, v in os.environ.items() if k == "PYTHONPATH"}}
+
+
 def check_cli(seed: int, index: int, directory: Path, time_limit: float = 10.0) -> tuple[str, Failure | None, float]:
     """One command-line call (command ``index`` modulo :data:`CLI_COMMANDS`): ``(outcome,
-    failure or None, seconds)``."""
+    failure or None, CPU seconds of the call)``."""
     rng = random.Random(f"cli:{seed}:{index}")
     command = CLI_COMMANDS[index % len(CLI_COMMANDS)]
     work = directory / f"call{index}"
@@ -428,49 +436,36 @@ def check_cli(seed: int, index: int, directory: Path, time_limit: float = 10.0) 
     origin, file = _cli_input(seed, index, rng, work)
     args, target = _cli_arguments(rng, command, file, work)
     origin = f"{origin}: transgen {' '.join(a if len(a) < 60 else a[:40] + '...' for a in args)}"
-    start = time.perf_counter()
     limit = math.ceil(time_limit)
-    with subprocess.Popen([sys.executable, "-m", "transgen", *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                          cwd=work, env={"MPLBACKEND": "Agg", "PATH": "/usr/bin:/bin"}) as run:
-        # the kernel stops the call after `limit` CPU seconds (SIGXCPU)
-        resource.prlimit(run.pid, resource.RLIMIT_CPU, (limit, limit + 1))
-        try:
-            _, err = run.communicate(timeout=WALL_FACTOR * time_limit)
-        except subprocess.TimeoutExpired:
-            run.kill()
-            run.communicate()
-            return "hang", Failure(seed, index, origin, "hang", f"more than {WALL_FACTOR * time_limit:g} s wall"), time_limit
-    seconds = time.perf_counter() - start
-    if run.returncode in (-signal.SIGXCPU, -signal.SIGKILL):
-        return "hang", Failure(seed, index, origin, "hang", f"more than {limit} CPU seconds"), seconds
+    cpu_file = work / "cpu.txt"
+    # bash sets the CPU limit (the kernel stops the call after `limit` CPU seconds), GNU time
+    # measures the call's CPU time
+    wrapper = ['/bin/bash', '-c', 'ulimit -t "$1"; shift; exec /usr/bin/time -f "%U %S" -o "$0" "$@"',
+               str(cpu_file), str(limit), sys.executable, "-m", "transgen", *args]
+    try:
+        run = subprocess.run(wrapper, capture_output=True, cwd=work, env=_ENV, timeout=WALL_FACTOR * time_limit)
+    except subprocess.TimeoutExpired:
+        return "hang", Failure(seed, index, origin, "hang", f"more than {WALL_FACTOR * time_limit:g} s wall"), time_limit
+    cpu = sum(float(x) for x in cpu_file.read_text().split("\n")[-2].split()) if cpu_file.exists() else float("nan")
+    if run.returncode in (128 + signal.SIGXCPU, 128 + signal.SIGKILL) or cpu > time_limit:
+        return "hang", Failure(seed, index, origin, "hang", f"more than {limit} CPU seconds"), cpu
+    err = run.stderr
     stderr = err.decode("utf-8", "replace")
     outcome = f"{command} exit {run.returncode}"
     if "Traceback" in stderr:
-        return outcome, Failure(seed, index, origin, "traceback", stderr[-1500:]), seconds
+        return outcome, Failure(seed, index, origin, "traceback", stderr[-1500:]), cpu
     if run.returncode not in (0, 2):
-        return outcome, Failure(seed, index, origin, "exit code", f"{run.returncode}: {stderr[-500:]}"), seconds
+        return outcome, Failure(seed, index, origin, "exit code", f"{run.returncode}: {stderr[-500:]}"), cpu
     if len(stderr) > MAX_MESSAGE_CHARS:
-        return outcome, Failure(seed, index, origin, "message", f"{len(stderr)} characters on stderr"), seconds
+        return outcome, Failure(seed, index, origin, "message", f"{len(stderr)} characters on stderr"), cpu
     if run.returncode == 2 and target is not None and target.exists():
-        return outcome, Failure(seed, index, origin, "half-written", f"{target.name} written, exit 2"), seconds
+        return outcome, Failure(seed, index, origin, "half-written", f"{target.name} written, exit 2"), cpu
     if run.returncode == 2 and not re.search(r"(:\d+(:\d+)?: error: |^error: |^usage: )", stderr, re.M):
-        return outcome, Failure(seed, index, origin, "unlocated", stderr[:500]), seconds
-    return outcome, None, seconds
+        return outcome, Failure(seed, index, origin, "unlocated", stderr[:500]), cpu
+    return outcome, None, cpu
 
 
 def fuzz_cli(seed: int, count: int, time_limit: float = 10.0, workers: int = 2, progress=None) -> FuzzReport:
     """``count`` command-line calls (every command in turn) on fuzz inputs, ``workers`` at a time."""
-    report = FuzzReport()
-    start = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp, ThreadPoolExecutor(max_workers=workers) as pool:
-        for i, (outcome, failure, seconds) in enumerate(
-                pool.map(lambda k: check_cli(seed, k, Path(tmp), time_limit), range(count))):
-            report.inputs += 1
-            report.count(outcome)
-            report.slowest = max(report.slowest, seconds)
-            if failure is not None:
-                report.failures.append(failure)
-            if progress is not None:
-                progress(i, report)
-    report.seconds = time.perf_counter() - start
-    return report
+        return _collect(pool.map(lambda k: check_cli(seed, k, Path(tmp), time_limit), range(count)), progress)
