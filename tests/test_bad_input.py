@@ -186,3 +186,12 @@ def test_piping_into_head_exits_quietly():
                          shell=True, executable="/bin/bash", capture_output=True, env=env, timeout=120)
     assert run.stdout == b"{"
     assert run.stderr == b"" and run.returncode == EXIT_BROKEN_PIPE
+
+
+def test_matrices_refuse_a_mechanism_in_which_no_combination_can_be_modelled(capsys):
+    from transgen.errors import ModeError
+    from transgen.statespace import state_space
+
+    mech = parse_mechanism("link A J=1\nlink B J=1\nlink X J=0\nclutch K A B static=1 dynamic=1\ninput A\noutput B\n")
+    with pytest.raises(ModeError, match="massless link"):
+        state_space(mech, which="all")

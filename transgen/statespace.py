@@ -167,14 +167,14 @@ def state_space(mech: Mechanism, coordinates=None, which: str = "auto", symbolic
     :func:`~transgen.modes.default_coordinates`). When the modes are every combination of
     elements (``which="all"``, or a mechanism without gear table or modes), the combinations that
     cannot be modelled (tie-ups, ...) are left out and listed in ``skipped``. Raises
-    :class:`ModeError` when a chosen mode (declared or default) cannot be modelled or the
-    coordinates are not valid.
+    :class:`ModeError` when a chosen mode (declared or default) or every combination cannot be
+    modelled, or the coordinates are not valid.
     """
     g = build_graph(mech)
     links = link_nodes(g)
     models = mode_models(mech, which, symbolic) if models is None else models
     bad = [m for m in models if m.equations is None]
-    if bad and not _every_combination(mech, which):
+    if bad and (len(bad) == len(models) or not _every_combination(mech, which)):
         raise ModeError("; ".join(f"{m.name}: {m.problem}" for m in bad))
     skipped = tuple(SkippedMode(m.name, m.locked, m.kind, m.problem) for m in bad)
     models = [m for m in models if m.equations is not None]
