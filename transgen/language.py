@@ -245,7 +245,7 @@ class Quantity:
 MAX_NUMBER_LENGTH = 64
 """Longest number text accepted (a double has 17 significant digits)."""
 
-INERTIA = Quantity(1e-9, 1e6, "kg*m^2", ">=0")
+INERTIA = Quantity(1e-15, 1e15, "kg*m^2", ">=0")
 TEETH = Quantity(1, 100_000, sign=">0", integer=True)
 RADIUS = Quantity(1e-4, 100.0, "m", ">0")
 CAPACITY = Quantity(sys.float_info.min, 1e8, "N*m", ">=0")

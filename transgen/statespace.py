@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .equations import kinematic_basis
-from .errors import ModeError
+from .errors import MAX_SHOWN, ModeError
 from .graph import build_graph, link_nodes
 from .model import Mechanism
 from .modes import (
@@ -175,7 +175,8 @@ def state_space(mech: Mechanism, coordinates=None, which: str = "auto", symbolic
     models = mode_models(mech, which, symbolic) if models is None else models
     bad = [m for m in models if m.equations is None]
     if bad and (len(bad) == len(models) or not _every_combination(mech, which)):
-        raise ModeError("; ".join(f"{m.name}: {m.problem}" for m in bad))
+        shown = [f"{m.name}: {m.problem}" for m in bad[:MAX_SHOWN]]
+        raise ModeError("; ".join(shown + ([f"... and {len(bad) - MAX_SHOWN} more modes"] if len(bad) > MAX_SHOWN else [])))
     skipped = tuple(SkippedMode(m.name, m.locked, m.kind, m.problem) for m in bad)
     models = [m for m in models if m.equations is not None]
     for m in models:

@@ -56,6 +56,7 @@ NUMBERS = [
     "nan", "NaN", "inf", "-inf", "Infinity", "1e400", "-1e400", "0e400", "0e-400", "5e-324", "-5e-324",
     "2.2250738585072014e-308", "1e-308", "1e-400", "0", "-0", "0.0", "+0", "1e308", "1.7976931348623157e308",
     "1e-9", "1e-10", "1e6", "1e7", "1e8", "1e9", "100000", "100001", "1e-6", "1e-7", "-1", "3.5", "+1", ".5",
+    "1e-15", "1e15", "1e-16", "1e16", "1e-4", "100", "1e-12", "1e12", "99999",
     "5.", "1", "2", "20", "0.123456789012345678901234567890", "123456789012345678901234567890",
 ]
 HUGE_NUMBERS = [lambda r: "1" + "0" * r.randint(300, 5000), lambda r: "0." + "0" * r.randint(300, 5000) + "1",
@@ -176,7 +177,7 @@ def _random_mechanism(rng: random.Random) -> str:
     n = rng.randint(2, 9)
     links = [f"L{i}" for i in range(n)]
     out = [f'transmission "fuzz {rng.random():.6f}"']
-    out += [f"link {k} J={rng.choice(['0', '0.1', '1', '2.5', '1e-6', '1e3'])}" for k in links]
+    out += [f"link {k} J={rng.choice(['0', '0.1', '1', '2.5', '1e-6', '1e3', '1e-15', '1e15'])}" for k in links]
     for i in range(rng.randint(0, 3)):
         s, r, c = rng.sample(links + ["housing"], 3)
         ns = rng.randint(10, 60)
