@@ -11,8 +11,7 @@ import warnings
 
 from scipy.integrate import solve_ivp
 
-from transgen.sim.engine import TurbochargedDiesel
-from transgen.sim.maps import RPM
+from transgen.sim.engine import RPM, TurbochargedDiesel
 
 SPEED = 1500 * RPM
 SEGMENTS = ((0.0, 1.0, 0.2), (1.0, 10.0, 1.0), (10.0, 20.0, 0.4))

@@ -14,9 +14,10 @@ import argparse
 import time
 import warnings
 
-import transgen.sim.simulate as simulate_module
-from transgen.sim.maps import RPM
-from transgen.sim.powertrain import TurbodieselSource, turbo_report
+import transgen.sim.switching as switching_module
+from transgen.sim.engine import RPM
+from transgen.sim.engine.turbo_report import turbo_report
+from transgen.sim.powertrain import TurbodieselSource
 from transgen.sim.scenario import load_scenario
 
 SCENARIOS = (("basic", "ht740_turbo"), ("iterative", "ht740_turbo_iterative"))
@@ -27,7 +28,7 @@ def run(name: str, repeats: int = 3) -> dict:
     single timings by some 20 %)."""
     sc = None
     best = (float("inf"), 0.0, None)
-    collect = simulate_module._collect
+    collect = switching_module.collect
     for _ in range(repeats):
         sc = load_scenario(name)
         sampled = {}
@@ -38,13 +39,13 @@ def run(name: str, repeats: int = 3) -> dict:
             sampled["wall"] = time.perf_counter() - t0
             return out
 
-        simulate_module._collect = timed_collect
+        switching_module.collect = timed_collect
         try:
             start = time.perf_counter()
             result = sc.run()
             wall = time.perf_counter() - start
         finally:
-            simulate_module._collect = collect
+            switching_module.collect = collect
         if wall < best[0]:
             best = (wall, sampled.get("wall", 0.0), result)
     wall, sampling, result = best
@@ -82,7 +83,7 @@ def main() -> None:
     print(turbo_report(iterative).text())
     print(turbo_report(basic, iterative, engine=runs["basic"]["engine"]).text())
     if args.plot:
-        from transgen.sim.engine_plots import plot_turbo_comparison
+        from transgen.sim.engine.plots import plot_turbo_comparison
 
         for p in plot_turbo_comparison({"basic": basic, "iterative": iterative}, args.plot):
             print(f"  wrote {p}")

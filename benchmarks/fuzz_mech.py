@@ -1,5 +1,5 @@
 """The long fuzz run of ``.mech`` input (issue 10): 10,000 inputs through the API and 200
-command-line calls (every command), with the contract of ``tests/fuzz/mech.py``. Prints the
+command-line calls (every command), with the contract of ``tests/fuzz/fuzz_mech.py``. Prints the
 figures and every failure; exits 1 if there is one.
 
     python benchmarks/fuzz_mech.py                 # seed 0: 10000 API inputs + 200 CLI calls
@@ -14,7 +14,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
-from fuzz.mech import fuzz_api, fuzz_cli, generate  # noqa: E402
+from fuzz.fuzz_mech import fuzz_api, fuzz_cli, generate  # noqa: E402
 
 
 def _progress(every: int):

@@ -1,11 +1,11 @@
-"""Simulator commands of the ``transgen`` command line: ``simulate`` (and ``maps``)."""
+"""Simulator commands of the ``transgen`` command line: ``simulate``, ``scenario`` and ``maps``."""
 from __future__ import annotations
 
 import json
 import sys
 from pathlib import Path
 
-__all__ = ["add_commands", "cmd_simulate", "cmd_maps"]
+__all__ = ["add_commands", "cmd_simulate", "cmd_scenario_new", "cmd_maps"]
 
 
 def add_commands(sub) -> None:
@@ -30,6 +30,25 @@ def add_commands(sub) -> None:
     s.add_argument("--quiet", action="store_true", help="no progress on standard error")
     s.add_argument("--list", action="store_true", help="list the bundled scenarios")
     s.set_defaults(func=cmd_simulate)
+
+    s = sub.add_parser("scenario", help="write scenario files (scenario new: a launch through every forward gear)",
+                       description="Scenario files from a mechanism. 'transgen scenario new FILE' writes a commented "
+                                   "launch scenario: from rest through every forward gear with an automatic schedule "
+                                   "derived from the gear table, for a car or a truck.")
+    group = s.add_subparsers(dest="scenario_command", metavar="COMMAND", required=True)
+    n = group.add_parser("new", help="a launch scenario derived from a .mech file alone",
+                         description="Derive a launch scenario from a mechanism: the forward gears and their ratios, "
+                                     "the elements swapped per upshift (single or double swaps; one-way clutches "
+                                     "overrun or lock by themselves), capacities checked against the vehicle class's "
+                                     "engine and converter (the engine torque is limited where they do not hold), "
+                                     "final drive, shift lines and t_end. Without -o the TOML goes to standard output.")
+    n.add_argument("file", metavar="FILE", help=".mech file or bundled mechanism name")
+    n.add_argument("--vehicle", choices=("car", "truck"), default="car",
+                   help="vehicle class: car (1700 kg, 340 N*m) or truck (M915 class, 36 t; default car)")
+    n.add_argument("-o", "--output", metavar="FILE", help="write the scenario here (default: standard output)")
+    n.add_argument("--json", action="store_true",
+                   help="print what was derived as JSON (with -o; without -o the JSON replaces the TOML)")
+    n.set_defaults(func=cmd_scenario_new)
 
     s = sub.add_parser("maps", help="pre-process a compressor or turbine map and summarise it (thesis 4.4)",
                        description="Run the map pre-processor on a compressor or turbine map file (or a bundled "
@@ -67,7 +86,7 @@ def cmd_simulate(args) -> int:
         items = {name: str(path) for name, path in bundled_scenarios().items()}
         print(json.dumps(items, indent=2) if args.json else "\n".join(f"  {k:<24} {v}" for k, v in items.items()))
         return 0
-    scenario = _with_model(load_scenario(_scenario_path(args.scenario)), args.model)
+    scenario = _with_model(load_scenario(args.scenario), args.model)
     progress = _progress(scenario.options.t_end, args.quiet or args.json)
     if not args.quiet and not args.json:
         print(f"{scenario.title}: {scenario.mechanism.name}, {scenario.options.model} model, "
@@ -93,7 +112,7 @@ def cmd_simulate(args) -> int:
     other = other_q = None
     compare = args.compare or (args.scenario if args.compare_model else None)
     if compare:
-        other_s = _with_model(load_scenario(_scenario_path(compare)), args.compare_model or args.model)
+        other_s = _with_model(load_scenario(compare), args.compare_model or args.model)
         other = other_s.run()
         if not other.success:
             print(f"error: {compare}: {other.message}", file=sys.stderr)
@@ -106,14 +125,14 @@ def cmd_simulate(args) -> int:
         summary = result.summary()
         summary["report"] = report_dict(result, qualities)
         if "omega_tc" in result.signals:
-            from .powertrain import turbo_report
+            from .engine.turbo_report import turbo_report
 
             summary["turbo"] = turbo_report(result).to_dict()
         if other is not None:
             summary["compare"] = {"scenario": compare, "model": other_s.options.model, "summary": other.summary(),
                                   "report": report_dict(other, other_q)}
             if "omega_tc" in result.signals and "omega_tc" in other.signals:
-                from .powertrain import turbo_report
+                from .engine.turbo_report import turbo_report
 
                 summary["compare"]["turbo"] = turbo_report(result, other, engine=_engine_of(scenario)).to_dict()
         summary["written"] = written
@@ -130,7 +149,7 @@ def cmd_simulate(args) -> int:
             print()
             print(report_text(result, qualities))
             if "omega_tc" in result.signals:
-                from .powertrain import turbo_report
+                from .engine.turbo_report import turbo_report
 
                 print(turbo_report(result).text())
         if other is not None:
@@ -139,24 +158,6 @@ def cmd_simulate(args) -> int:
         for w in written:
             print(f"  wrote {w}")
     return 0 if result.success else 1
-
-
-def _scenario_path(name: str) -> str:
-    """``name`` unchanged if it is a file or a bundled scenario; else a :class:`ScenarioError`
-    that suggests the closest bundled scenario."""
-    import difflib
-
-    from transgen.errors import ScenarioError
-
-    from .scenario import bundled_scenarios
-
-    path = Path(name)
-    bundled = bundled_scenarios()
-    if path.exists() or path.suffix not in ("", ".toml") or path.stem in bundled:
-        return name
-    close = difflib.get_close_matches(path.stem, list(bundled), n=1, cutoff=0.5)
-    hint = f"; did you mean '{close[0]}'?" if close else f" (bundled: {', '.join(bundled)})"
-    raise ScenarioError(f"{name}:1: error: no such scenario file{hint}")
 
 
 def _with_model(scenario, model: str | None):
@@ -193,7 +194,7 @@ def _comparison_plots(scenario, result, other_s, other, directory: Path, formats
             for fmt in formats:
                 written.append(str(save_figure(compare(runs, signal), directory / f"compare_{signal}.{fmt}")))
     if all("omega_tc" in r.signals for r in runs.values()):
-        from .engine_plots import plot_turbo_comparison
+        from .engine.plots import plot_turbo_comparison
 
         written += [str(p) for p in plot_turbo_comparison(runs, directory, formats=formats)]
     return written
@@ -217,15 +218,50 @@ def _comparison_text(scenario, a, qa, name_b, b, qb) -> str:
                      f"{x.flare_max_rpm:>7.1f} {y.flare_max_rpm:>8.1f}")
     lines.append(f"  energy dissipated [kJ]: {a.energy.get('dissipated', 0) / 1e3:.1f} vs {b.energy.get('dissipated', 0) / 1e3:.1f}")
     if "omega_tc" in a.signals and "omega_tc" in b.signals:
-        from .powertrain import turbo_report
+        from .engine.turbo_report import turbo_report
 
         lines.append(turbo_report(a, b, engine=_engine_of(scenario)).text())
     return "\n".join(lines)
 
 
+def cmd_scenario_new(args) -> int:
+    """``transgen scenario new``: derive a launch scenario, write it (atomically) or print it."""
+    import os
+
+    from transgen.export import write_text
+    from transgen.language import load_mechanism
+
+    from .launch import derive_launch, launch_scenario
+
+    mech = load_mechanism(args.file)
+    launch = derive_launch(mech, args.vehicle)
+    ref = mech.name
+    if Path(args.file).exists():  # a path: relative to where the scenario is written
+        where = Path(args.output).resolve().parent if args.output else Path.cwd()
+        ref = Path(os.path.relpath(Path(args.file).resolve(), where)).as_posix()
+    else:
+        ref = Path(args.file).stem
+    text = launch_scenario(mech, args.vehicle, ref, launch)
+    for w in launch.warnings:
+        print(f"warning: {w}", file=sys.stderr)
+    if args.output:
+        write_text(args.output, text)
+    if args.json:
+        summary = launch.to_dict()
+        summary["written"] = [args.output] if args.output else []
+        print(json.dumps(summary, indent=2))
+    elif args.output:
+        print(f"wrote {args.output}: {mech.name}, {args.vehicle}, gears {' '.join(launch.order)}, "
+              f"t_end {launch.t_end:g} s")
+    else:
+        sys.stdout.write(text)
+    return 0
+
+
 def cmd_maps(args) -> int:
     """``transgen maps``: pre-process a map, print (or JSON) its summary, optionally plot it."""
-    from .engine_plots import load_named_map, map_summary, map_summary_text, plot_map_file
+    from .engine.map_summary import load_named_map, map_summary, map_summary_text
+    from .engine.plots import plot_map_file
 
     path, m = load_named_map(args.map)
     summary = map_summary(path, m)

@@ -19,8 +19,8 @@ import numpy as np
 from transgen.errors import ModeError, SimulationError
 
 from .result import Event
-from .simulate import (Powertrain, SolverOptions, _breakpoints, _check_finite, _collect, _Layout, _Model, _Segment,
-                       integrate, memo_last, sample_block)
+from .integration import (ComponentEvaluator, Powertrain, Recorder, Segment, SolverOptions, StateLayout, apply_events,
+                          check_finite, collect, integrate, memo_last, next_stop, sample_block, slip_event)
 
 __all__ = ["simulate_compliant"]
 
@@ -28,7 +28,7 @@ __all__ = ["simulate_compliant"]
 def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
     """Simulate with the compliant clutch model (see the module docstring)."""
     tr = pt.transmission
-    model = _Model(pt)
+    model = ComponentEvaluator(pt)
     wall = _time.perf_counter()
     try:
         mode = tr.mode(frozenset())
@@ -42,23 +42,23 @@ def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
     phi = np.zeros(n_e)
     slips0 = tr.P @ w
     tol = max(1e-9, options.slip_tol * max(1.0, float(np.max(np.abs(w)))))
-    stuck = np.array([abs(slips0[i]) <= tol and (e.kind == "oneway" or e.apply_at(options.t_start) > 0)
-                      for i, e in enumerate(tr.elements)])
+    stuck = np.array([abs(slips0[i]) <= tol and e.applied_after(options.t_start) for i, e in enumerate(tr.elements)])
     directions = np.sign(slips0).astype(int)
+    directions[np.abs(slips0) <= tol] = 0  # round-off is no direction; set from the slip acceleration below
     t = options.t_start
-    segments, events = [], [Event(t, "start", tuple(e.name for e, s in zip(tr.elements, stuck) if s), "", _name(tr, stuck))]
+    recorder = Recorder(pt, options, lambda p, seg, ts, ys: _sample(p, seg, ts, ys, k, c))
+    events = [Event(t, "start", tuple(e.name for e, s in zip(tr.elements, stuck) if s), "", _name(tr, stuck))]
     success, message = True, "completed"
-    layout = _Layout(pt.components, mode.dof + n_e)
+    layout = StateLayout(pt.components, mode.dof + n_e)
     spring = slice(mode.dof, mode.dof + n_e)
     zeno_time, zeno_count = -math.inf, 0
     while t < options.t_end - 1e-12:
-        seg_stuck, seg_dirs = stuck.copy(), directions.copy()
         y0 = np.concatenate([w[mode.coords], phi] + comp_states + [energy])
-        t_stop = min([b for b in _breakpoints(pt, t, options.t_end) if b > t + 1e-12] + [options.t_end])
+        seg_stuck = stuck.copy()
         seg_locked = frozenset(np.flatnonzero(seg_stuck))
+        t_stop = next_stop(pt, t, options.t_end, np.flatnonzero(~seg_stuck))
 
-        def point(tt, y, seg_stuck=seg_stuck, PC=tr.P @ mode.C,
-                  active=tr.slipping_set(seg_locked, seg_dirs, t, t_stop)):
+        def point(tt, y, seg_stuck=seg_stuck, PC=tr.P @ mode.C, active=()):
             q = y[: mode.dof]
             ww = mode.C @ q
             u, derivs, p_in, diss, p_load = model.external(tt, y, ww, layout)
@@ -72,6 +72,14 @@ def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
             u[tr.element_input] += te
             return ww, u, derivs, p_in, diss, p_load, slips, te
 
+        # elements at zero slip that are not sticking move off the way their slip accelerates
+        at_zero = ~seg_stuck & (directions == 0)
+        if at_zero.any():
+            u0 = point(t, y0)[1]
+            acc = tr.P @ (mode.C @ (mode.B @ u0))
+            directions = np.where(at_zero, np.sign(acc).astype(int), directions)
+        seg_dirs = directions.copy()
+        point.__defaults__ = (seg_stuck, tr.P @ mode.C, tr.slipping_set(seg_locked, seg_dirs, t, t_stop))
         evaluate = memo_last(model, point)
 
         def rhs(tt, y, seg_stuck=seg_stuck):
@@ -79,36 +87,28 @@ def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
             return layout.derivative(np.concatenate([mode.B @ u, np.where(seg_stuck, slips, 0.0)]), derivs, p_in, diss, p_load)
 
         event_funcs = []
-        _, u0, *_ = evaluate(t, y0)
-        start_acc = tr.P @ (mode.C @ (mode.B @ u0))
-        start_slip = tr.P @ w
         for i, e in enumerate(tr.elements):
             if seg_stuck[i]:
                 def unstick(tt, y, i=i, e=e):
-                    t_e = evaluate(tt, y)[7][i]
-                    return -e.free * t_e if e.kind == "oneway" else e.static_capacity(tt) - abs(t_e)
-                unstick.direction, unstick.info = -1, ("unstick", i)
+                    return e.holding_margin(tt, evaluate(tt, y)[7][i])
+                unstick.terminal, unstick.direction, unstick.info = True, -1, ("unstick", i)
                 event_funcs.append(unstick)
-            else:
-                moving = seg_dirs[i] if abs(start_slip[i]) > tol else int(np.sign(start_acc[i]))
-                if moving == 0:
-                    continue
-
-                def slip_zero(tt, y, i=i):
-                    return evaluate(tt, y)[6][i]
-                slip_zero.direction, slip_zero.info = -moving, ("slip", i)
-                event_funcs.append(slip_zero)
-        for f in event_funcs:
-            f.terminal = True
+            elif seg_dirs[i] != 0:
+                event_funcs.append(slip_event(lambda tt, y: evaluate(tt, y)[6], i, int(seg_dirs[i]), tol))
+        event_funcs += apply_events(tr, np.flatnonzero(~seg_stuck), t)
         try:
             sol = integrate(rhs, t, t_stop, y0, options, event_funcs, layout.energy.start)
         except SimulationError as exc:
             success, message = False, f"{exc} (compliant model, sticking {_name(tr, seg_stuck)})"
             break
         t_end = float(sol.t[-1])
-        segments.append(_Segment(t, t_end, seg_locked, seg_dirs, mode, sol.sol, seg_stuck))
         y_end = sol.y[:, -1]
-        _check_finite(t_end, y_end, "compliant model")
+        try:
+            check_finite(t_end, y_end, "compliant model")
+            recorder.add(Segment(t, t_end, seg_locked, seg_dirs, mode, sol.sol, seg_stuck))
+        except SimulationError as exc:
+            success, message = False, f"{exc} (compliant model)"
+            break
         w = mode.C @ y_end[: mode.dof]
         phi = y_end[spring].copy()
         comp_states = [y_end[sl] for sl in layout.slices]
@@ -129,12 +129,12 @@ def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
                     energy[1] += 0.5 * k * phi[i] ** 2
                     phi[i] = 0.0
                     events.append(Event(t_end, "unlock", (e.name,), before, _name(tr, stuck)))
-                elif e.kind == "oneway" or e.apply_at(t_end) > 0:
+                elif abs(slips[i]) <= tol and e.applied_after(t_end):  # a slip back at zero, or an apply rising at it
                     stuck[i] = True
                     phi[i] = 0.0
                     events.append(Event(t_end, "lock", (e.name,), before, _name(tr, stuck)))
-                else:
-                    directions[i] = -directions[i] if directions[i] else int(np.sign(slips[i]))
+                elif kind == "slip":
+                    directions[i] = 0  # through zero, released: the next segment takes the slip acceleration
             if t_end - zeno_time < 1e-9 * max(1.0, t_end):
                 zeno_count += 1
                 if zeno_count > 50:
@@ -143,12 +143,11 @@ def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
             else:
                 zeno_time, zeno_count = t_end, 0
         else:
-            directions = np.where(stuck, directions, np.sign(slips).astype(int))
+            directions = np.where(stuck, directions, np.where(np.abs(slips) <= tol, 0, np.sign(slips)).astype(int))
         t = t_end
         if progress is not None:
             progress(t)
-    return _collect(pt, options, segments, events, success, message, model, wall,
-                    sampler=lambda p, seg, ts, ys: _sample(p, seg, ts, ys, k, c))
+    return collect(pt, options, recorder, events, success, message, model, wall)
 
 
 def _name(tr, stuck) -> str:

@@ -17,7 +17,7 @@ to positions):
 ``energy(x, w)``                   energy stored in its own states [J] (energy balance)
 ``load_power(t, x, w)``            power it passes to an external load (the road) [W]
 ``signals(t, x, w)``               named outputs for the result
-``breakpoints()``                  times where its inputs are not smooth
+``breakpoints(t0, t1)``             times in ``[t0, t1]`` where its inputs are not smooth
 ``evaluate(t, x, w)``              ``(torques, derivatives, power_in, dissipation, load_power)``
                                    in one call: what the right-hand side needs at one point
                                    (components override it to share work between the parts)
@@ -86,7 +86,7 @@ class Component:
     def signals(self, t: float, x: np.ndarray, w: np.ndarray) -> dict[str, float]:
         return {}
 
-    def breakpoints(self) -> tuple[float, ...]:
+    def breakpoints(self, t0: float = -math.inf, t1: float = math.inf) -> tuple[float, ...]:
         return ()
 
     def evaluate(self, t: float, x: np.ndarray, w: np.ndarray) -> tuple:
@@ -128,8 +128,8 @@ class InputTorque(Component):
     def signals(self, t, x, w):
         return {"T_in": self.signal.value(t)}
 
-    def breakpoints(self):
-        return self.signal.breakpoints()
+    def breakpoints(self, t0=-math.inf, t1=math.inf):
+        return self.signal.breakpoints(t0, t1)
 
 
 @dataclass
@@ -176,8 +176,8 @@ class EngineOnLink(Component):
     def signals(self, t, x, w):
         return {"T_in": self._torque(t, w), "throttle": self.throttle.value(t)}
 
-    def breakpoints(self):
-        return self.throttle.breakpoints()
+    def breakpoints(self, t0=-math.inf, t1=math.inf):
+        return self.throttle.breakpoints(t0, t1)
 
 
 @dataclass
@@ -187,7 +187,7 @@ class EngineWithConverter(Component):
 
     State: engine speed ``omega_e`` [rad/s]. ``converter.torques(omega_pump, omega_turbine)``
     gives (pump torque absorbed, turbine torque delivered) [N*m] (see
-    :mod:`transgen.sim.torque_converter`). ``idle`` is a minimum-speed governor: below it the
+    :mod:`transgen.sim.engine.torque_converter`). ``idle`` is a minimum-speed governor: below it the
     throttle rises linearly to hold idle. Energy: the engine's combustion work is the work in;
     the converter's loss is dissipation; the engine inertia's kinetic energy is stored energy.
     """
@@ -256,8 +256,8 @@ class EngineWithConverter(Component):
                 "T_in": turbine, "throttle": self._throttle(t, x[0]),
                 "converter_speed_ratio": w[self.link] / x[0] if x[0] > 1e-6 else 0.0}
 
-    def breakpoints(self):
-        return self.throttle.breakpoints()
+    def breakpoints(self, t0=-math.inf, t1=math.inf):
+        return self.throttle.breakpoints(t0, t1)
 
 
 @dataclass
@@ -286,8 +286,8 @@ class LinkLoad(Component):
     def signals(self, t, x, w):
         return {self.input_name: self._torque(t, w)}
 
-    def breakpoints(self):
-        return self.signal.breakpoints()
+    def breakpoints(self, t0=-math.inf, t1=math.inf):
+        return self.signal.breakpoints(t0, t1)
 
 
 @dataclass

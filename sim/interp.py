@@ -1,14 +1,22 @@
-"""Fast scalar table look-up for the simulator's right-hand side.
+"""Fast scalar table look-up for the simulator's right-hand side: the one home of it.
 
 ``numpy.interp`` costs microseconds of overhead per scalar call; these plain-Python versions
-(``bisect`` on tuples) are several times faster for the scalar look-ups done at every
-right-hand-side evaluation. Both clamp outside the table (constant extrapolation).
+(``bisect`` on tuples or lists) are several times faster for the scalar look-ups done at every
+right-hand-side evaluation. All clamp outside the table (constant extrapolation).
+
+* :func:`interp1` - piecewise-linear ``y(x)`` (signals, torque-converter curves);
+* :func:`locate` - the cell and weight of a value in a grid, and whether it was outside: the
+  one grid search of every 2-D look-up;
+* :func:`bilinear` - the value in a cell of ``z[i_x][i_y]`` (the compressor and turbine causal
+  tables of :mod:`transgen.sim.engine.preprocessor`, which use ``locate``'s out-of-grid flag to
+  warn);
+* :func:`interp2` - the engine torque map ``table[i_y][i_x]``.
 """
 from __future__ import annotations
 
 from bisect import bisect_right
 
-__all__ = ["interp1", "interp2"]
+__all__ = ["interp1", "interp2", "locate", "bilinear"]
 
 
 def interp1(x: float, xs: tuple, ys: tuple) -> float:
@@ -22,17 +30,41 @@ def interp1(x: float, xs: tuple, ys: tuple) -> float:
     return ys[i] + (ys[i + 1] - ys[i]) * (x - x0) / (xs[i + 1] - x0)
 
 
+def locate(grid, v: float) -> tuple[int, float, bool]:
+    """Cell index ``i`` (``grid[i] <= v <= grid[i+1]``), weight ``(v - grid[i])/(grid[i+1] -
+    grid[i])`` in [0, 1], and whether ``v`` was outside the grid (then clamped to its edge).
+
+    ``grid`` is strictly increasing with at least two points; a NaN ``v`` gives a NaN weight.
+    """
+    if v <= grid[0]:
+        return 0, 0.0, v < grid[0]
+    if v >= grid[-1]:
+        return len(grid) - 2, 1.0, v > grid[-1]
+    i = min(bisect_right(grid, v) - 1, len(grid) - 2)  # the min only acts on NaN
+    return i, (v - grid[i]) / (grid[i + 1] - grid[i]), False
+
+
+def bilinear(z, i: int, wx: float, j: int, wy: float) -> float:
+    """Bilinear value in the cell ``(i, j)`` of ``z[i_x][i_y]`` at the weights from :func:`locate`."""
+    r0, r1 = z[i], z[i + 1]
+    return ((1.0 - wx) * ((1.0 - wy) * r0[j] + wy * r0[j + 1])
+            + wx * ((1.0 - wy) * r1[j] + wy * r1[j + 1]))
+
+
 def interp2(x: float, y: float, xs: tuple, ys: tuple, table: tuple) -> float:
-    """Bilinear ``z(x, y)`` in ``table[i_y][i_x]``, clamped at the edges."""
-    x = xs[0] if x < xs[0] else (xs[-1] if x > xs[-1] else x)
-    y = ys[0] if y < ys[0] else (ys[-1] if y > ys[-1] else y)
-    i = min(max(bisect_right(xs, x) - 1, 0), len(xs) - 2)
-    fx = (x - xs[i]) / (xs[i + 1] - xs[i])
+    """Bilinear ``z(x, y)`` in ``table[i_y][i_x]``, clamped at the edges; a single row
+    (``len(ys) == 1``) is linear in ``x``.
+
+    The cell is found by :func:`locate`; the value is interpolated along ``x`` on the two rows,
+    then along ``y``.  That is :func:`bilinear`'s value up to rounding; the two orders of the
+    arithmetic are kept so that the simulator's results stay bit-identical.
+    """
+    i, fx, _ = locate(xs, x)
     if len(ys) == 1:
         row = table[0]
         return row[i] + (row[i + 1] - row[i]) * fx
-    j = min(max(bisect_right(ys, y) - 1, 0), len(ys) - 2)
-    fy = (y - ys[j]) / (ys[j + 1] - ys[j])
-    lo = table[j][i] + (table[j][i + 1] - table[j][i]) * fx
-    hi = table[j + 1][i] + (table[j + 1][i + 1] - table[j + 1][i]) * fx
+    j, fy, _ = locate(ys, y)
+    r0, r1 = table[j], table[j + 1]
+    lo = r0[i] + (r0[i + 1] - r0[i]) * fx
+    hi = r1[i] + (r1[i + 1] - r1[i]) * fx
     return lo + (hi - lo) * fy

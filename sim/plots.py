@@ -1,8 +1,9 @@
 """Plots of a simulation result in the style of thesis Figs. 3.2-3.7 and 3.14-3.25.
 
-Every time plot shades the shift phases from :class:`~transgen.sim.report.ShiftQuality`: the
-torque phase and the inertia (speed) phase in two colours. Functions take ``ax=None`` (a new
-figure) or an axes to draw into, and return the :class:`matplotlib.figure.Figure`.
+Every time plot shades the shift phases from
+:class:`~transgen.sim.shift_quality.ShiftQuality`: the torque phase and the inertia (speed)
+phase in two colours. Functions take ``ax=None`` (a new figure) or an axes to draw into, and
+return the :class:`matplotlib.figure.Figure`.
 ``time_window=(t0, t1)`` zooms on a part of the run (the y limits follow the data shown). In a
 figure of their own the legend sits outside the axes, right of the plot, so it hides no curve;
 drawn into a given axes it goes inside at the best place.
@@ -22,7 +23,6 @@ Matplotlib is imported only inside the functions and only its object API is used
 """
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
@@ -181,20 +181,31 @@ def _lines(ax, result: Result, names, labels, mask, scale=1.0, widths=None, colo
                 ls=style, zorder=z)
 
 
+def _time_plot(result: Result, qualities, ax, time_window, signals, labels, ylabel: str, what: str,
+               zero_line: bool = False, **line_options):
+    """One line per signal (see :func:`_lines`; ``line_options``: ``scale``, ``widths``,
+    ``colors``), a thin line at zero when ``zero_line``, the shift phases shaded, axes labelled
+    and titled ``what``. Returns the figure and the axes."""
+    fig, ax = _axes(ax)
+    _lines(ax, result, signals, labels, _mask(result, time_window), **line_options)
+    if zero_line:
+        ax.axhline(0.0, color="0.3", lw=0.8)
+    handles = _shade(ax, qualities, time_window)
+    _finish(ax, ylabel, _title(result, what), handles, time_window, result)
+    return fig, ax
+
+
 # ----------------------------------------------------------------------------- time plots
 def plot_speeds(result: Result, qualities=None, ax=None, links=None, time_window=None, input_link=None,
                 output_link=None):
     """Link speeds [rad/s] (thesis Figs. 3.2, 3.14, 3.20), with a secondary axis in rpm; the
     input and output links are drawn bold and named."""
-    fig, ax = _axes(ax)
-    m = _mask(result, time_window)
     names = _links(result, links)
     inp, out = _input_link(result, input_link), _output_link(result, output_link)
     labels = [f"{k} (input)" if k == inp else (f"{k} (output)" if k == out else k) for k in names]
     widths = {f"w_{k}": 2.6 for k in (inp, out) if k}
-    _lines(ax, result, [f"w_{k}" for k in names], labels, m, widths=widths)
-    handles = _shade(ax, qualities, time_window)
-    _finish(ax, "speed [rad/s]", _title(result, "Link speeds"), handles, time_window, result)
+    fig, ax = _time_plot(result, qualities, ax, time_window, [f"w_{k}" for k in names], labels, "speed [rad/s]",
+                         "Link speeds", widths=widths)
     sec = ax.secondary_yaxis("right", functions=(lambda x: x * RPM_PER_RAD_S, lambda x: x / RPM_PER_RAD_S))
     sec.set_ylabel(f"speed [rpm]{' (input: ' + inp + ')' if inp else ''}")
     return fig
@@ -202,52 +213,34 @@ def plot_speeds(result: Result, qualities=None, ax=None, links=None, time_window
 
 def plot_slips(result: Result, qualities=None, ax=None, elements=None, time_window=None):
     """Slip speeds of the shift elements [rad/s] (thesis Figs. 3.7, 3.15, 3.21)."""
-    fig, ax = _axes(ax)
-    m = _mask(result, time_window)
     names = _elements(result, elements)
-    _lines(ax, result, [f"slip_{e}" for e in names], names, m)
-    ax.axhline(0.0, color="0.3", lw=0.8)
-    handles = _shade(ax, qualities, time_window)
-    _finish(ax, "slip speed [rad/s]", _title(result, "Shift element slip speeds"), handles, time_window, result)
-    return fig
+    return _time_plot(result, qualities, ax, time_window, [f"slip_{e}" for e in names], names, "slip speed [rad/s]",
+                      "Shift element slip speeds", zero_line=True)[0]
 
 
 def plot_torques(result: Result, qualities=None, ax=None, elements=None, time_window=None):
     """Torque transmitted by each shift element, from its link1 to its link2 [N*m] (thesis
     Figs. 3.4, 3.16, 3.22)."""
-    fig, ax = _axes(ax)
-    m = _mask(result, time_window)
     names = _elements(result, elements)
-    _lines(ax, result, [f"t_{e}" for e in names], names, m)
-    ax.axhline(0.0, color="0.3", lw=0.8)
-    handles = _shade(ax, qualities, time_window)
-    _finish(ax, "transmitted torque [N*m]", _title(result, "Shift element torques"), handles, time_window, result)
-    return fig
+    return _time_plot(result, qualities, ax, time_window, [f"t_{e}" for e in names], names,
+                      "transmitted torque [N*m]", "Shift element torques", zero_line=True)[0]
 
 
 def plot_io_torques(result: Result, qualities=None, ax=None, time_window=None):
     """Input torque ``T_in`` and output (driveshaft) torque ``T_out`` [N*m], and the engine
     torque when the run has one (thesis Figs. 3.5, 3.17, 3.23)."""
-    fig, ax = _axes(ax)
-    m = _mask(result, time_window)
     names = [n for n in ("T_in", "T_out", "T_engine") if n in result.signals]
     labels = {"T_in": "input torque T_in", "T_out": "output torque T_out", "T_engine": "engine torque"}
-    _lines(ax, result, names, [labels[n] for n in names], m, colors=["tab:blue", "tab:red", "tab:gray"][: len(names)])
-    ax.axhline(0.0, color="0.3", lw=0.8)
-    handles = _shade(ax, qualities, time_window)
-    _finish(ax, "torque [N*m]", _title(result, "Input and output torques"), handles, time_window, result)
-    return fig
+    return _time_plot(result, qualities, ax, time_window, names, [labels[n] for n in names], "torque [N*m]",
+                      "Input and output torques", zero_line=True,
+                      colors=["tab:blue", "tab:red", "tab:gray"][: len(names)])[0]
 
 
 def plot_power(result: Result, qualities=None, ax=None, elements=None, time_window=None):
     """Power dissipated in each shift element [kW] (thesis Figs. 3.18, 3.24)."""
-    fig, ax = _axes(ax)
-    m = _mask(result, time_window)
     names = _elements(result, elements)
-    _lines(ax, result, [f"P_{e}" for e in names], names, m, scale=1e-3)
-    handles = _shade(ax, qualities, time_window)
-    _finish(ax, "dissipated power [kW]", _title(result, "Shift element power dissipation"), handles, time_window,
-            result)
+    fig, ax = _time_plot(result, qualities, ax, time_window, [f"P_{e}" for e in names], names,
+                         "dissipated power [kW]", "Shift element power dissipation", scale=1e-3)
     lo, hi = ax.get_ylim()
     ax.set_ylim(min(lo, 0.0), hi if hi > 0 else 1.0)
     return fig
@@ -277,14 +270,10 @@ def plot_mode(result: Result, qualities=None, ax=None, time_window=None):
 
 def plot_apply(result: Result, qualities=None, ax=None, elements=None, time_window=None):
     """Apply fraction of each shift element (the clutch pressure profiles, thesis Fig. 3.3)."""
-    fig, ax = _axes(ax)
-    m = _mask(result, time_window)
     names = _elements(result, elements)
-    _lines(ax, result, [f"apply_{e}" for e in names], names, m)
+    fig, ax = _time_plot(result, qualities, ax, time_window, [f"apply_{e}" for e in names], names,
+                         "apply fraction [-]", "Shift element apply (pressure) profiles")
     ax.set_ylim(-0.05, 1.1)
-    handles = _shade(ax, qualities, time_window)
-    _finish(ax, "apply fraction [-]", _title(result, "Shift element apply (pressure) profiles"), handles,
-            time_window, result)
     return fig
 
 
@@ -304,28 +293,18 @@ def plot_all(result: Result, qualities=None, directory=".", formats=("png",), ti
     """Write every plot of :data:`PLOTS` to ``directory`` as ``<prefix><name>.<format>``
     (``speeds.png``, ``slips.png``, ``torques.png``, ``io_torques.png``, ``power.png``,
     ``mode.png``, ``apply.png``), atomically: each file is written to a temporary file in the
-    same directory and renamed over the target. Returns the paths written."""
-    import tempfile
+    same directory and renamed over the target (:func:`transgen.export.atomic_path`). Returns the
+    paths written."""
+    from transgen.export import atomic_path
 
     directory = Path(directory)
-    directory.mkdir(parents=True, exist_ok=True)
     paths = []
     for name, func in PLOTS.items():
         fig = func(result, qualities, time_window=time_window)
         for fmt in formats:
             path = directory / f"{prefix}{name}.{fmt}"
-            fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".{fmt}", dir=directory)
-            os.close(fd)
-            try:
+            with atomic_path(path, suffix=f".{fmt}") as tmp:
                 fig.savefig(tmp, format=fmt)
-                os.chmod(tmp, 0o644)  # mkstemp creates 0600
-                os.replace(tmp, path)
-            except BaseException:
-                try:
-                    os.unlink(tmp)
-                except OSError:
-                    pass
-                raise
             paths.append(path)
     return paths
 

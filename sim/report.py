@@ -1,84 +1,21 @@
-"""Shift-quality report of a simulation result (thesis 3.3.1 and 3.4.4).
+"""The shift-quality report of a simulation result: readable text and a JSON-ready dict.
 
-A clutch-to-clutch shift hands the torque from an *offgoing* shift element to an *oncoming* one.
-The thesis (3.3.1) splits it into two phases:
-
-* the **torque phase**: the oncoming element starts to transmit torque while the offgoing one is
-  still locked; the speeds hardly change, the torque moves from one path to the other and the
-  output torque falls (the **torque hole**, for an upshift);
-* the **inertia (speed) phase**: the offgoing element has let go, the speeds move to the new
-  ratio, and the shift ends when the oncoming element locks.
-
-Shift faults (3.3.1, 3.4.4): **bindup** - the offgoing element is released too late, its torque
-reverses while both transmit (the elements fight, the torque hole deepens and the dissipation
-grows); **flare** - it is released too early, the oncoming capacity cannot hold the input and the
-input speed runs up; a **speed phase past the apply ramp** - the oncoming apply has reached its
-final value before the element locks (no capacity reserve left, 3.4.4); and the **3-4 anomaly**
-of Fig. 3.18 - the oncoming element forces the offgoing one to unlock, so both slip and
-dissipate at once.
-
-Definitions used here (all times in s; ``t_start`` is the shift command, the start of the
-oncoming apply when shifts are inferred):
-
-* pre-shift reference window: ``[t_start - PRE_WINDOW, t_start]`` (0.2 s);
-* torque phase start: the onset of the oncoming element's torque at or after ``t_start`` - the
-  first sample where ``|t_on|`` exceeds ``ONSET_FRACTION`` (1 %) of its peak magnitude during the
-  shift, traced back to the last sample before it where ``|t_on|`` was still (numerically) zero;
-* torque phase end = inertia phase start: the offgoing element unlocks for the last time before
-  the shift end (unlock event / its ``locked_`` signal drops; an earlier slip that re-locks is
-  noted); if it was not locked at ``t_start``, the instant the input/output
-  speed ratio leaves its pre-shift value by more than ``RATIO_TOL`` (0.5 %). If the offgoing
-  element lets go before the oncoming one transmits (early release), the torque phase has zero
-  length;
-* inertia phase end = shift end: the oncoming element locks (lock event / ``locked_`` signal);
-  if it never locks the shift is reported as not completed and ends at the end of the run;
-* shift duration: from the torque phase start (or the inertia phase start, if earlier) to the
-  shift end;
-* dissipation end: the shift end, or later if the offgoing element goes on slipping (still
-  applied) after the oncoming one has locked - until its power returns to zero, at the latest
-  at the next shift's ``t_start``; the time it dissipated above the power threshold after the
-  lock and the energy are reported (``offgoing_drag_after_lock``, ``offgoing_energy_after_lock``);
-* torque hole: the pre-shift mean output torque ``T_out`` minus its minimum between ``t_start``
-  and the dissipation end (a positive depth is a dip), also in % of the pre-shift mean; the
-  output torque peak (the inertia torque of the speed phase) is reported the same way;
-* bindup: the offgoing torque takes the sign opposite to its pre-shift torque while both
-  elements transmit (from the torque phase start until the offgoing element unlocks); it is
-  reported when the opposite torque exceeds ``BINDUP_FRACTION`` (1 %) of the pre-shift offgoing
-  torque (at least 1 N*m), with the peak opposite torque and the time it lasts;
-* direction: an upshift when the input/output speed ratio falls, a downshift when it rises;
-* flare: the input link speed above its pre-shift trajectory, a straight line through the speed
-  at ``t_start`` with the least-squares slope of the pre-shift window (in the input's direction
-  of rotation) - for a downshift, above the new gear's synchronous speed instead; reported
-  when the excess passes ``FLARE_FRACTION`` (1 %) of the input speed at
-  ``t_start`` (at least 0.1 rad/s);
-* element energies: the trapezoidal integral of ``P_<e>`` from ``t_start`` to the dissipation
-  end (repeated time stamps at mode changes add nothing), with the peak power;
-* speed phase past the apply ramp: the oncoming apply reaches its final value (its maximum
-  before it is released again, within ``RAMP_TOL``) before the element locks; the overrun is
-  the time between the two (not checked when the apply does not ramp during the shift, e.g. a
-  one-way clutch);
-* both slipping and dissipating: ``P_on`` and ``P_off`` both above ``OVERLAP_FRACTION`` (1 %) of
-  the peak element power of the shift at the same time (``both_dissipating_duration``). That
-  alone also happens when the offgoing element is released early and slips its normal way while
-  its apply decays (a flare-type overlap). The offgoing element is **forced to unlock by the
-  oncoming one** (the 3-4 anomaly of Fig. 3.18) when it dissipates above the threshold with its
-  torque reversed (the oncoming element drives it against its pre-shift torque) while the
-  oncoming element dissipates too or is already locked, for longer than ``OVERLAP_MIN`` (5 ms):
-  ``forced_duration``, ``forced_unlock``. ``offgoing_energy_share`` is the offgoing
-  element's part of the energy the elements dissipate during the shift, in %.
-
-The input and output links are ``meta["input_link"]`` / ``meta["output_link"]`` when the run
-recorded them, else the arguments of :func:`shift_report`, else the first two generalized
-coordinates (the mode generator puts the input first and the output second when it can).
+The public entry point of the shift analysis: :func:`shift_report` measures every shift (torque
+and inertia phase, torque hole, bindup, flare, element energies; the definitions are in
+:mod:`transgen.sim.shift_quality`), :func:`infer_shifts` finds the shifts when none are given
+(:mod:`transgen.sim.shifts`), :func:`energy_balance` checks the run's energy balance, and
+:func:`report_text` / :func:`report_dict` put the shift numbers, the energy balance and the run
+statistics into a text report (one table per shift, units in the headers) or a JSON-ready dict.
+Times in s, torques in N*m, speeds in rad/s, energies in J, powers in W.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field
-
-import numpy as np
 
 from .result import Result
+from .shift_quality import (BINDUP_FRACTION, FLARE_FRACTION, ONSET_FRACTION, OVERLAP_FRACTION, OVERLAP_MIN,
+                            PRE_WINDOW, RAMP_TOL, RATIO_TOL, RPM_PER_RAD_S, ShiftQuality, jsonable, shift_report)
+from .shifts import Shift, infer_shifts
 
 __all__ = [
     "Shift",
@@ -91,618 +28,9 @@ __all__ = [
     "RPM_PER_RAD_S",
 ]
 
-RPM_PER_RAD_S = 60.0 / (2.0 * math.pi)
-
-PRE_WINDOW = 0.2  # s, pre-shift reference window
-ONSET_FRACTION = 0.01  # of the oncoming element's peak |torque| in the shift
-ZERO_FRACTION = 1e-9  # |t_on| below this fraction of its peak counts as zero (onset trace-back)
-RATIO_TOL = 0.005  # relative departure of the speed ratio that starts the speed phase
-BINDUP_FRACTION = 0.01  # of the pre-shift |t_off|
-BINDUP_MIN = 1.0  # N*m
-FLARE_FRACTION = 0.01  # of |w_in(t_start)|
-FLARE_MIN = 0.1  # rad/s
-RAMP_TOL = 1e-4  # relative, apply at its final value
-OVERLAP_FRACTION = 0.01  # of the shift's peak element power
-OVERLAP_MIN = 0.005  # s
 ENERGY_TOL = 1e-3  # energy residual tolerance, relative to the input work
-APPLY_ZERO = 1e-9  # an apply at or below this is "off"
 
 
-@dataclass(frozen=True)
-class Shift:
-    """A shift to analyse: ``oncoming`` element applied, ``offgoing`` released, commanded at
-    ``t_start`` [s] (the start of the pre-shift reference and of every shift window)."""
-
-    oncoming: str
-    offgoing: str
-    t_start: float
-    name: str = ""
-
-
-@dataclass(frozen=True)
-class ShiftQuality:
-    """Shift-quality numbers of one shift (see the module doc for the definitions). Times in s,
-    torques in N*m, speeds in rad/s (``*_rpm`` in rev/min), energies in J, powers in W; ``None``
-    where a quantity is undefined (e.g. the oncoming element never locked)."""
-
-    name: str
-    oncoming: str
-    offgoing: str
-    t_start: float
-    input_link: str
-    output_link: str
-    completed: bool  # the oncoming element locked
-    direction: str  # "upshift" / "downshift" from the speed ratios, "" if unknown
-    # phases
-    torque_phase_start: float | None
-    torque_phase_end: float | None
-    torque_phase_duration: float | None
-    inertia_phase_start: float | None
-    inertia_phase_end: float | None
-    inertia_phase_duration: float | None
-    shift_end: float
-    shift_duration: float | None
-    dissipation_end: float  # the shift end, or later while the offgoing element still slips
-    offgoing_unlock: float | None  # when the offgoing element unlocked
-    oncoming_lock: float | None  # when the oncoming element locked
-    ratio_before: float | None  # input/output speed ratio at t_start
-    ratio_after: float | None  # at the shift end
-    # output torque
-    output_torque_before: float  # mean over the pre-shift window
-    output_torque_min: float
-    output_torque_min_time: float
-    torque_hole: float  # depth [N*m], > 0 is a dip
-    torque_hole_pct: float | None  # depth in % of |output_torque_before|
-    output_torque_max: float
-    output_torque_max_time: float
-    output_torque_overshoot_pct: float | None  # (max - before) / |before| in %
-    # bindup
-    bindup: bool
-    bindup_torque: float  # peak offgoing torque opposite to its pre-shift sign [N*m]
-    bindup_duration: float  # s
-    offgoing_torque_before: float  # mean over the pre-shift window
-    offgoing_torque_at_unlock: float | None
-    # flare
-    flare: bool
-    flare_max: float  # rad/s above the pre-shift trajectory
-    flare_max_rpm: float
-    flare_time: float | None
-    # apply ramp
-    oncoming_ramp_end: float | None  # oncoming apply reaches its final value
-    oncoming_apply_final: float
-    speed_phase_past_ramp: bool
-    speed_phase_overrun: float  # s the speed phase ran on after the ramp end
-    # both elements slipping and dissipating (offgoing forced to unlock)
-    both_dissipating_duration: float  # s, both above the power threshold
-    forced_duration: float  # s, of that with the offgoing torque reversed
-    forced_unlock: bool
-    offgoing_energy_share: float  # % of the element energy of the shift
-    offgoing_drag_after_lock: float  # s the offgoing element dissipated after the oncoming locked
-    offgoing_energy_after_lock: float  # J
-    # energy
-    energy: dict = field(hash=False)  # element -> J dissipated from t_start to dissipation_end
-    peak_power: dict = field(hash=False)  # element -> W
-    energy_total: float = 0.0
-    notes: tuple[str, ...] = ()
-
-    def to_dict(self) -> dict:
-        """JSON-ready (floats, NaN/inf as None)."""
-        return _jsonable(asdict(self))
-
-
-# ----------------------------------------------------------------------------- sample helpers
-def _value(t: np.ndarray, y: np.ndarray, x: float, side: str = "left") -> float:
-    """``y`` at time ``x``, linearly interpolated (held constant outside the samples); at a
-    repeated time (a mode change) ``side="left"`` gives the value before the event, ``"right"``
-    the value after it."""
-    i = int(np.searchsorted(t, x, side=side))
-    if side == "left":  # t[i] is the first sample >= x
-        if i >= len(t):
-            return float(y[-1])
-        if t[i] == x or i == 0:
-            return float(y[i])
-    else:  # t[i - 1] is the last sample <= x
-        if i == 0:
-            return float(y[0])
-        if t[i - 1] == x or i >= len(t):
-            return float(y[i - 1])
-    t0, t1 = t[i - 1], t[i]
-    f = (x - t0) / (t1 - t0) if t1 > t0 else 1.0
-    return float(y[i - 1] + f * (y[i] - y[i - 1]))
-
-
-def _window(t: np.ndarray, t0: float, t1: float) -> np.ndarray:
-    """Indices of the samples in ``[t0, t1]``."""
-    return np.nonzero((t >= t0) & (t <= t1))[0]
-
-
-def _cumtrapz(t: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Cumulative trapezoidal integral; a repeated time stamp (dt = 0) adds nothing, so the
-    result is continuous across mode changes."""
-    out = np.zeros(len(t))
-    if len(t) > 1:
-        out[1:] = np.cumsum(0.5 * (y[1:] + y[:-1]) * np.diff(t))
-    return out
-
-
-def integrate(t: np.ndarray, y: np.ndarray, t0: float, t1: float) -> float:
-    """Trapezoidal integral of ``y`` over ``[t0, t1]`` (interpolated at the ends; repeated time
-    stamps at mode changes are handled: a zero-length interval adds nothing)."""
-    if t1 <= t0 or len(t) < 2:
-        return 0.0
-    c = _cumtrapz(t, y)
-    return _value(t, c, t1) - _value(t, c, t0)
-
-
-def _duration_above(t: np.ndarray, z: np.ndarray) -> float:
-    """Total time where ``z > 0``, crossings located by linear interpolation between samples."""
-    if len(t) < 2:
-        return 0.0
-    dt = np.diff(t)
-    a, b = z[:-1], z[1:]
-    total = float(np.sum(dt[(a > 0) & (b > 0)]))
-    cross = (a > 0) != (b > 0)
-    for k in np.nonzero(cross & (dt > 0))[0]:
-        pos, neg = (a[k], b[k]) if a[k] > 0 else (b[k], a[k])
-        total += dt[k] * pos / (pos - neg)
-    return total
-
-
-def _jsonable(x):
-    if isinstance(x, dict):
-        return {str(k): _jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, (bool, np.bool_)):
-        return bool(x)
-    if isinstance(x, (int, np.integer)):
-        return int(x)
-    if isinstance(x, (float, np.floating)):
-        v = float(x)
-        return v if math.isfinite(v) else None
-    if isinstance(x, np.ndarray):
-        return _jsonable(x.tolist())
-    return x
-
-
-# ------------------------------------------------------------------------------ links, events
-def _links(result: Result, input_link: str | None, output_link: str | None) -> tuple[str, str, list[str]]:
-    notes = []
-    meta = result.meta or {}
-    coords = list(meta.get("coordinates") or [])
-    links = list(meta.get("links") or [k[2:] for k in result.signals if k.startswith("w_")])
-    inp = meta.get("input_link") or input_link
-    out = meta.get("output_link") or output_link
-    if not inp:
-        inp = coords[0] if coords else links[0]
-        notes.append(f"input link not recorded in the result: assumed {inp}")
-    if not out:
-        out = coords[1] if len(coords) > 1 else links[-1]
-        notes.append(f"output link not recorded in the result: assumed {out}")
-    return inp, out, notes
-
-
-def _mode_locked(result: Result) -> dict[str, set]:
-    return {m.name: set(m.locked) for m in result.modes}
-
-
-def _event_times(result: Result, element: str, after: float, before: float, locks: bool) -> list[float]:
-    """Times of the events in ``[after, before]`` where ``element`` locks (``locks``) or unlocks."""
-    locked = _mode_locked(result)
-    out = []
-    for e in result.events:
-        if e.kind == "start" or element not in e.elements or not (after <= e.t <= before):
-            continue
-        src, tgt = locked.get(e.source), locked.get(e.target)
-        if src is None or tgt is None:
-            if e.kind == ("lock" if locks else "unlock"):
-                out.append(float(e.t))
-        elif (element in tgt and element not in src) if locks else (element in src and element not in tgt):
-            out.append(float(e.t))
-    return out
-
-
-def _signal_edges(t: np.ndarray, y: np.ndarray, after: float, before: float, rising: bool) -> list[float]:
-    """Times in ``[after, before]`` where a 0/1 signal rises (or falls)."""
-    s = y > 0.5
-    k = np.nonzero((~s[:-1] & s[1:]) if rising else (s[:-1] & ~s[1:]))[0] + 1
-    return [float(x) for x in t[k] if after <= x <= before]
-
-
-def _lock_times(result: Result, element: str, after: float, before: float, locks: bool) -> list[float]:
-    """When ``element`` locks (``locks``) or unlocks in ``[after, before]``: from the events, else
-    from its ``locked_`` signal."""
-    times = _event_times(result, element, after, before, locks)
-    key = f"locked_{element}"
-    if not times and key in result.signals:
-        times = _signal_edges(result.time, result.signals[key], after, before, rising=locks)
-    return times
-
-
-def _lock_time(result: Result, element: str, after: float, before: float, locks: bool) -> float | None:
-    times = _lock_times(result, element, after, before, locks)
-    return times[0] if times else None
-
-
-# ------------------------------------------------------------------------------ inference
-def _rise_onsets(t: np.ndarray, a: np.ndarray) -> list[float]:
-    """Times where an apply signal leaves zero (the last zero sample before it rises)."""
-    on = a > APPLY_ZERO
-    return [float(t[i]) for i in range(len(t) - 1) if not on[i] and on[i + 1]]
-
-
-def _fall_zeros(t: np.ndarray, a: np.ndarray) -> list[tuple[float, float]]:
-    """(release start, time it reaches zero) for every fall of an apply signal to zero."""
-    on = a > APPLY_ZERO
-    out = []
-    for i in range(len(t) - 1):
-        if on[i] and not on[i + 1]:
-            j = i
-            # back over the decreasing ramp (and over repeated or nearly repeated time stamps)
-            while j > 0 and (a[j - 1] > a[j] + 1e-12 or (t[j] - t[j - 1] < 1e-9 and a[j - 1] >= a[j] - 1e-9)):
-                j -= 1
-            out.append((float(t[j]), float(t[i + 1])))
-    return out
-
-
-def infer_shifts(result: Result, max_early_release: float = 1.0) -> list[Shift]:
-    """Shifts from the apply signals and the events.
-
-    Every rise of an element's apply from zero is an oncoming apply. The offgoing element is the
-    one whose apply falls to zero nearest after that rise (its release starting before the
-    oncoming element locks); failing that, one that fell to zero at most ``max_early_release`` s
-    before it (an early release). ``t_start`` is the start of the oncoming apply, or the start
-    of the offgoing release ramp when that comes first. Failing both, the offgoing element is the
-    first other element that unlocks after the rise (a one-way clutch, or an element whose apply
-    stays on).
-
-    A release to zero that belongs to no such shift, followed by another element locking (a
-    one-way clutch taking over, e.g. a release-to-freewheel downshift), is a shift too, with the
-    element that locks as the oncoming one and ``t_start`` at the start of the release.
-
-    The name is ``source->target`` from the modes before the shift and after the oncoming
-    element locks.
-    """
-    t = result.time
-    t_end = float(t[-1])
-    elements = list(result.meta.get("elements") or [k[6:] for k in result.signals if k.startswith("apply_")])
-    locked = _mode_locked(result)
-    rises = []
-    falls = {}
-    for e in elements:
-        a = result.signals.get(f"apply_{e}")
-        if a is None:
-            continue
-        rises += [(x, e) for x in _rise_onsets(t, a)]
-        falls[e] = _fall_zeros(t, a)
-    rises.sort()
-    shifts = []
-    used = set()
-    for t_on, on in rises:
-        best = None
-        t_lock = _lock_time(result, on, t_on, t_end, locks=True)
-        limit = t_lock if t_lock is not None else t_end
-        after = [(tz, e, ts) for e, fl in falls.items() if e != on for ts, tz in fl
-                 if tz >= t_on and ts <= limit and (e, tz) not in used]
-        if after:
-            tz, best, ts = min(after)
-        else:
-            before = [(tz, e, ts) for e, fl in falls.items() if e != on for ts, tz in fl
-                      if t_on - max_early_release <= tz < t_on and (e, tz) not in used]
-            if before:
-                tz, best, ts = max(before)
-        if best is not None:
-            used.add((best, tz))
-            t_start = min(t_on, ts)  # a release that starts before the oncoming apply
-        else:
-            t_start = t_on
-            for ev in result.events:
-                if ev.t < t_on or ev.kind == "start":
-                    continue
-                src, tgt = locked.get(ev.source, set()), locked.get(ev.target, set())
-                lost = [x for x in ev.elements if x != on and x in src and x not in tgt]
-                if lost:
-                    best = lost[0]
-                    break
-        if best is None:
-            continue
-        shifts.append(Shift(on, best, t_start, _shift_name(result, on, t_start)))
-    # releases handed over to an element that locks by itself (one-way clutch)
-    starts = sorted([x for x, _ in rises] + [ts for fl in falls.values() for ts, _ in fl])
-    for off, fl in falls.items():
-        for ts, tz in fl:
-            if (off, tz) in used or any(abs(s.t_start - ts) < 1e-9 and s.offgoing == off for s in shifts):
-                continue
-            nxt = min([x for x in starts if x > ts + 1e-9], default=t_end)
-            for ev in result.events:
-                if ev.kind == "start" or not (ts <= ev.t <= nxt):
-                    continue
-                src, tgt = locked.get(ev.source, set()), locked.get(ev.target, set())
-                gained = [x for x in ev.elements if x != off and x in tgt and x not in src]
-                if gained:
-                    shifts.append(Shift(gained[0], off, ts, _shift_name(result, gained[0], ts)))
-                    break
-    shifts.sort(key=lambda s: s.t_start)
-    return shifts
-
-
-def _mode_at(result: Result, x: float, side: str) -> str | None:
-    for m in result.modes:
-        if (m.t0 <= x < m.t1) if side == "right" else (m.t0 < x <= m.t1):
-            return m.name
-    if result.modes:
-        return result.modes[0].name if x <= result.modes[0].t0 else result.modes[-1].name
-    return None
-
-
-def _shift_name(result: Result, on: str, t_start: float) -> str:
-    t_end = float(result.time[-1]) if len(result.time) else t_start
-    t_lock = _lock_time(result, on, t_start, t_end, locks=True)
-    a = _mode_at(result, t_start, "left")
-    b = _mode_at(result, t_lock, "right") if t_lock is not None else None
-    return f"{a}->{b}" if a and b else f"{on} on"
-
-
-# ------------------------------------------------------------------------------ one shift
-def _pre_trend(t: np.ndarray, y: np.ndarray, t_start: float) -> tuple[float, float]:
-    """Value at ``t_start`` (before any event there) and least-squares slope over the pre window."""
-    idx = _window(t, t_start - PRE_WINDOW, t_start)
-    y0 = _value(t, y, t_start, "left")
-    if len(idx) < 2 or np.ptp(t[idx]) <= 0:
-        return y0, 0.0
-    slope = float(np.polyfit(t[idx], y[idx], 1)[0])
-    return y0, slope
-
-
-def _pre_mean(t: np.ndarray, y: np.ndarray, t_start: float) -> float:
-    """Time-average of ``y`` over the pre-shift window (value at ``t_start`` if it is empty)."""
-    t0 = max(float(t[0]), t_start - PRE_WINDOW)
-    if t_start - t0 <= 0:
-        return _value(t, y, t_start, "left")
-    return integrate(t, y, t0, t_start) / (t_start - t0)
-
-
-def _analyse(result: Result, shift: Shift, inp: str, out: str, link_notes: list[str],
-             limit: float | None = None) -> ShiftQuality:
-    t = result.time
-    sig = result.signals
-    t_run_end = float(t[-1])
-    limit = t_run_end if limit is None else min(limit, t_run_end)
-    on, off, ts = shift.oncoming, shift.offgoing, float(shift.t_start)
-    notes = list(link_notes)
-    for e in (on, off):
-        if f"t_{e}" not in sig:
-            raise KeyError(f"the result has no signals of element {e!r}")
-
-    # shift end: the oncoming element locks
-    t_lock = _lock_time(result, on, ts, t_run_end, locks=True)
-    completed = t_lock is not None
-    t_end = t_lock if completed else t_run_end
-    if not completed:
-        notes.append(f"{on} never locked: the shift is not completed (analysed to the end of the run)")
-
-    # torque phase start: onset of the oncoming torque
-    t_on = sig[f"t_{on}"]
-    win = _window(t, ts, t_end)
-    peak_on = float(np.max(np.abs(t_on[win]))) if len(win) else 0.0
-    tp_start = None
-    if peak_on > 0:
-        hit = win[np.abs(t_on[win]) > ONSET_FRACTION * peak_on]
-        if len(hit):
-            k = int(hit[0])
-            zero = ZERO_FRACTION * peak_on
-            while k > win[0] and abs(t_on[k - 1]) > zero:
-                k -= 1
-            if k > win[0]:
-                k -= 1  # the last sample with (numerically) no torque
-            tp_start = float(t[k])
-    if tp_start is None:
-        notes.append(f"{on} transmitted no torque during the shift")
-
-    # offgoing release: unlock event / locked_ signal drop
-    locked_off = sig.get(f"locked_{off}")
-    was_locked = bool(locked_off is not None and _value(t, locked_off, ts, "left") > 0.5)
-    unlocks = _lock_times(result, off, ts, t_end, locks=False) if was_locked else []
-    t_unlock = unlocks[-1] if unlocks else None  # the final release (it may slip and re-lock before)
-    if was_locked and t_unlock is None:
-        notes.append(f"{off} stayed locked until the shift end")
-    if len(unlocks) > 1:
-        notes.append(f"{off} unlocked {len(unlocks)} times (first at {unlocks[0]:.4f} s) and re-locked before its "
-                     f"final release at {t_unlock:.4f} s")
-
-    # speed ratio
-    w_in, w_out = sig[f"w_{inp}"], sig[f"w_{out}"]
-
-    def ratio(x, side):
-        wo = _value(t, w_out, x, side)
-        return _value(t, w_in, x, side) / wo if abs(wo) > 1e-9 else None
-
-    ratio_before = ratio(ts, "left")
-    ratio_after = ratio(t_end, "right") if completed else None
-
-    # speed (inertia) phase start
-    if t_unlock is not None:
-        sp_start = t_unlock
-    else:
-        sp_start = None
-        if ratio_before is not None:
-            ref = max(abs(_value(t, w_in, ts, "left")), 1e-9)
-            dev = np.abs(w_in[win] - ratio_before * w_out[win]) - RATIO_TOL * ref
-            hit = win[dev > 0]
-            if len(hit):
-                sp_start = float(t[hit[0]])
-        if not was_locked:
-            notes.append(f"{off} was not locked at t_start: speed phase start from the speed ratio")
-    if sp_start is None and completed:
-        sp_start = t_end
-    sp_end = t_lock
-
-    direction = ""
-    if ratio_before is not None and ratio_after is not None and abs(ratio_after) != abs(ratio_before):
-        direction = "upshift" if abs(ratio_after) < abs(ratio_before) else "downshift"
-
-    tp_end = sp_start
-    if tp_start is not None and tp_end is not None and tp_end < tp_start:
-        why = "speed phase first, as in a power-on downshift" if direction == "downshift" else "early release"
-        notes.append(f"{off} let go before {on} transmitted torque ({why}): no torque phase before the "
-                     f"speed phase")
-        tp_end = tp_start
-    tp_dur = (tp_end - tp_start) if tp_start is not None and tp_end is not None else None
-    sp_dur = (sp_end - sp_start) if sp_start is not None and sp_end is not None else None
-    first = min([x for x in (tp_start, sp_start) if x is not None], default=ts)
-    duration = (t_end - first) if completed else None
-
-    # the end of the shift's dissipation: the offgoing element may go on slipping (still applied)
-    # after the oncoming one has locked
-    p_on, p_off = sig.get(f"P_{on}"), sig.get(f"P_{off}")
-    t_diss = t_end
-    if completed and p_off is not None and t_end < limit:
-        i_post = max(int(np.searchsorted(t, t_end, side="right")) - 1, 0)  # the after-lock sample
-        after = np.arange(i_post, int(np.searchsorted(t, limit, side="right")))
-        ref = max([float(np.max(np.abs(p[_window(t, ts, limit)]))) for p in (p_on, p_off) if p is not None] + [0.0])
-        quiet = after[p_off[after] <= ZERO_FRACTION * max(ref, 1.0)]
-        t_diss = float(t[quiet[0]]) if len(quiet) else limit
-    ewin = _window(t, ts, t_diss)
-
-    # output torque: hole and peak (until the dissipation ends)
-    T_out = sig["T_out"]
-    before = _pre_mean(t, T_out, ts)
-    s_out = 1.0 if before >= 0 else -1.0
-    seg = T_out[ewin] if len(ewin) else np.array([_value(t, T_out, ts)])
-    tw = t[ewin] if len(ewin) else np.array([ts])
-    k_min = int(np.argmin(s_out * seg))
-    k_max = int(np.argmax(s_out * seg))
-    t_min_val, t_max_val = float(seg[k_min]), float(seg[k_max])
-    hole = s_out * (before - t_min_val)
-    hole_pct = 100.0 * hole / abs(before) if abs(before) > 1e-9 else None
-    over_pct = 100.0 * s_out * (t_max_val - before) / abs(before) if abs(before) > 1e-9 else None
-
-    # bindup: offgoing torque reversed while both transmit
-    t_off = sig[f"t_{off}"]
-    off_before = _pre_mean(t, t_off, ts)
-    s_off = 1.0 if off_before >= 0 else -1.0
-    b_end = t_unlock if t_unlock is not None else (sp_start if sp_start is not None else t_end)
-    b_start = tp_start if tp_start is not None else ts
-    bw = _window(t, b_start, b_end)
-    opposite = -s_off * t_off[bw] if len(bw) else np.zeros(1)
-    bindup_torque = max(0.0, float(np.max(opposite)))
-    bindup_duration = _duration_above(t[bw], opposite) if len(bw) > 1 else 0.0
-    bindup = bindup_torque > max(BINDUP_MIN, BINDUP_FRACTION * abs(off_before))
-    off_at_unlock = _value(t, t_off, t_unlock, "left") if t_unlock is not None else None
-
-    # flare: input speed above its pre-shift trajectory (upshift), above the new gear's
-    # synchronous speed (downshift: the input must rise, but not beyond the new gear)
-    w0, slope = _pre_trend(t, w_in, ts)
-    s_in = 1.0 if w0 >= 0 else -1.0
-    if direction == "downshift":
-        reference = ratio_after * w_out[win]
-    else:
-        reference = w0 + slope * (t[win] - ts)
-    excess = s_in * (w_in[win] - reference) if len(win) else np.zeros(1)
-    k_fl = int(np.argmax(excess))
-    flare_max = max(0.0, float(excess[k_fl]))
-    flare_time = float(t[win][k_fl]) if flare_max > 0 and len(win) else None
-    flare = flare_max > max(FLARE_MIN, FLARE_FRACTION * abs(w0))
-
-    # oncoming apply ramp
-    a_on = sig.get(f"apply_{on}")
-    ramp_end, a_final, overrun, past_ramp = None, 0.0, 0.0, False
-    if a_on is not None:
-        aw = _window(t, ts, t_run_end)
-        a = a_on[aw]
-        run_max = np.maximum.accumulate(a)
-        release = np.nonzero(a < (1 - 0.01) * run_max - APPLY_ZERO)[0]
-        stop = int(release[0]) if len(release) else len(a)
-        a_final = float(np.max(a[:stop])) if stop > 0 else float(a[0])
-        if a_final > APPLY_ZERO and a[0] < a_final * (1 - RAMP_TOL):  # it ramps (not a one-way clutch)
-            reach = np.nonzero(a[:stop] >= a_final * (1 - RAMP_TOL))[0]
-            ramp_end = float(t[aw][reach[0]]) if len(reach) else None
-        if ramp_end is not None:
-            overrun = max(0.0, t_end - ramp_end)
-            past_ramp = overrun > OVERLAP_MIN if completed else t_run_end > ramp_end
-            if past_ramp and completed:
-                notes.append(f"the speed phase ran {overrun:.3g} s past the end of the {on} apply ramp")
-
-    # energies and peak powers per element, from t_start to the end of the dissipation
-    elements = list(result.meta.get("elements") or [k[2:] for k in sig if k.startswith("P_")])
-    energy, peak = {}, {}
-    for e in elements:
-        p = sig.get(f"P_{e}")
-        if p is None:
-            continue
-        energy[e] = integrate(t, p, ts, t_diss)
-        peak[e] = float(np.max(p[ewin])) if len(ewin) else 0.0
-
-    # both elements slipping and dissipating at once; the offgoing one forced (reversed torque)
-    both = forced_dur = drag = 0.0
-    drag_energy = integrate(t, p_off, t_end, t_diss) if p_off is not None else 0.0
-    p_ref = max(peak.values(), default=0.0)
-    if p_on is not None and p_off is not None and len(ewin) > 1 and p_ref > 0:
-        th = OVERLAP_FRACTION * p_ref
-        tt, pon, poff = t[ewin], p_on[ewin], p_off[ewin]
-        both = _duration_above(tt, np.minimum(pon, poff) - th)
-        # reversed offgoing torque, scaled to power so that the minimum stays piecewise linear
-        rev = -s_off * t_off[ewin] * th / max(BINDUP_FRACTION * abs(off_before), BINDUP_MIN)
-        lock_on = sig.get(f"locked_{on}")
-        holding = (lock_on[ewin] - 0.5) * 2.0 * th if lock_on is not None else np.full(len(ewin), -th)
-        forced_dur = _duration_above(tt, np.minimum(np.minimum(poff - th, rev), np.maximum(pon - th, holding)))
-        if t_diss > t_end:
-            dw = _window(t, t_end, t_diss)
-            drag = _duration_above(t[dw], p_off[dw] - th)
-    forced = forced_dur > OVERLAP_MIN
-    total = sum(energy.values())
-    off_share = 100.0 * energy.get(off, 0.0) / total if total > 0 else 0.0
-    if forced:
-        notes.append(f"{off} slipped and dissipated with its torque reversed against {on} (slipping or locked) "
-                     f"for {forced_dur:.3g} s: {off} was forced to unlock by {on} ({off_share:.2g} % of the energy)")
-    elif both > OVERLAP_MIN:
-        notes.append(f"{on} and {off} slipped and dissipated together for {both:.3g} s with {off} slipping "
-                     f"its normal way (released while still applied)")
-    if drag > OVERLAP_MIN:
-        notes.append(f"{off} went on slipping for {drag:.3g} s after {on} locked ({drag_energy:.4g} J)")
-
-    return ShiftQuality(
-        name=shift.name or _shift_name(result, on, ts), oncoming=on, offgoing=off, t_start=ts,
-        input_link=inp, output_link=out, completed=completed, direction=direction,
-        torque_phase_start=tp_start, torque_phase_end=tp_end, torque_phase_duration=tp_dur,
-        inertia_phase_start=sp_start, inertia_phase_end=sp_end, inertia_phase_duration=sp_dur,
-        shift_end=t_end, shift_duration=duration, dissipation_end=t_diss, offgoing_unlock=t_unlock,
-        oncoming_lock=t_lock,
-        ratio_before=ratio_before, ratio_after=ratio_after,
-        output_torque_before=before, output_torque_min=t_min_val, output_torque_min_time=float(tw[k_min]),
-        torque_hole=hole, torque_hole_pct=hole_pct, output_torque_max=t_max_val,
-        output_torque_max_time=float(tw[k_max]), output_torque_overshoot_pct=over_pct,
-        bindup=bool(bindup), bindup_torque=bindup_torque, bindup_duration=bindup_duration,
-        offgoing_torque_before=off_before, offgoing_torque_at_unlock=off_at_unlock,
-        flare=bool(flare), flare_max=flare_max, flare_max_rpm=flare_max * RPM_PER_RAD_S, flare_time=flare_time,
-        oncoming_ramp_end=ramp_end, oncoming_apply_final=a_final, speed_phase_past_ramp=bool(past_ramp),
-        speed_phase_overrun=overrun, both_dissipating_duration=both, forced_duration=forced_dur,
-        forced_unlock=bool(forced), offgoing_energy_share=off_share, offgoing_drag_after_lock=drag,
-        offgoing_energy_after_lock=drag_energy,
-        energy=energy, peak_power=peak, energy_total=float(sum(energy.values())), notes=tuple(notes))
-
-
-def shift_report(result: Result, shifts: list[Shift] | None = None, input_link: str | None = None,
-                 output_link: str | None = None) -> list[ShiftQuality]:
-    """Shift quality of every shift in ``result`` (``shifts``, or :func:`infer_shifts`).
-
-    ``input_link`` / ``output_link``: used when the result's ``meta`` does not name them.
-    """
-    if len(result.time) < 2:
-        return []
-    inp, out, notes = _links(result, input_link, output_link)
-    if shifts is None:
-        lockup = set(result.meta.get("lockup", ()))  # converter lock-up apply/release is no gear shift
-        shifts = [s for s in infer_shifts(result) if s.oncoming not in lockup and s.offgoing not in lockup]
-    starts = sorted(float(s.t_start) for s in shifts)
-    out_list = []
-    for s in shifts:
-        nxt = [x for x in starts if x > float(s.t_start)]
-        out_list.append(_analyse(result, s, inp, out, notes, nxt[0] if nxt else None))
-    return out_list
-
-
-# ------------------------------------------------------------------------------ energy, text
 def energy_balance(result: Result, tolerance: float = ENERGY_TOL) -> dict:
     """The run's energy balance (``work_in = stored_change + dissipated + work_to_load +
     residual``) with ``passed``: ``|residual| <= tolerance * |work_in|`` (0.1 % by default)."""
@@ -717,6 +45,7 @@ def energy_balance(result: Result, tolerance: float = ENERGY_TOL) -> dict:
     return out
 
 
+# ------------------------------------------------------------------------------ text
 def _f(x, fmt=".3f", unit=""):
     if x is None or (isinstance(x, float) and not math.isfinite(x)):
         return "-"
@@ -776,6 +105,18 @@ def _shift_text(q: ShiftQuality) -> str:
     return "\n".join(lines)
 
 
+def _invariants_text(summary: dict | None) -> list[str]:
+    """The invariant monitor's summary (:meth:`~transgen.sim.monitor.InvariantMonitor.summary`):
+    which invariants were checked, how often, and the worst margin (1 = at the tolerance)."""
+    if not summary:
+        return ["", "Invariants: NOT checked (the monitor was switched off)"]
+    lines = ["", f"Invariants checked on {summary['segments']} segments (worst = violation measure / tolerance, "
+                 f"a run stops above 1)"]
+    for name, v in summary["invariants"].items():
+        lines.append(f"  {name:<24}{v['checks']:>10} checks   worst {v['worst']:9.3g}")
+    return lines
+
+
 def report_text(result: Result, qualities: list[ShiftQuality] | None = None) -> str:
     """A readable report: one table per shift (units in the headers), the energy balance and the
     run statistics."""
@@ -796,9 +137,11 @@ def report_text(result: Result, qualities: list[ShiftQuality] | None = None) -> 
         bal.append(f"  {'relative residual':<24}{eb['relative_residual']:>16.3e}")
     bal.append(f"  {'check':<24}{'PASS' if eb.get('passed') else 'FAIL'} "
                f"(|residual| <= {ENERGY_TOL:.1%} of the input work)")
-    stats = ["", "Run statistics"]
+    stats = _invariants_text((result.stats or {}).get("invariants")) + ["", "Run statistics"]
     units = {"wall_time": "s"}
     for k, v in (result.stats or {}).items():
+        if k == "invariants":
+            continue
         stats.append(f"  {k:<24}{(f'{v:.4g}' if isinstance(v, float) else str(v)):>16} {units.get(k, '')}".rstrip())
     modes = [f"{m.name} {m.t0:.3f}-{m.t1:.3f} s" for m in result.modes]
     if modes:
@@ -811,7 +154,7 @@ def report_dict(result: Result, qualities: list[ShiftQuality] | None = None) -> 
     if qualities is None:
         qualities = shift_report(result)
     meta = result.meta or {}
-    return _jsonable({
+    return jsonable({
         "mechanism": meta.get("mechanism", ""),
         "model": meta.get("model", ""),
         "success": result.success,

@@ -14,7 +14,11 @@ offgoing element
     linear release to ``0`` over ``offgoing_ramp`` — released as the oncoming element takes
     over the torque (too late: bindup; too early: flare).
 
-Elements engaged in both gears stay at their level. :func:`shift_trajectories` turns a list of
+Elements engaged in both gears stay at their level. A double swap (two elements off, two on, as
+in a clutch-to-clutch shift between non-adjacent planetary states) applies the oncoming profile to
+both oncoming elements and the offgoing profile to both offgoing ones (:func:`gear_swap`); a
+one-way clutch is never commanded: leaving the gear it overruns by itself, entering it locks by
+itself when the offgoing element lets go. :func:`shift_trajectories` turns a list of
 shift events into apply :class:`~transgen.sim.signals.Table` signals; :class:`AutoShift` is a
 controller that commands shifts when the output speed crosses throttle-dependent upshift or
 downshift lines (with hysteresis: the downshift line lies below the upshift line).
@@ -27,7 +31,7 @@ import numpy as np
 
 from .signals import Signal, Spliced, Table
 
-__all__ = ["ShiftTemplate", "ShiftEvent", "shift_trajectories", "gear_elements", "AutoShift"]
+__all__ = ["ShiftTemplate", "ShiftEvent", "shift_trajectories", "gear_elements", "gear_swap", "AutoShift"]
 
 
 @dataclass(frozen=True)
@@ -64,14 +68,38 @@ class ShiftEvent:
     template: ShiftTemplate = ShiftTemplate()
 
 
+MAX_SWAP = 2
+"""Most elements a shift applies (and releases) at once: single and double swaps."""
+
+
+def gear_swap(gears: dict[str, tuple[str, ...]], source: str, target: str,
+              oneway: frozenset[str] = frozenset()) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """(oncoming, offgoing) elements a shift from ``source`` to ``target`` commands, each sorted.
+
+    Elements in ``oneway`` (one-way clutches) are left out: they need no command. Raises
+    ``ValueError`` naming the gears when the shift is not schedulable: more than
+    :data:`MAX_SWAP` elements change on either side, or nothing is left to command.
+    """
+    a, b = set(gears[source]), set(gears[target])
+    on, off = b - a, a - b
+    engaged = f"(engaged {' '.join(sorted(a))} -> {' '.join(sorted(b))})"
+    if len(on) > MAX_SWAP or len(off) > MAX_SWAP:
+        raise ValueError(f"shift {source}-{target} is not schedulable: it swaps {len(off)} element(s) for "
+                         f"{len(on)}, at most a double swap (2 off, 2 on) is supported {engaged}")
+    on, off = tuple(sorted(on - oneway)), tuple(sorted(off - oneway))
+    if not on and not off:
+        raise ValueError(f"shift {source}-{target} is not schedulable: no clutch or brake to command {engaged}")
+    return on, off
+
+
 def gear_elements(gears: dict[str, tuple[str, ...]], source: str, target: str) -> tuple[str, str]:
     """(oncoming, offgoing) element of a single-swap shift between two gears of the gear table."""
     a, b = set(gears[source]), set(gears[target])
-    on, off = b - a, a - b
-    if len(on) != 1 or len(off) != 1:
+    if len(b - a) != 1 or len(a - b) != 1:
         raise ValueError(f"shift {source}-{target} is not a single swap of one element "
                          f"(engaged {' '.join(sorted(a))} -> {' '.join(sorted(b))})")
-    return next(iter(on)), next(iter(off))
+    (on,), (off,) = gear_swap(gears, source, target)
+    return on, off
 
 
 def _merge(points: list[tuple[float, float]]) -> Table:
@@ -128,33 +156,45 @@ class AutoShift:
         for up, down in zip(self.upshift, self.downshift):
             if np.any(np.asarray(down) >= np.asarray(up)):
                 raise ValueError("every downshift speed must lie below the upshift speed (hysteresis)")
+        for source, target in zip(self.order, self.order[1:]):
+            gear_swap(self.gears, source, target)  # refuses a sequence with an unschedulable shift
         self.gear = self.gear or self.order[0]
 
     def _line(self, table, k, t):
         return float(np.interp(self.throttle.value(t), self.throttle_points, table[k]))
 
+    def _wait(self, t: float) -> float:
+        """Time [s] left before ``min_interval`` allows the next shift (<= 0: allowed)."""
+        return self.last_shift + self.min_interval - t
+
     def event_functions(self):
-        """(function of (t, w), name) pairs; a zero crossing from above commands a shift."""
+        """(function of (t, w), name) pairs; a zero crossing from above commands a shift. A line
+        crossed while ``min_interval`` still blocks shifts commands the shift when the interval
+        ends (the function is the later of the two conditions), so no shift is lost."""
         k = self.order.index(self.gear)
         funcs = []
         if k + 1 < len(self.order):
-            funcs.append((lambda t, w, k=k: self._line(self.upshift, k, t) - w[self.output], "up"))
+            funcs.append((lambda t, w, k=k: max(self._line(self.upshift, k, t) - w[self.output], self._wait(t)), "up"))
         if k > 0:
-            funcs.append((lambda t, w, k=k: w[self.output] - self._line(self.downshift, k - 1, t), "down"))
+            funcs.append((lambda t, w, k=k: max(w[self.output] - self._line(self.downshift, k - 1, t), self._wait(t)),
+                          "down"))
         return funcs
 
     def fire(self, kind: str, t: float, elements: dict) -> str | None:
         """Command the shift ``kind`` ('up'/'down') at ``t``; returns a description or None when
         blocked by ``min_interval``. ``elements``: name -> ElementConfig (apply replaced)."""
-        if t - self.last_shift < self.min_interval:
+        if self._wait(t) > 1e-9 * max(1.0, abs(t)):
             return None
         k = self.order.index(self.gear)
         target = self.order[k + 1] if kind == "up" else self.order[k - 1]
-        on, off = gear_elements(self.gears, self.gear, target)
-        for name, pts in ((on, self.template.oncoming(t)), (off, self.template.offgoing(t))):
-            e = elements[name]
-            e.apply = Spliced(t, e.apply, _merge([(t, e.apply.value(t))] + pts[1:]))
+        oneway = frozenset(name for name, e in elements.items() if e.kind == "oneway")
+        on, off = gear_swap(self.gears, self.gear, target, oneway)
+        for names, pts in ((on, self.template.oncoming(t)), (off, self.template.offgoing(t))):
+            for name in names:
+                e = elements[name]
+                e.apply = Spliced(t, e.apply, _merge([(t, e.apply.value(t))] + pts[1:]))
         self.history.append((t, self.gear, target))
-        description = f"{kind}shift {self.gear}-{target} (on {on}, off {off})"
+        description = (f"{kind}shift {self.gear}-{target} (on {' '.join(on) or 'none: one-way clutch locks'}, "
+                       f"off {' '.join(off) or 'none: one-way clutch overruns'})")
         self.gear, self.last_shift = target, t
         return description

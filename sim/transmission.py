@@ -10,6 +10,27 @@ Shift elements (sign convention of :mod:`transgen.model`: slip ``w1 - w2``, torq
 link2): a slipping friction element transmits ``T_dyn * apply * friction(|slip|) * gain *
 sign(slip)``; it can hold ``|t| <= T_static * apply`` when locked. A one-way clutch overruns in its
 ``free`` direction with no torque and locks against the other.
+
+Elements in parallel (the same two links: :func:`transgen.equations.locking_groups`, e.g. the
+3HP22's low/reverse brake beside its one-way clutch on the rear carrier, or a freewheel beside an
+engageable clutch) always have the same slip, so they are decided as one: at zero slip the group
+locks — with every member that can transmit (its one-way clutches, its applied friction
+elements) — or slips in one direction (only the free direction of its one-way members). Locked,
+it is **one** constraint (one row of ``D``) whose holding range is the sum of its members':
+``+-T_static*apply`` per friction element, without limit in a one-way clutch's locking direction
+and nothing in its free direction (:meth:`Transmission.holding_limits`); it unlocks as a whole
+when its torque leaves that range.
+
+**Torque split rule** (:meth:`Transmission.split_locked_torques`; the motion is unique, the split
+is not): the friction elements carry the group's torque first, shared in proportion to their
+static capacities ``T_static*apply`` (each at the same fraction of its own limit), up to their
+combined capacity; the one-way clutches that lock in the torque's direction carry the rest,
+shared equally. Why: a one-way clutch (sprag or roller) wedges only after a small relative
+rotation (its engagement lash), while a clamped friction pack holds from standstill, so in the
+rigid limit the friction elements take the torque until they would slip and the one-way clutch
+takes what exceeds them. Every member's torque stays within its own limit, a one-way clutch's
+only in its locking direction, and the members' torques sum (each counted in the group's
+direction) to the constraint torque.
 """
 from __future__ import annotations
 
@@ -18,6 +39,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from transgen.equations import locking_groups
 from transgen.errors import ModeError, SimulationError
 from transgen.graph import build_graph, link_nodes
 from transgen.model import HOUSING, Mechanism
@@ -26,7 +48,15 @@ from transgen.statespace import _mode_state_space, state_space
 
 from .signals import Constant, Signal
 
-__all__ = ["ElementConfig", "ModeData", "Transmission"]
+__all__ = ["ElementConfig", "ModeData", "Transmission", "APPLY_THRESHOLD"]
+
+#: An apply fraction at or below this counts as released. The simulator watches every apply signal
+#: crossing it (a rise from zero or a fall to zero is a kink of the element torque and may change the
+#: mode); slightly above zero so that an apply held at exactly zero never looks like a crossing.
+APPLY_THRESHOLD = 1e-12
+#: How far past ``t`` [s, relative to max(1, |t|)] :meth:`ElementConfig.applied_after` looks for a
+#: rising apply.
+APPLY_LOOKAHEAD = 1e-9
 
 
 @dataclass
@@ -57,6 +87,27 @@ class ElementConfig:
     def apply_over(self, ts: np.ndarray) -> np.ndarray:
         """:meth:`apply_at` at every time of ``ts`` (output sampling)."""
         return np.ones(len(ts)) if self.kind == "oneway" else np.maximum(self.apply.sample(ts), 0.0)
+
+    def applied_after(self, t: float) -> bool:
+        """Whether the element can transmit torque just after ``t``: a one-way clutch always, a
+        friction element when its apply is above zero at ``t`` or rises from zero right after it
+        (the right limit, so that an element whose apply starts to rise at ``t`` is decided as
+        applied)."""
+        return self.kind == "oneway" or self.apply_at(t) > 0.0 or self.applied_just_after(t)
+
+    def applied_just_after(self, t: float) -> bool:
+        """Whether the apply signal is above :data:`APPLY_THRESHOLD` just after ``t`` (the side of the
+        threshold a segment starting at ``t`` leaves from)."""
+        return self.apply.value(t + APPLY_LOOKAHEAD * max(1.0, abs(t))) > APPLY_THRESHOLD
+
+    def holding_margin(self, t: float, torque: float) -> float:
+        """How far the torque [N*m] of the element, locked, is inside its holding limit (>= 0: it
+        holds): ``T_static * apply - |t|`` for a friction element, ``-free * t`` for a one-way clutch,
+        each with the round-off allowance that the mode decision accepts (so that a lock decided
+        at its limit starts on the holding side of the unlock event)."""
+        if self.kind == "oneway":
+            return 1e-9 * (1.0 + abs(torque)) - self.free * torque
+        return self.static_capacity(t) * (1.0 + 1e-9) + 1e-9 - abs(torque)
 
     def static_capacity(self, t: float) -> float:
         return float("inf") if self.kind == "oneway" else self.static * self.apply_at(t)
@@ -96,22 +147,31 @@ class ElementConfig:
             a = a * np.interp(np.abs(slips), self.friction[0], self.friction[1])
         return scale * a
 
-    def breakpoints(self) -> tuple[float, ...]:
-        return self.apply.breakpoints()
+    def breakpoints(self, t0: float = float("-inf"), t1: float = float("inf")) -> tuple[float, ...]:
+        """The apply signal's breakpoints in ``[t0, t1]`` (a window is needed when it is periodic)."""
+        return self.apply.breakpoints(t0, t1)
 
 
 @dataclass
 class ModeData:
-    """Matrices of one mode at run time (numeric)."""
+    """Matrices of one mode at run time (numeric).
+
+    ``D`` has one row per constraint: a locked element, or a group of locked elements in
+    parallel (``groups[row]``, the representative ``locked_order[row]`` first; ``signs[row]``:
+    +1 where a member's slip equals the representative's, -1 where its links are swapped). A
+    row's torque is the group's, in the representative's direction.
+    """
 
     locked: frozenset
     name: str
     coords: np.ndarray  # link indices of the states
     B: np.ndarray  # d x n_u
     C: np.ndarray  # n_links x d
-    D: np.ndarray  # n_locked x n_u
-    locked_order: tuple[int, ...]  # element indices of the rows of D
+    D: np.ndarray  # n_constraints x n_u
+    locked_order: tuple[int, ...]  # element index of the representative of each row of D
     in_std: bool
+    groups: tuple[tuple[int, ...], ...] = ()  # locked elements of each row of D
+    signs: tuple[tuple[int, ...], ...] = ()
 
     @property
     def dof(self) -> int:
@@ -153,6 +213,9 @@ class Transmission:
                 self.P[i, e.link1] += 1
             if e.link2 is not None:
                 self.P[i, e.link2] -= 1
+        # elements in parallel: (member indices, signs relative to the first member)
+        self.groups = [(tuple(self.element_index[x] for x in grp.members), grp.signs)
+                       for grp in locking_groups(self.graph)]
         models = mode_models(mech, modes)
         ss = state_space(mech, coordinates, modes, models=[m for m in models if m.equations is not None])
         self.coordinates = ss.coordinates
@@ -169,9 +232,42 @@ class Transmission:
     # ------------------------------------------------------------------ modes
     def _data(self, m, in_std: bool) -> ModeData:
         locked = tuple(self.element_index[x] for x in m.locked)
+        groups = tuple(tuple(self.element_index[x] for x in grp) for grp in m.locked_groups)
+        signs = tuple(tuple(int(round(self.P[i] @ self.P[grp[0]] / (self.P[grp[0]] @ self.P[grp[0]]))) for i in grp)
+                      for grp in groups)
         return ModeData(frozenset(locked), m.name, np.array([self.link_index[s] for s in m.states], dtype=int),
-                        np.asarray(m.B, dtype=float), np.asarray(m.C, dtype=float), np.asarray(m.D, dtype=float),
-                        locked, in_std)
+                        np.asarray(m.B, dtype=float), self._snap(np.asarray(m.C, dtype=float), locked, m.states),
+                        np.asarray(m.D, dtype=float), tuple(grp[0] for grp in groups), in_std, groups, signs)
+
+    def _snap(self, C: np.ndarray, locked: tuple[int, ...], states) -> np.ndarray:
+        """``C`` with the rows of the links a mode's locked elements join made exactly equal (zero
+        for links held to the housing), so that every locked element — also a member of a group
+        in parallel that is not the equations' representative — has exactly zero slip, not
+        round-off that a slip event could mistake for a crossing."""
+        C = C.copy()
+        housing = len(self.links)
+        parent = list(range(housing + 1))
+
+        def find(x):
+            while parent[x] != x:
+                x = parent[x]
+            return x
+
+        for i in locked:
+            e = self.elements[i]
+            a, b = sorted((find(e.link1), find(housing if e.link2 is None else e.link2)))
+            parent[a if b == housing else b] = b if b == housing else a  # the housing stays a root
+        classes: dict[int, list[int]] = {}
+        for k in range(housing):
+            classes.setdefault(find(k), []).append(k)
+        coords = {self.link_index[x] for x in states}
+        for root, members in classes.items():
+            if root == housing:
+                C[members] = 0.0
+            elif len(members) > 1:
+                source = next((k for k in members if k in coords), members[0])
+                C[members] = C[source]
+        return C
 
     def mode(self, locked) -> ModeData:
         """Matrices of the mode with the element indices ``locked`` (cached; computed on demand
@@ -226,47 +322,139 @@ class Transmission:
                 out[i] = e.slip_torques(ts, slips[i], int(directions[i]))
         return out
 
+    # ------------------------------------------------- locked groups: limits, split
+    def holding_limits(self, mode: ModeData, row: int, t: float) -> tuple[float, float]:
+        """The range ``(lo, hi)`` [N*m] of torques that row ``row`` of ``mode.D`` (a locked
+        element or group in parallel, in its representative's direction) holds at time ``t``:
+        the sum of its members' ranges — ``+-T_static*apply`` per friction element, ``(-inf, 0]``
+        or ``[0, inf)`` per one-way clutch (unlimited in its locking direction)."""
+        lo = hi = 0.0
+        for i, sign in zip(mode.groups[row], mode.signs[row]):
+            e = self.elements[i]
+            if e.kind == "oneway":
+                # free=+1 overruns with positive slip: locked it transmits t <= 0 (its own
+                # direction), i.e. -free*sign in the row's direction
+                if -e.free * sign > 0:
+                    hi = np.inf
+                else:
+                    lo = -np.inf
+            else:
+                c = e.static_capacity(t)
+                lo, hi = lo - c, hi + c
+        return lo, hi
+
+    def holding_margin(self, mode: ModeData, row: int, t: float, torque: float) -> float:
+        """How far the row's torque ``torque`` is inside its holding range (:meth:`holding_limits`):
+        >= 0 while the constraint holds, crossing zero where it unlocks (the root of the
+        integrator's torque event, and the mode decision's test). A lone element's is
+        :meth:`ElementConfig.holding_margin` (``T_static*apply - |t|``, or ``-free*t``); a group's
+        has the same round-off allowance, relative to its friction capacity and the torque."""
+        members = mode.groups[row]
+        if len(members) == 1:
+            return self.elements[members[0]].holding_margin(t, torque)
+        lo, hi = self.holding_limits(mode, row, t)
+        friction = sum(self.elements[i].static_capacity(t) for i in members if self.elements[i].kind != "oneway")
+        return min(hi - torque, torque - lo) + 1e-9 * (1.0 + friction + abs(torque))
+
+    def unlock_directions(self, mode: ModeData, row: int, t: float, torque: float) -> dict[int, int]:
+        """At the unlock of row ``row`` (its torque ``torque`` at a limit): the direction each of
+        its locked elements starts to slip in (+1/-1, each in its own slip convention) — the
+        direction of the torque at the limit reached, so slipping dissipates. For
+        :meth:`decide`'s ``forced``."""
+        lo, hi = self.holding_limits(mode, row, t)
+        side = 1 if hi - torque <= torque - lo else -1
+        return {i: side * sign for i, sign in zip(mode.groups[row], mode.signs[row])}
+
+    def split_locked_torques(self, mode: ModeData, ts: np.ndarray, T: np.ndarray) -> np.ndarray:
+        """Each locked element's torque [N*m] (its own direction, link1 to link2) at the times
+        ``ts`` from the constraint torques ``T`` (rows of ``mode.D``, one column per time); rows
+        elements, other elements zero.
+
+        A lone element carries its row. A group in parallel follows the split rule of the module
+        docstring: friction members first, in proportion to ``T_static*apply``, up to their
+        combined capacity; the rest to the one-way members locking in its direction, shared
+        equally. Beyond the combined range (only at an unlock event's own instant) the excess
+        goes to the friction members, so the members always sum to the row's torque.
+        """
+        out = np.zeros((len(self.elements), len(ts)))
+        for row, (members, signs) in enumerate(zip(mode.groups, mode.signs)):
+            tau = T[row]
+            if len(members) == 1:
+                out[members[0]] = tau
+                continue
+            friction = [(i, sgn) for i, sgn in zip(members, signs) if self.elements[i].kind != "oneway"]
+            oneway = [(i, sgn) for i, sgn in zip(members, signs) if self.elements[i].kind == "oneway"]
+            caps = [self.elements[i].static * self.elements[i].apply_over(ts) for i, _ in friction]
+            total = np.sum(caps, axis=0) if caps else np.zeros(len(ts))
+            carried = np.clip(tau, -total, total)
+            rest = tau - carried
+            for direction in (1, -1):
+                carriers = [(i, sgn) for i, sgn in oneway if -self.elements[i].free * sgn == direction]
+                part = np.where(rest * direction > 0, rest, 0.0)
+                for i, sgn in carriers:
+                    out[i] += sgn * part / len(carriers)
+                if not carriers:
+                    carried = carried + part  # beyond the range: stays with the friction elements
+            if friction:
+                for (i, sgn), c in zip(friction, caps):
+                    share = np.divide(c, total, out=np.full(len(ts), 1.0 / len(friction)), where=total > 0)
+                    out[i] += sgn * carried * share
+            else:
+                out[members[0]] += carried
+        return out
+
     # ------------------------------------------------------ mode consistency
     def decide(self, t: float, w: np.ndarray, external_u: np.ndarray, slip_tol: float,
                forced: dict[int, int] | None = None) -> tuple[frozenset, np.ndarray]:
         """The consistent mode at time ``t`` and speeds ``w``: which elements at zero slip lock,
         and which way the others slip (complementarity, Pfeiffer & Glocker).
 
-        Elements with ``|slip| <= slip_tol`` that can transmit torque (apply > 0, or one-way) may
-        be locked or start slipping either way (a one-way clutch only in its free direction).
+        Elements at zero slip (``|slip| <= slip_tol``: the slip left is round-off) are decided by
+        groups: elements in parallel (:attr:`groups`) have one slip and are decided as one. A
+        group at zero slip with a member that can transmit torque
+        (:meth:`ElementConfig.applied_after`: one-way, apply > 0, or an apply that rises from zero
+        at ``t``) may lock — with all such members — or start slipping either way (only in the
+        free direction of its one-way members); the released elements at zero slip get the
+        direction of their slip acceleration in the chosen mode (never the sign of round-off).
         For every combination the mode's locked torques and slip accelerations are computed —
         with the static capacity for elements that start to slip, as the sticking test of 3.2.6
-        asks — and the combination is consistent when every locked friction element holds
-        ``|t| <= T_static*apply``, every locked one-way clutch transmits in its locking
-        direction, and every element starting to slip accelerates in its slip direction. The
-        unique consistent combination is returned with the slip directions; none or several
-        raise :class:`SimulationError` naming the elements.
+        asks — and the combination is consistent when every locked row's torque is within its
+        holding range (:meth:`holding_margin`: ``|t| <= T_static*apply`` for a lone friction
+        element, the locking direction for a lone one-way clutch, the combined range for a
+        group) and every group starting to slip accelerates in its slip direction. The unique
+        consistent combination is returned with the slip directions; none or several raise
+        :class:`SimulationError` naming the elements.
 
-        ``forced`` maps elements whose unlocking condition has just been met (their torque reached
-        the static capacity, or a one-way clutch's torque reversed) to the direction they start
-        to slip in: at that instant locking and slipping are both borderline, and the event has
-        already decided for them.
+        ``forced`` maps elements whose unlocking condition has just been met (their row's torque
+        reached its holding limit: :meth:`unlock_directions`) to the direction they start to slip
+        in: at that instant locking and slipping are both borderline, and the event has already
+        decided for them (and for their group).
         """
         forced = forced or {}
         slips = self.P @ w
-        zero = [i for i, e in enumerate(self.elements)
-                if abs(slips[i]) <= slip_tol and (e.kind == "oneway" or e.apply_at(t) > 0)]
+        zero = []  # (members, signs, members that can transmit, choices) of the groups at zero slip
+        for members, signs in self.groups:
+            capable = tuple(i for i in members if self.elements[i].applied_after(t))
+            if capable and abs(slips[members[0]]) <= slip_tol:
+                zero.append((members, signs, capable, self._choices(members, signs, forced)))
+        deciding = {i for z in zero for i in z[0]}
+        released = [i for i in range(len(self.elements)) if abs(slips[i]) <= slip_tol and i not in deciding]
         base_dir = np.sign(slips).astype(int)
         consistent = []
         rejected = 0
-        for choice in itertools.product(*[(forced[i],) if i in forced else self._choices(i) for i in zero]):
-            locked = frozenset(i for i, c in zip(zero, choice) if c == 0)
+        for choice in itertools.product(*[z[3] for z in zero]):
+            locked = frozenset(i for z, c in zip(zero, choice) if c == 0 for i in z[2])
             try:
                 data = self.mode(locked)
             except ModeError:
                 rejected += 1
                 continue
             directions = base_dir.copy()
-            for i, c in zip(zero, choice):
-                directions[i] = c
+            for (members, signs, _, _), c in zip(zero, choice):
+                directions[list(members)] = c * np.asarray(signs)
             u = external_u.copy()
             torques = self.slipping_torques(t, w, locked, directions)
-            starting = [i for i in zero if i not in locked]
+            starting = [i for z, c in zip(zero, choice) if c != 0 for i in z[0]]
             if starting:  # elements leaving zero slip are tested at their static capacity
                 torques[starting] = self.slipping_torques(t, w, locked, directions, "static")[starting]
             u[self.element_input] += torques
@@ -274,22 +462,20 @@ class Transmission:
             slip_acc = self.P @ alpha
             t_locked = data.D @ u
             ok = True
-            for row, i in enumerate(data.locked_order):
-                e = self.elements[i]
-                if e.kind == "oneway":
-                    # free=+1 overruns with positive slip: locked it transmits t <= 0
-                    if e.free * t_locked[row] > 1e-9 * (1 + abs(t_locked[row])):
-                        ok = False
-                elif abs(t_locked[row]) > e.static_capacity(t) * (1 + 1e-9) + 1e-9:
+            for row in range(len(data.locked_order)):
+                if self.holding_margin(data, row, t, t_locked[row]) < 0.0:
                     ok = False
-            for i, c in zip(zero, choice):
-                if c != 0 and i not in forced and not c * slip_acc[i] > 0:
+            for (members, _, _, _), c in zip(zero, choice):
+                if c != 0 and not any(i in forced for i in members) and not c * slip_acc[members[0]] > 0:
                     ok = False
             if ok:
+                # a released element at zero slip moves off the way its slip accelerates
+                for i in released:
+                    directions[i] = int(np.sign(slip_acc[i]))
                 consistent.append((locked, directions))
         if len(consistent) == 1:
             return consistent[0]
-        names = ", ".join(self.elements[i].name for i in zero) or "none"
+        names = ", ".join(self.elements[i].name for z in zero for i in z[0]) or "none"
         if not consistent:
             raise SimulationError(
                 f"t={t:.6g} s: no consistent mode for the elements at zero slip ({names}); "
@@ -297,8 +483,11 @@ class Transmission:
         options = "; ".join("+".join(self.elements[i].name for i in sorted(lk)) or "none" for lk, _ in consistent)
         raise SimulationError(f"t={t:.6g} s: several consistent modes for the elements at zero slip ({names}): {options}")
 
-    def _choices(self, i: int) -> tuple[int, ...]:
-        e = self.elements[i]
-        if e.kind == "oneway":
-            return (0, e.free)
-        return (0, 1, -1)
+    def _choices(self, members: tuple[int, ...], signs: tuple[int, ...], forced: dict[int, int]) -> tuple[int, ...]:
+        """A group's options at zero slip: lock (0) or slip +1/-1 in its first member's
+        direction, not against a one-way member's free direction; one option when forced."""
+        for i, sign in zip(members, signs):
+            if i in forced:
+                return (forced[i] * sign,)
+        free = {self.elements[i].free * sign for i, sign in zip(members, signs) if self.elements[i].kind == "oneway"}
+        return (0,) + tuple(d for d in (1, -1) if free <= {d})

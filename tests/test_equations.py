@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 import independent as ind
 from transgen import MechError, ModeError, bundled_mechanisms, load_mechanism, parse_mechanism
 from transgen.graph import build_graph, link_nodes
-from transgen.equations import assemble, diagnose_singular, input_names, solve
+from transgen.equations import assemble, diagnose_singular, input_names, locked_constraints, solve
 from transgen.modes import Mode, mode_model, mode_models, select_modes
 
 BUNDLED = bundled_mechanisms()
@@ -26,21 +26,33 @@ def _mech(name):
 
 def _compare_mode(mech, g, locked, where=""):
     """transgen's solution of one mode equals the null-space solution; returns the ModeEquations
-    (or None when both agree that the mode cannot be solved)."""
+    (or None when both agree that the mode cannot be solved).
+
+    Elements in parallel (same two links) lock one motion: the reference solves the mode with
+    one of them per group, and its accelerations must equal those of the whole locked set (the
+    motion is unique even where the torque split is not)."""
     u = input_names(g)
-    ref = ind.dynamics(mech, locked, u)
+    groups = locked_constraints(g, locked)
+    ref = ind.dynamics(mech, tuple(grp.first for grp in groups), u)
     solvable = ref.alpha is not None and ref.torques is not None and not ref.tf_redundant
     if not solvable:
         with pytest.raises(ModeError):
             solve(assemble(g, locked), g)
         return None
+    # the other members of a locked group are locked too: their torque inputs have no effect
+    others = [u.index(f"t_{e}") for grp in groups for e in grp.members[1:]]
+    keep = [j for j in range(len(u)) if j not in others]
+    full = ind.dynamics(mech, locked, u)
+    if full.alpha is not None:
+        ind.assert_close(full.alpha[:, keep], ref.alpha[:, keep], what=f"{where} {locked} alpha, all parallel elements")
     eq = solve(assemble(g, locked), g)
     assert eq.u == u
     assert eq.locked == tuple(locked)
     assert eq.z[: eq.n_links] == tuple(f"alpha_{k}" for k in link_nodes(g))
-    assert eq.z[eq.n_links: eq.n_links + eq.n_locked] == tuple(f"t_{e}" for e in locked)
-    ind.assert_close(eq.G_accel, ref.alpha, what=f"{where} {locked} G_accel")
-    ind.assert_close(eq.G_clutches, ref.torques, what=f"{where} {locked} G_clutches")
+    assert eq.z[eq.n_links: eq.n_links + eq.n_locked] == tuple(f"t_{'+'.join(grp.members)}" for grp in groups)
+    assert not np.any(eq.G[:, others])
+    ind.assert_close(eq.G_accel[:, keep], ref.alpha[:, keep], what=f"{where} {locked} G_accel")
+    ind.assert_close(eq.G_clutches[:, keep], ref.torques[:, keep], what=f"{where} {locked} G_clutches")
     return eq
 
 
@@ -208,7 +220,8 @@ def test_power_balance(name, data):
         # accelerations are consistent with the constraints of the mode
         assert np.abs(ref.A @ alpha).max(initial=0) <= 1e-9 * (1 + np.abs(alpha).max(initial=0))
         # locked torques: J alpha - S u - (element torques) is a pure transformer reaction
-        r = J @ alpha - S @ u - _element_torque_matrix(mech, mode.locked) @ (eq.G_clutches @ u)
+        # (one torque per constraint: elements in parallel act through their group's first member)
+        r = J @ alpha - S @ u - _element_torque_matrix(mech, [grp.first for grp in eq.groups]) @ (eq.G_clutches @ u)
         assert np.abs(n_tf.T @ r).max(initial=0) <= 1e-9 * (1 + np.abs(r).max(initial=0) + np.abs(S @ u).max(initial=0))
 
 

@@ -1,8 +1,8 @@
-"""A small seed of the ``.mech`` fuzzer (tests/fuzz/mech.py) in the suite; the long run of
+"""A small seed of the ``.mech`` fuzzer (tests/fuzz/fuzz_mech.py) in the suite; the long run of
 10,000 inputs and 200 command-line calls is ``benchmarks/fuzz_mech.py``."""
 from __future__ import annotations
 
-from fuzz.mech import CLI_COMMANDS, fuzz_api, fuzz_cli
+from fuzz.fuzz_mech import CLI_COMMANDS, fuzz_api, fuzz_cli
 
 
 def test_api_fuzz_small_seed():

@@ -3,11 +3,10 @@ import pytest
 
 from transgen.sim.causality import AlgebraicLoopError, Block, Causality, CausalityError, \
     check_connections
-from transgen.sim.compressor import Compressor
-from transgen.sim.engine import TurbochargedDiesel
-from transgen.sim.maps import default_compressor_table
-from transgen.sim.torque_converter import TorqueConverter
-from transgen.sim.turbocharger import BasicTurbo, IterativeTurbo, TurboShaft
+from transgen.sim.engine import TurbochargedDiesel, default_compressor_table
+from transgen.sim.engine.compressor import Compressor
+from transgen.sim.engine.torque_converter import TorqueConverter
+from transgen.sim.engine.turbocharger import BasicTurbo, IterativeTurbo, TurboShaft
 
 I, R, K, CV, F = (Causality.INERTIAL, Causality.RESISTIVE, Causality.COMPLIANT,
                   Causality.CONTROL_VOLUME, Causality.FLOW)

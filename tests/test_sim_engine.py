@@ -9,8 +9,7 @@ from scipy.integrate import solve_ivp
 from transgen.errors import SimulationError
 from transgen.sim.causality import check_connections
 from transgen.sim.engine import (EngineParams, NonFiniteError, SpeedGovernor, TurbochargedDiesel,
-                                 exhaust_temperature, rate)
-from transgen.sim.maps import RPM
+                                 exhaust_temperature, rate, RPM)
 
 
 @pytest.fixture(autouse=True)

@@ -5,7 +5,7 @@ import warnings
 import numpy as np
 import pytest
 
-from transgen.sim.maps import (
+from transgen.sim.engine import (
     DATA_DIR, RPM, CompressorMap, CompressorSpeedLine, MapError, MapLine, MapRangeWarning,
     TurbineMap, TurbineSpeedLine, WECompressorFit, WETurbineFit, chi_coordinate,
     default_compressor_table, default_turbine_table, generate_compressor_map,

@@ -13,12 +13,13 @@ import numpy as np
 import pytest
 
 from transgen.errors import ScenarioError
+from transgen.sim.assembly import causal_assembly, check_powertrain
 from transgen.sim.causality import AlgebraicLoopError, Causality
-from transgen.sim.maps import RPM
-from transgen.sim.powertrain import (ConverterComponent, TurbodieselSource, causal_assembly, check_powertrain,
-                                     turbo_report)
+from transgen.sim.engine import RPM
+from transgen.sim.engine.torque_converter import TorqueConverter
+from transgen.sim.engine.turbo_report import turbo_report
+from transgen.sim.powertrain import ConverterComponent, TurbodieselSource
 from transgen.sim.scenario import bundled_scenarios, load_scenario
-from transgen.sim.torque_converter import TorqueConverter
 
 SCENARIOS = Path(__file__).resolve().parent.parent / "sim" / "scenarios"
 TURBO = SCENARIOS / "ht740_turbo.toml"
@@ -210,7 +211,7 @@ def test_chi_shift_follows_the_port_mach_numbers():
     """The iterative chi shift has the sign of M_out^2 - M_in^2 (total vs static pressure ratio):
     equal ducts give a lower chi at every pressure ratio; an outlet duct much smaller than the
     inlet a higher chi at low pressure ratio."""
-    from transgen.sim.turbocharger import BasicTurbo, IterativeTurbo, PortAreas
+    from transgen.sim.engine.turbocharger import BasicTurbo, IterativeTurbo, PortAreas
 
     basic = BasicTurbo()
     omega = 60e3 * RPM
@@ -269,7 +270,7 @@ def test_inertial_engine_on_the_inertial_input_link_is_refused(tmp_path):
     with pytest.raises(ScenarioError) as err:
         load_scenario(path)
     msg = str(err.value)
-    assert f"{path}:4: error:" in msg                       # located at the crank_model line
+    assert f"{path}:4:1: error:" in msg                      # located at the crank_model line
     assert "algebraic loop between 'engine'" in msg and "'link E'" in msg
     assert "refused before the run" in msg and 'crank_model = "torque"' in msg
     # the same assembly checked directly names both blocks
@@ -332,7 +333,7 @@ def test_maps_command_writes_the_plots(tmp_path, capsys):
 
 
 def test_turbo_comparison_plots(turbo_runs, tmp_path):
-    from transgen.sim.engine_plots import THESIS_SIGNALS, plot_turbo_comparison
+    from transgen.sim.engine.plots import THESIS_SIGNALS, plot_turbo_comparison
 
     runs = {"basic": turbo_runs["basic"][1], "iterative": turbo_runs["iterative"][1]}
     paths = plot_turbo_comparison(runs, tmp_path, formats=("svg",))

@@ -9,9 +9,10 @@ import pytest
 from transgen import load_mechanism
 from transgen.kinematics import constraint_matrix, null_space
 from transgen.sim.components import Driveline, InputTorque
-from transgen.sim.report import (RPM_PER_RAD_S, Shift, ShiftQuality, energy_balance, infer_shifts, integrate,
-                                 report_dict, report_text, shift_report)
+from transgen.sim.report import (RPM_PER_RAD_S, Shift, ShiftQuality, energy_balance, infer_shifts, report_dict,
+                                 report_text, shift_report)
 from transgen.sim.result import Event, ModeSpan, Result
+from transgen.sim.samples import integrate
 from transgen.sim.signals import Constant, Table
 from transgen.sim.simulate import Powertrain, SolverOptions, simulate
 

@@ -4,8 +4,8 @@ import math
 import numpy as np
 import pytest
 
-from transgen.sim.maps import RPM
-from transgen.sim.torque_converter import TorqueConverter, TorqueConverterError
+from transgen.sim.engine import RPM
+from transgen.sim.engine.torque_converter import TorqueConverter, TorqueConverterError
 
 TC = TorqueConverter.load()
 WP = 1500 * RPM

@@ -5,16 +5,15 @@ import warnings
 import pytest
 
 from transgen.errors import SimulationError
-from transgen.sim.compressor import Compressor
-from transgen.sim.engine import TurbochargedDiesel
-from transgen.sim.maps import (AIR, EXHAUST, RPM, compression_outlet_temperature,
-                               default_compressor_table, default_turbine_table,
-                               expansion_outlet_temperature)
-from transgen.sim.turbine import Turbine
-from transgen.sim.turbocharger import (BasicTurbo, ChokedFlowError, IterativeTurbo, PortAreas,
-                                       TurboConvergenceError, TurboShaft, make_turbo,
-                                       mach_from_total_temperature, mach_number, total_pressure,
-                                       total_temperature)
+from transgen.sim.engine import (AIR, EXHAUST, RPM, TurbochargedDiesel, compression_outlet_temperature,
+                                 default_compressor_table, default_turbine_table,
+                                 expansion_outlet_temperature)
+from transgen.sim.engine.compressor import Compressor
+from transgen.sim.engine.turbine import Turbine
+from transgen.sim.engine.turbocharger import (BasicTurbo, ChokedFlowError, IterativeTurbo, PortAreas,
+                                              TurboConvergenceError, TurboShaft, make_turbo,
+                                              mach_from_total_temperature, mach_number, total_pressure,
+                                              total_temperature)
 
 P_AMB, T_AMB = 101111.34, 298.46
 HIGH_FLOW = (P_AMB, T_AMB, 2.7e5, 2.9e5, 850.0, P_AMB, 100_000 * RPM)

@@ -125,7 +125,8 @@ def cmd_modes(args) -> int:
     print(f"{mech.name}: {len(report['modes'])} modes ({report['selection']})")
     print(f"  {'mode':<5} {'locked':<18} {'DOF':>3}  {'kind':<8} label / problem")
     for m in report["modes"]:
-        extra = m["label"] + (f"  !! {m['problem']}" if m["problem"] else "")
+        notes = [m["label"]] * bool(m["label"]) + [f"{'+'.join(grp)} in parallel" for grp in m["parallel"]]
+        extra = "; ".join(notes) + (f"  !! {m['problem']}" if m["problem"] else "")
         print(f"  {m['name']:<5} {' '.join(m['locked']) or '(none)':<18} {m['dof']:>3}  {m['kind']:<8} {extra}")
     diag = report["diagnosis"]
     if diag["combinations"] == diag["of"]:
@@ -139,6 +140,9 @@ def cmd_modes(args) -> int:
     if diag["undetermined_massless"]:
         print(f"    undetermined massless members: {len(diag['undetermined_massless'])}: "
               + "; ".join(" ".join(x) for x in diag["undetermined_massless"]))
+    if diag["parallel"]:
+        print("    elements in parallel (same motion; locked together they are one constraint): "
+              + "; ".join(" ".join(x) for x in diag["parallel"]))
     return 0
 
 
@@ -211,6 +215,8 @@ def cmd_std(args) -> int:
             print(f"  {t.source} -> {t.target}: {t.event} {t.element}: {t.condition}")
         for t in std.external:
             print(f"  {t.source} -> (not modelled: {' '.join(t.reaches) or 'none'}): {t.event} {t.element}")
+        for m, why in std.unmodellable:
+            print(f"  {m.name} ({' '.join(m.locked) or 'none'}) cannot be modelled: {why}")
     return 0
 
 

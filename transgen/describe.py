@@ -1,7 +1,7 @@
 """Plain-data (JSON-ready) descriptions of a mechanism and of its modes."""
 from __future__ import annotations
 
-from .equations import diagnose_singular
+from .equations import diagnose_singular, locking_groups
 from .graph import build_graph
 from .kinematics import analyze, engaged_combinations
 from .model import Mechanism
@@ -45,7 +45,11 @@ def mechanism_to_dict(m: Mechanism) -> dict:
 
 def modes_report(mech: Mechanism, which: str = "auto") -> dict:
     """Modes with locked elements, DOF, kind and problems, and a static diagnosis of every
-    combination: tie-ups, non-unique locked torques, undetermined massless members."""
+    combination: tie-ups, non-unique locked torques, undetermined massless members.
+
+    ``parallel`` (per mode, and ``diagnosis.parallel`` for the mechanism): the elements in
+    parallel (same two links) that lock one motion as one constraint — not a problem: the
+    motion is unique, the simulator splits their torque by its documented rule."""
     models = mode_models(mech, which)
     g = build_graph(mech)
     tie_ups, non_unique, massless = [], [], []
@@ -63,10 +67,12 @@ def modes_report(mech: Mechanism, which: str = "auto") -> dict:
         "selection": "all combinations" if which == "all" else ("declared" if mech.modes else "default"),
         "modes": [
             {"name": m.name, "locked": list(m.locked), "dof": m.dof, "kinematic_dof": m.kinematic_dof,
-             "kind": m.kind, "label": m.mode.label, "problem": m.problem}
+             "kind": m.kind, "label": m.mode.label, "problem": m.problem,
+             "parallel": [list(grp.members) for grp in m.parallel]}
             for m in models
         ],
         "diagnosis": {"combinations": len(combos), "of": 2 ** len(mech.element_names),
                       "max_engaged": max(map(len, combos), default=0), "tie_ups": tie_ups, "non_unique_torques": non_unique,
-                      "undetermined_massless": massless},
+                      "undetermined_massless": massless,
+                      "parallel": [list(grp.members) for grp in locking_groups(g) if len(grp.members) > 1]},
     }

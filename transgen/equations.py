@@ -5,7 +5,9 @@ Unknowns ``z`` (in this order):
 
 * ``alpha_<link>``: link accelerations [rad/s^2];
 * ``t_<element>``: torques of the locked shift elements [N*m], transmitted from ``link1`` to
-  ``link2`` (the element acts ``-t`` on ``link1`` and ``+t`` on ``link2``);
+  ``link2`` (the element acts ``-t`` on ``link1`` and ``+t`` on ``link2``); elements in parallel
+  (the same two links, e.g. a brake beside a one-way clutch on one carrier) locked together are
+  one constraint with one torque ``t_<A>+<B>`` (:class:`LockingGroup`);
 * ``t_<transformer>.<port>``: the intermediate transformer torques [N*m], the torque a link
   exerts on a transformer port (the link feels ``-t``; thesis eqs. 3.39-3.53 use the same sign:
   e.g. ``-t_c4 - t_pc1 = J4*alpha4``).
@@ -17,8 +19,8 @@ elements are zero, since their torques are unknowns there.
 
 Rows: one torque balance per link, ``J*alpha = sum of torques``; per transformer, its kinematic
 constraint on the accelerations and the power-conservation relations ``t_k*c_ref = c_k*t_ref``
-between its port torques (eq. 3.36); per locked element, ``alpha_1 = alpha_2`` (``alpha_1 = 0``
-for a brake).
+between its port torques (eq. 3.36); per locked element (per locked group), ``alpha_1 = alpha_2``
+(``alpha_1 = 0`` for a brake).
 
 ``G = -E^-1 F`` is partitioned (eq. 3.10) into ``G_accel`` (link accelerations),
 ``G_clutches`` (locked element torques) and ``G_intermediate`` (transformer torques).
@@ -42,7 +44,57 @@ from .graph import coefficient, element_nodes, link_nodes, transformer_ports
 from .kinematics import constraint_matrix, constraints, null_space, numeric_rank
 from .model import HOUSING
 
-__all__ = ["ModeEquations", "input_names", "assemble", "solve", "diagnose_singular", "symbols_of", "kinematic_basis"]
+__all__ = ["ModeEquations", "LockingGroup", "locking_groups", "locked_constraints", "complete_locked", "input_names",
+           "assemble", "solve", "diagnose_singular", "symbols_of", "kinematic_basis"]
+
+
+@dataclass(frozen=True)
+class LockingGroup:
+    """Shift elements in parallel: they lock the same relative motion (their slip rows are
+    parallel: the same two links, in either order, or brakes on the same link), so locked
+    together they are **one** constraint with one torque.
+
+    ``members`` in declaration order (or, for :func:`locked_constraints`, in the order of the
+    locked set); ``signs[k]`` is +1 when member ``k`` has the first member's orientation
+    (``slip_k = slip_first``) and -1 when its links are swapped (``slip_k = -slip_first``). The
+    group's torque is measured in the first member's direction: ``t_group = sum(signs[k] * t_k)``.
+    """
+
+    members: tuple[str, ...]
+    signs: tuple[int, ...]
+
+    @property
+    def label(self) -> str:
+        """``"BLR+OWC"``: the name of the constraint (its torque is ``t_<label>``)."""
+        return "+".join(self.members)
+
+    @property
+    def first(self) -> str:
+        return self.members[0]
+
+
+def _grouped(g: nx.DiGraph, names) -> tuple[LockingGroup, ...]:
+    """``names`` (shift elements) grouped by the pair of links they join, in order of first
+    appearance."""
+    groups: dict[frozenset, list[tuple[str, tuple[str, str]]]] = {}
+    for e in dict.fromkeys(names):
+        links = (g.nodes[e]["link1"], g.nodes[e]["link2"])
+        groups.setdefault(frozenset(links), []).append((e, links))
+    return tuple(LockingGroup(tuple(e for e, _ in items), tuple(1 if links == items[0][1] else -1 for _, links in items))
+                 for items in groups.values())
+
+
+def locking_groups(g: nx.DiGraph) -> tuple[LockingGroup, ...]:
+    """Every shift element in exactly one :class:`LockingGroup` (most are alone), ordered by
+    their first member's declaration."""
+    return _grouped(g, element_nodes(g))
+
+
+def locked_constraints(g: nx.DiGraph, locked) -> tuple[LockingGroup, ...]:
+    """The constraints of a mode: its locked elements grouped by :func:`locking_groups`, in the
+    order of first appearance in ``locked``; each group's first member is its *representative*
+    (the element whose ``alpha_1 = alpha_2`` row and torque unknown the equations carry)."""
+    return _grouped(g, locked)
 
 
 @dataclass(frozen=True)
@@ -50,7 +102,10 @@ class ModeEquations:
     """``E z + F u = 0`` of one mode, and its solution ``z = G u`` when ``E`` is regular.
 
     Matrices are ``numpy`` arrays (numeric back-end) or ``sympy.Matrix`` (symbolic back-end).
-    ``n_links``, ``n_locked`` give the partition of ``z`` (eq. 3.10).
+    ``n_links``, ``n_locked`` give the partition of ``z`` (eq. 3.10). ``locked`` is every locked
+    element; ``groups`` the mode's constraints (:func:`locked_constraints`), one torque unknown
+    (one row of ``G_clutches``) each: elements in parallel share one, ``t_<group label>``, the
+    group's torque in its first member's direction.
     """
 
     locked: tuple[str, ...]
@@ -61,6 +116,7 @@ class ModeEquations:
     n_links: int
     n_locked: int
     G: object = None
+    groups: tuple[LockingGroup, ...] = ()
 
     @property
     def G_accel(self):
@@ -111,9 +167,14 @@ def _numeric_values(g: nx.DiGraph) -> dict:
 def assemble(g: nx.DiGraph, locked=(), symbolic: bool | str = False) -> ModeEquations:
     """Assemble ``E`` and ``F`` of the mode with the elements ``locked`` from the graph.
 
+    Elements in parallel (:func:`locked_constraints`) lock one motion: the group has one
+    constraint row and one torque unknown, carried by its first member (the representative).
+
     ``symbolic``: False (numbers), True or ``"all"`` (every parameter a symbol) or
     ``"inertias"`` (only the inertias; see :func:`symbols_of`)."""
     locked = tuple(locked)
+    groups = locked_constraints(g, locked)
+    reps = tuple(grp.first for grp in groups)
     if symbolic:
         values = symbols_of(g, "all" if symbolic is True else symbolic)
     else:
@@ -121,7 +182,9 @@ def assemble(g: nx.DiGraph, locked=(), symbolic: bool | str = False) -> ModeEqua
     links = link_nodes(g)
     transformers = [n for n, d in g.nodes(data=True) if d["kind"] in ("planetary", "gearpair")]
     ports = [(t, link, port, terms) for t in transformers for link, port, terms in transformer_ports(g, t)]
-    z = tuple(f"alpha_{k}" for k in links) + tuple(f"t_{e}" for e in locked) + tuple(f"t_{t}.{p}" for t, _, p, _ in ports)
+    z = (tuple(f"alpha_{k}" for k in links) + tuple(f"t_{grp.label}" for grp in groups)
+         + tuple(f"t_{t}.{p}" for t, _, p, _ in ports))
+    torque_of = {grp.first: f"t_{grp.label}" for grp in groups}
     u = input_names(g)
     zi = {name: i for i, name in enumerate(z)}
     ui = {name: i for i, name in enumerate(u)}
@@ -142,9 +205,9 @@ def assemble(g: nx.DiGraph, locked=(), symbolic: bool | str = False) -> ModeEqua
         for link, sign in ((data["link1"], -1), (data["link2"], 1)):
             if link == HOUSING:
                 continue
-            if e in locked:
-                E[link_row[link], zi[f"t_{e}"]] += -sign
-            else:
+            if e in torque_of:
+                E[link_row[link], zi[torque_of[e]]] += -sign
+            elif e not in locked:  # (a group's other members act through its one torque)
                 F[link_row[link], ui[f"t_{e}"]] += -sign
     for t, link, port, _ in ports:
         if link != HOUSING:
@@ -165,15 +228,15 @@ def assemble(g: nx.DiGraph, locked=(), symbolic: bool | str = False) -> ModeEqua
             E[row, zi[f"t_{t}.{port}"]] = c_ref
             E[row, zi[f"t_{t}.{ref_port}"]] = -c
             row += 1
-    # locked elements: equal accelerations of both halves
-    for e in locked:
+    # locked elements (one per group): equal accelerations of both halves
+    for e in reps:
         data = g.nodes[e]
         E[row, zi[f"alpha_{data['link1']}"]] = 1
         if data["link2"] != HOUSING:
             E[row, zi[f"alpha_{data['link2']}"]] = -1
         row += 1
     assert row == n
-    return ModeEquations(locked, z, u, E, F, len(links), len(locked))
+    return ModeEquations(locked, z, u, E, F, len(links), len(reps), groups=groups)
 
 
 def solve(eq: ModeEquations, g: nx.DiGraph) -> ModeEquations:
@@ -220,7 +283,19 @@ def solve(eq: ModeEquations, g: nx.DiGraph) -> ModeEquations:
             G = _structured_solve(eq.E, eq.F, eq.n_links, _numeric_values(g))
         else:
             G = _sparse_exact_solve(eq.E, eq.F)
-    return ModeEquations(eq.locked, eq.z, eq.u, eq.E, eq.F, eq.n_links, eq.n_locked, G)
+    return ModeEquations(eq.locked, eq.z, eq.u, eq.E, eq.F, eq.n_links, eq.n_locked, G, eq.groups)
+
+
+def complete_locked(g: nx.DiGraph, locked) -> tuple[str, ...]:
+    """``locked`` with the one-way clutches in parallel with a locked element added (in
+    declaration order, after the given ones): a one-way clutch whose motion is held is engaged —
+    it holds in its locking direction whenever its group does — so a mode that locks a group
+    always includes its one-way members (the friction members are in it only when applied)."""
+    locked = tuple(dict.fromkeys(locked))
+    held = {frozenset((g.nodes[e]["link1"], g.nodes[e]["link2"])) for e in locked}
+    extra = tuple(e for e in element_nodes(g) if e not in locked and g.nodes[e]["kind"] == "oneway"
+                  and frozenset((g.nodes[e]["link1"], g.nodes[e]["link2"])) in held)
+    return locked + extra
 
 
 def diagnose_singular(g: nx.DiGraph, locked=()) -> str:
@@ -228,18 +303,23 @@ def diagnose_singular(g: nx.DiGraph, locked=()) -> str:
 
     Two causes: locked elements whose torques are not unique (redundant constraints: the
     elements over-constrain the mechanism, a static indeterminacy), and massless links whose
-    motion the equations leave undetermined.
+    motion the equations leave undetermined. Elements in parallel (:func:`locked_constraints`)
+    are one constraint and no cause: their motion is unique, and their torque split is a rule
+    of the simulator (:meth:`transgen.sim.transmission.Transmission.split_locked_torques`).
     """
     locked = tuple(locked)
     links = link_nodes(g)
-    a = constraint_matrix(g, locked)
+    groups = locked_constraints(g, locked)
+    reps = tuple(grp.first for grp in groups)
+    label = {grp.first: grp.label for grp in groups}
+    a = constraint_matrix(g, reps)
     problems = []
     if numeric_rank(a) < a.shape[0]:
         left = null_space(a.T, a.shape[0])  # y with y^T A = 0
-        rows = [c.name for c in constraints(g, locked)]
+        rows = [c.name for c in constraints(g, reps)]
         involved = [rows[i] for i in range(a.shape[0]) if np.linalg.norm(left[i]) > 1e-9]
-        elements = [x for x in involved if x in locked]
-        transformers = [x for x in involved if x not in locked]
+        elements = [label[x] for x in involved if x in reps]
+        transformers = [x for x in involved if x not in reps]
         if elements:
             problems.append("the torques of the locked elements " + ", ".join(elements)
                             + " are not unique (they over-constrain the mechanism"

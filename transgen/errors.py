@@ -107,3 +107,11 @@ class SimulationError(TransgenError, RuntimeError):
 
 class CombinationLimitWarning(UserWarning):
     """Only part of the 2^k combinations of shift elements is enumerated (too many elements)."""
+
+
+class StateOutOfDomain(SimulationError):
+    """A state outside a model's domain (a negative manifold pressure, a NaN in an engine block).
+
+    An integrator's trial state may be one (an explicit Runge-Kutta stage can overshoot where the
+    accepted step does not): the integration core then makes the solver retry a shorter step. An
+    accepted state may not: the run stops with this message."""

@@ -12,6 +12,13 @@ torque is an input. :func:`select_modes` chooses which modes to model:
 * ``"all"``: every combination of locked elements (also the default of a mechanism without a
   gear table, such as a benchmark chain of clutches).
 
+Elements in parallel (the same two links: :class:`~transgen.equations.LockingGroup`) lock one
+motion, as one constraint. A one-way clutch beside a locked element is engaged too (it holds in
+its locking direction whenever its group does), so every selection completes each locked set
+with those one-way clutches (:func:`~transgen.equations.complete_locked`; e.g. a reverse gear
+``DIR BLR`` with a one-way clutch ``OWC`` beside ``BLR`` is the mode ``DIR BLR OWC``): the
+modelled modes are the states the simulator can be in.
+
 :func:`mode_model` solves a mode's equations (:mod:`transgen.equations`); its DOF is
 ``rank(G_accel)`` (eq. 3.12 context), cross-checked with the kinematic DOF.
 
@@ -28,7 +35,8 @@ from dataclasses import dataclass, field
 import networkx as nx
 import numpy as np
 
-from .equations import ModeEquations, assemble, diagnose_singular, solve
+from .equations import (LockingGroup, ModeEquations, assemble, complete_locked, diagnose_singular, locked_constraints,
+                        solve)
 from .errors import ModeError
 from .graph import build_graph
 from .kinematics import analyze, engaged_combinations, numeric_rank
@@ -67,6 +75,8 @@ class ModeModel:
     ``dof`` is ``rank(G_accel)`` when the equations solve, else the kinematic DOF;
     ``kinematic_dof`` is ``n_links - rank(A)``; ``problem`` explains a mode that cannot be
     modelled (non-unique locked torques, undetermined massless links), else ``""``.
+    ``groups``: the mode's constraints (:func:`transgen.equations.locked_constraints`), one per
+    locked element or group of locked elements in parallel.
     """
 
     mode: Mode
@@ -76,6 +86,7 @@ class ModeModel:
     equations: ModeEquations | None = field(default=None, repr=False)
     problem: str = ""
     symbolic_equations: ModeEquations | None = field(default=None, repr=False)
+    groups: tuple[LockingGroup, ...] = field(default=(), repr=False)
 
     @property
     def name(self) -> str:
@@ -84,6 +95,11 @@ class ModeModel:
     @property
     def locked(self) -> tuple[str, ...]:
         return self.mode.locked
+
+    @property
+    def parallel(self) -> tuple[LockingGroup, ...]:
+        """The locked groups of elements in parallel (two or more members, one constraint)."""
+        return tuple(grp for grp in self.groups if len(grp.members) > 1)
 
 
 def _one_swap_common(a: tuple[str, ...], b: tuple[str, ...]) -> tuple[str, ...] | None:
@@ -98,16 +114,17 @@ def select_modes(mech: Mechanism, which: str = "auto") -> list[Mode]:
     ``"declared"`` or ``"all"``; named M1, M2, ... unless declared with names."""
     if which == "auto":
         which = "declared" if mech.modes else "default"
+    g = build_graph(mech)
     if which == "declared":
-        return [Mode(d.name, d.locked, "declared") for d in mech.modes]
+        return [Mode(d.name, complete_locked(g, d.locked), "declared") for d in mech.modes]
     if which == "all":
-        combos = engaged_combinations(mech.element_names)
+        names = list(mech.element_names)
+        combos = {tuple(sorted(complete_locked(g, c), key=names.index)): None for c in engaged_combinations(names)}
         return [Mode(f"M{i + 1}", c, "") for i, c in enumerate(combos)]
     if which != "default":
         raise ValueError(f"unknown mode selection {which!r}")
     if not any(g.kind == "gear" for g in mech.gears):
         return select_modes(mech, "all")  # no gear table: nothing to choose from
-    g = build_graph(mech)
     forward, reverse = [], []
     for gear in mech.gears:
         if gear.kind != "gear":
@@ -130,6 +147,7 @@ def select_modes(mech: Mechanism, which: str = "auto") -> list[Mode]:
     labels: dict[frozenset, list[str]] = {}
     order: list[tuple[str, ...]] = []
     for label, locked in chosen:
+        locked = complete_locked(g, locked)
         key = frozenset(locked)
         if key not in labels:
             labels[key] = []
@@ -157,18 +175,19 @@ def mode_model(mech: Mechanism, mode: Mode, graph: nx.DiGraph | None = None,
     ``"inertias"``) also solves the symbolic equations (:func:`transgen.equations.assemble`)."""
     g = build_graph(mech) if graph is None else graph
     combo = analyze(mech, mode.locked, g)
+    groups = locked_constraints(g, mode.locked)
     problem = diagnose_singular(g, mode.locked)
     if problem:
-        return ModeModel(mode, combo.kind, combo.dof, combo.dof, None, problem)
+        return ModeModel(mode, combo.kind, combo.dof, combo.dof, None, problem, groups=groups)
     try:
         eq = solve(assemble(g, mode.locked), g)
     except ModeError as exc:  # singular for a reason the diagnosis did not name
-        return ModeModel(mode, combo.kind, combo.dof, combo.dof, None, str(exc))
+        return ModeModel(mode, combo.kind, combo.dof, combo.dof, None, str(exc), groups=groups)
     dof = numeric_rank(eq.G_accel)
     problem = "" if dof == combo.dof else (
         f"{combo.dof - dof} degree(s) of freedom receive no input torque (rank(G_accel) = {dof} < {combo.dof})")
     symbolic_eq = solve(assemble(g, mode.locked, symbolic=symbolic), g) if symbolic else None
-    return ModeModel(mode, combo.kind, dof, combo.dof, eq, problem, symbolic_eq)
+    return ModeModel(mode, combo.kind, dof, combo.dof, eq, problem, symbolic_eq, groups)
 
 
 def mode_models(mech: Mechanism, which: str = "auto", symbolic: bool | str = False,

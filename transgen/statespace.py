@@ -7,7 +7,8 @@ For a mode with generalized coordinates ``q_gc`` (link speeds; the states ``x``)
 * ``C_speeds`` from ``G_accel,gc^T C_speeds^T = G_accel^T`` (eq. 3.13), a rank-revealing
   least-squares solve (numeric) or an exact solve on independent columns (symbolic): every link
   speed ``w = C_speeds x``;
-* ``D_torques = G_clutches`` (eq. 3.15): locked element torques ``t = D_torques u``.
+* ``D_torques = G_clutches`` (eq. 3.15): locked element torques ``t = D_torques u`` (one row per
+  constraint: elements in parallel share a row, ``t_<A>+<B>``, see ``locked_groups``).
 
 Inputs ``u`` are the same for every mode (:func:`transgen.equations.input_names`).
 """
@@ -49,6 +50,9 @@ class ModeStateSpace:
     D: object = field(repr=False)
     speed_outputs: tuple[str, ...] = ()
     torque_outputs: tuple[str, ...] = ()
+    locked_groups: tuple[tuple[str, ...], ...] = ()
+    """The locked elements behind each row of ``D`` (several for elements in parallel, whose
+    row is the group's torque in its first member's direction)."""
 
     @property
     def A(self) -> np.ndarray:
@@ -115,7 +119,8 @@ class StateSpaceSet:
             "modes": [
                 {"name": m.name, "label": m.label, "locked": list(m.locked), "kind": m.kind, "dof": m.dof,
                  "states": list(m.states), "B": mat(m.B), "C": mat(m.C), "D": mat(m.D),
-                 "speed_outputs": list(m.speed_outputs), "torque_outputs": list(m.torque_outputs)}
+                 "speed_outputs": list(m.speed_outputs), "torque_outputs": list(m.torque_outputs),
+                 "locked_groups": [list(grp) for grp in m.locked_groups]}
                 for m in self.modes
             ],
             "skipped": [m.to_dict() for m in self.skipped],
@@ -156,7 +161,8 @@ def _mode_state_space(model: ModeModel, links: list[str], coords, symbolic: bool
         C = _numeric_C(G_accel, rows)
     D = eq.G_clutches
     return ModeStateSpace(model.name, model.locked, model.mode.label, model.kind, model.dof, states, eq.u,
-                          B, C, D, tuple(links), tuple(f"t_{e}" for e in model.locked))
+                          B, C, D, tuple(links), tuple(f"t_{grp.label}" for grp in eq.groups),
+                          tuple(grp.members for grp in eq.groups))
 
 
 def state_space(mech: Mechanism, coordinates=None, which: str = "auto", symbolic: bool | str = False,

@@ -10,6 +10,21 @@ mode. The conditions are those of thesis section 3.2.6, in transgen's sign conve
 * one-way clutch (``free=positive``), lock: the slip reaches zero from above (it would turn
   negative); unlock: the torque it transmits reverses, ``t > 0`` (mirror for ``free=negative``).
 
+Elements in parallel (:class:`~transgen.equations.LockingGroup`: the same two links, e.g. a
+brake beside a one-way clutch on one carrier) lock one motion, so the diagram treats them as the
+simulator does: a group whose motion is free locks with any of its members that can transmit
+(every one-way member, and any applied friction members): one transition per such set, labelled
+``A+B``; a locked group unlocks as a whole when its torque ``t_A+B`` (in the first member's
+direction) leaves the combined holding range (friction members ``+-static x apply`` each, a
+one-way member without limit in its locking direction and nothing in its free one); while the
+group holds, a friction member joins it when applied (``apply``) and leaves it when released
+(``release``), and a one-way member joins it at once.
+
+Modes of the selection whose equations have no unique solution (over-constrained tie-ups,
+undetermined massless members: :func:`~transgen.equations.diagnose_singular`) are not modes of
+the diagram: they are listed in ``unmodellable`` with the reason, and transitions into them
+leave the model, as the simulator refuses them.
+
 A transition whose target is not a modelled mode is kept with ``target=None`` and the locked set
 it would reach, so a user sees where the model is incomplete.
 """
@@ -17,15 +32,22 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import itertools
+
+from .equations import LockingGroup, diagnose_singular, locking_groups
+from .graph import build_graph
 from .model import Mechanism
 from .modes import Mode, select_modes
 
-__all__ = ["Transition", "StateTransitionDiagram", "state_transition_diagram", "lock_condition", "unlock_condition"]
+__all__ = ["Transition", "StateTransitionDiagram", "state_transition_diagram", "lock_condition", "unlock_condition",
+           "group_lock_condition", "group_unlock_condition"]
 
 
 @dataclass(frozen=True)
 class Transition:
-    """``source`` -> ``target`` when ``element`` locks (``event="lock"``) or unlocks."""
+    """``source`` -> ``target`` when ``element`` locks (``event="lock"``) or unlocks; for
+    elements in parallel ``element`` is the set that locks or unlocks together (``"BLR+OWC"``),
+    and ``"apply"`` / ``"release"`` are a member joining or leaving a group that holds."""
 
     source: str
     target: str | None
@@ -38,12 +60,24 @@ class Transition:
     def leaves_model(self) -> bool:
         return self.target is None
 
+    @property
+    def adds(self) -> bool:
+        """Whether the transition locks elements (``lock``, ``apply``) rather than freeing them."""
+        return self.event in ("lock", "apply")
+
+    @property
+    def elements(self) -> tuple[str, ...]:
+        """The elements that lock or unlock."""
+        return tuple(self.element.split("+"))
+
 
 @dataclass(frozen=True)
 class StateTransitionDiagram:
     mechanism: str
     modes: tuple[Mode, ...]
     transitions: tuple[Transition, ...]
+    unmodellable: tuple[tuple[Mode, str], ...] = ()
+    """Modes of the selection that cannot be modelled, with the reason."""
 
     @property
     def internal(self) -> tuple[Transition, ...]:
@@ -69,6 +103,8 @@ class StateTransitionDiagram:
                  "reaches": list(t.reaches)}
                 for t in self.external
             ],
+            "unmodellable": [{"name": m.name, "locked": list(m.locked), "problem": why}
+                             for m, why in self.unmodellable],
         }
 
 
@@ -88,19 +124,79 @@ def unlock_condition(kind: str, name: str, free: str | None = None) -> str:
     return f"|t_{name}| > static capacity"
 
 
+def _holding_range(mech: Mechanism, group: LockingGroup, held: tuple[str, ...]) -> str:
+    """The combined holding range of the locked members ``held`` of ``group``, in the first
+    member's direction, as text: ``[-inf, static_BLR]``."""
+    sign = dict(zip(group.members, group.signs))
+    friction = [x for x in held if mech.element(x).kind != "oneway"]
+    # a one-way clutch free in +slip (in the group's direction) locks against -: holds t <= 0
+    locks = {-(1 if mech.element(x).free == "positive" else -1) * sign[x] for x in held if x not in friction}
+    cap = " + ".join(f"static_{x}" for x in friction)
+    hi = "inf" if 1 in locks else (cap or "0")
+    lo = "-inf" if -1 in locks else (f"-({cap})" if len(friction) > 1 else f"-{cap}" if cap else "0")
+    return f"[{lo}, {hi}]"
+
+
+def group_lock_condition(mech: Mechanism, group: LockingGroup, held: tuple[str, ...]) -> str:
+    """Locking condition of the members ``held`` of a group of elements in parallel."""
+    return (f"slip of {held[0]} reaches 0 and t_{'+'.join(held)} is within the combined holding range "
+            f"{_holding_range(mech, group, held)} (static x apply per friction element)")
+
+
+def group_unlock_condition(mech: Mechanism, group: LockingGroup, held: tuple[str, ...]) -> str:
+    """Unlocking condition of the locked members ``held`` of a group of elements in parallel."""
+    return (f"t_{'+'.join(held)} leaves the combined holding range {_holding_range(mech, group, held)} "
+            f"(static x apply per friction element)")
+
+
+def _group_transitions(mech: Mechanism, group: LockingGroup, locked: tuple[str, ...]):
+    """``(event, elements, reaches, condition)`` of one group in a mode with ``locked``."""
+    order = mech.element_names
+    held = tuple(x for x in group.members if x in locked)
+    oneway = tuple(x for x in group.members if mech.element(x).kind == "oneway")
+    friction = tuple(x for x in group.members if x not in oneway)
+
+    def reach(add=(), remove=()):
+        return tuple(x for x in order if (x in locked or x in add) and x not in remove)
+
+    def condition(which, members):
+        if len(members) == 1:
+            e = mech.element(members[0])
+            return (lock_condition if which == "lock" else unlock_condition)(e.kind, e.name, e.free)
+        return (group_lock_condition if which == "lock" else group_unlock_condition)(mech, group, members)
+
+    if not held:  # every one-way member locks, with any set of applied friction members
+        for r in range(len(friction) + 1):
+            for chosen in itertools.combinations(friction, r):
+                sets = tuple(x for x in group.members if x in oneway or x in chosen)
+                if sets:
+                    yield "lock", sets, reach(add=sets), condition("lock", sets)
+        return
+    yield "unlock", held, reach(remove=held), condition("unlock", held)
+    for x in group.members:
+        if x in held and x in friction and len(held) > 1:
+            rest = "+".join(y for y in held if y != x)
+            yield "release", (x,), reach(remove=(x,)), f"apply of {x} falls to 0 while {rest} holds t_{rest}"
+        elif x not in held:
+            why = (f"{x} is applied" if x in friction else f"{x} engages at once (a one-way clutch at zero slip)")
+            yield "apply", (x,), reach(add=(x,)), f"{why} while {'+'.join(held)} holds the motion (slip 0)"
+
+
 def state_transition_diagram(mech: Mechanism, modes: list[Mode] | None = None) -> StateTransitionDiagram:
-    """The STD of the modelled modes (default: :func:`~transgen.modes.select_modes`)."""
+    """The STD of the modelled modes (default: :func:`~transgen.modes.select_modes`); modes that
+    cannot be modelled go to ``unmodellable``."""
     modes = select_modes(mech) if modes is None else modes
-    by_key = {m.key: m for m in modes}
+    g = build_graph(mech)
+    problems = {m.key: diagnose_singular(g, m.locked) for m in modes}
+    good = [m for m in modes if not problems[m.key]]
+    by_key = {m.key: m for m in good}
+    groups = locking_groups(g)
     transitions = []
-    for mode in modes:
-        for e in mech.elements:
-            if e.name in mode.locked:
-                reaches = tuple(x for x in mode.locked if x != e.name)
-                event, condition = "unlock", unlock_condition(e.kind, e.name, e.free)
-            else:
-                reaches = tuple(x for x in mech.element_names if x in mode.locked or x == e.name)
-                event, condition = "lock", lock_condition(e.kind, e.name, e.free)
-            target = by_key.get(frozenset(reaches))
-            transitions.append(Transition(mode.name, target.name if target else None, e.name, event, condition, reaches))
-    return StateTransitionDiagram(mech.name, tuple(modes), tuple(transitions))
+    for mode in good:
+        for group in groups:
+            for event, elements, reaches, condition in _group_transitions(mech, group, mode.locked):
+                target = by_key.get(frozenset(reaches))
+                transitions.append(Transition(mode.name, target.name if target else None, "+".join(elements), event,
+                                              condition, reaches))
+    unmodellable = tuple((m, problems[m.key]) for m in modes if problems[m.key])
+    return StateTransitionDiagram(mech.name, tuple(good), tuple(transitions), unmodellable)

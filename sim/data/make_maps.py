@@ -4,12 +4,13 @@ Usage::
 
     python sim/data/make_maps.py            # writes we_compressor.toml and we_turbine.toml here
 
-The maps are computed by :func:`transgen.sim.maps.generate_compressor_map` and
-:func:`transgen.sim.maps.generate_turbine_map`; each file carries its provenance header.
+The maps are computed by :func:`transgen.sim.engine.map_generator.generate_compressor_map` and
+:func:`transgen.sim.engine.map_generator.generate_turbine_map`; each file carries its
+provenance header.
 """
 from pathlib import Path
 
-from transgen.sim.maps import generate_compressor_map, generate_turbine_map, save_map
+from transgen.sim.engine import generate_compressor_map, generate_turbine_map, save_map
 
 
 def main(folder: Path = Path(__file__).resolve().parent) -> None:

@@ -44,9 +44,10 @@ from scipy.optimize import brentq
 
 from transgen.errors import SimulationError
 
-from .causality import Causality, ports
+from ..causality import Causality, ports
 from .compressor import Compressor, CompressorPoint
-from .maps import (OMEGA_FLOOR, Gas, default_compressor_table, default_turbine_table)
+from .gas import OMEGA_FLOOR, Gas
+from .preprocessor import default_compressor_table, default_turbine_table
 from .turbine import Turbine, TurbinePoint
 
 __all__ = [

@@ -42,9 +42,9 @@ import numpy as np
 
 from transgen.errors import TransgenError
 
-from .causality import Causality, ports
-from .interp import interp1
-from .maps import DATA_DIR
+from ..causality import Causality, ports
+from ..interp import interp1
+from .map_file import DATA_DIR
 
 __all__ = ["TorqueConverter", "TorqueConverterError", "DEFAULT_TORQUE_CONVERTER"]
 

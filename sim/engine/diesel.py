@@ -36,7 +36,8 @@ cylinder, the torque and the exhaust-temperature models is W&E's published param
 project chose to meet an M915-class rating (Cummins NTC-400: 298 kW at 2100 rpm, about
 1.4-1.7 kN*m peak torque, boost pressure ratio 2.5-2.9 at rated) is:
 
-* the frozen vane position of the turbine map (``maps.DEFAULT_VGT_POSITION``);
+* the frozen vane position of the turbine map
+  (:data:`~transgen.sim.engine.map_generator.DEFAULT_VGT_POSITION`);
 * the full-load fuel curve ``full_load_fuel`` (fuel per cycle and cylinder over engine speed),
   which also contains the max-speed governor run-out from rated speed (2100 rpm) to high idle;
 * a minimum firing speed and a standstill regularisation of friction and pumping (the W&E fits
@@ -47,6 +48,8 @@ or pedal); an optional :class:`SpeedGovernor` raises the rack to hold idle speed
 
 Robustness: a NaN or infinity in the state or in any computed quantity raises
 :class:`NonFiniteError` naming the component, the time and the state.
+
+The full-load curve and the rating of the engine are :mod:`transgen.sim.engine.rating`.
 """
 from __future__ import annotations
 
@@ -59,10 +62,10 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import root
 
-from transgen.errors import SimulationError
+from transgen.errors import SimulationError, StateOutOfDomain
 
-from .causality import Block, Causality, ports
-from .maps import AIR, EXHAUST, RPM, Gas
+from ..causality import Block, Causality, ports
+from .gas import AIR, EXHAUST, RPM, Gas
 from .turbocharger import BasicTurbo, TurboShaft, make_turbo
 
 __all__ = [
@@ -70,17 +73,13 @@ __all__ = [
     "SpeedGovernor",
     "TurbochargedDiesel",
     "SteadyState",
-    "FullLoadCurve",
-    "EngineRating",
-    "full_load_curve",
-    "rate",
     "NonFiniteError",
     "SteadyStateError",
     "exhaust_temperature",
 ]
 
 
-class NonFiniteError(SimulationError):
+class NonFiniteError(StateOutOfDomain):
     """A NaN or infinity appeared in the engine model; the message names where."""
 
 
@@ -259,8 +258,8 @@ class TurbochargedDiesel:
     ----------
     params : EngineParams
     turbo : {"basic", "iterative"} or BasicTurbo
-        Turbocharger algorithm (:class:`~transgen.sim.turbocharger.BasicTurbo` or
-        :class:`~transgen.sim.turbocharger.IterativeTurbo`) built with ``params.shaft`` and the
+        Turbocharger algorithm (:class:`~transgen.sim.engine.turbocharger.BasicTurbo` or
+        :class:`~transgen.sim.engine.turbocharger.IterativeTurbo`) built with ``params.shaft`` and the
         shipped maps, or an instance (which keeps its own maps and shaft).
     rack : float or callable
         Rack position in [0, 1], constant or a function of time [s].
@@ -302,7 +301,7 @@ class TurbochargedDiesel:
         _check_finite("engine state", t, (p_im, p_em, w_tc),
                       {"p_im": p_im, "p_em": p_em, "omega_tc": w_tc, "omega_engine": omega_e})
         if p_im <= 0.0 or p_em <= 0.0:
-            raise SimulationError(f"engine: non-physical manifold pressure at t = {t:.6g} s "
+            raise StateOutOfDomain(f"engine: non-physical manifold pressure at t = {t:.6g} s "
                                   f"(p_im = {p_im:.6g} Pa, p_em = {p_em:.6g} Pa)")
         n_e = abs(omega_e) / RPM
         # cylinders (flow block)
@@ -453,68 +452,3 @@ class TurbochargedDiesel:
                   ("compressor.shaft", "turbo_shaft"), ("turbine.shaft", "turbo_shaft"),
                   ("cylinders.crank", "crank")]
         return blocks, joints
-
-
-@dataclass(frozen=True)
-class FullLoadCurve:
-    """Full-load curve: ``engine_speed`` [rad/s], ``torque`` [N*m], ``power`` [W],
-    ``boost_pressure_ratio`` [-], ``turbo_speed`` [rad/s], ``fuel`` [kg/cycle/cylinder],
-    ``chi`` compressor map coordinate [-] (1 = surge line)."""
-
-    engine_speed: np.ndarray
-    torque: np.ndarray
-    power: np.ndarray
-    boost_pressure_ratio: np.ndarray
-    turbo_speed: np.ndarray
-    fuel: np.ndarray
-    chi: np.ndarray
-
-
-def full_load_curve(engine: TurbochargedDiesel,
-                    engine_speeds: Sequence[float] = tuple(n * RPM for n in range(800, 2101, 100))
-                    ) -> FullLoadCurve:
-    """Steady full-load points over engine speeds [rad/s] (each warm-starts the next)."""
-    pts, guess = [], None
-    for w in engine_speeds:
-        s = engine.steady_state(w, guess=guess)
-        pts.append(s)
-        guess = s.state
-    arr = lambda name: np.array([getattr(s, name) for s in pts])  # noqa: E731
-    return FullLoadCurve(arr("engine_speed"), arr("torque"), arr("power"),
-                         arr("boost_pressure_ratio"), arr("turbo_speed"), arr("fuel"),
-                         np.array([s.signals["chi"] for s in pts]))
-
-
-@dataclass(frozen=True)
-class EngineRating:
-    """Rating summary: ``rated_power`` [W] and ``rated_torque`` [N*m] at ``rated_speed``
-    [rad/s]; ``peak_torque`` [N*m] at ``peak_torque_speed`` [rad/s]; boost pressure ratio and
-    turbo speed [rad/s] at rated; the full-load curve."""
-
-    rated_speed: float
-    rated_power: float
-    rated_torque: float
-    peak_torque: float
-    peak_torque_speed: float
-    rated_boost_pressure_ratio: float
-    rated_turbo_speed: float
-    curve: FullLoadCurve
-
-    def __str__(self) -> str:
-        return (f"rated {self.rated_power / 1e3:.1f} kW at {self.rated_speed / RPM:.0f} rpm "
-                f"({self.rated_torque:.0f} N*m), peak torque {self.peak_torque:.0f} N*m at "
-                f"{self.peak_torque_speed / RPM:.0f} rpm, boost PR at rated "
-                f"{self.rated_boost_pressure_ratio:.2f}, turbo speed at rated "
-                f"{self.rated_turbo_speed / RPM / 1e3:.1f} krpm")
-
-
-def rate(engine: TurbochargedDiesel) -> EngineRating:
-    """Full-load curve from 800 rpm to rated speed (100 rpm steps) and its rating summary."""
-    rated = engine.params.rated_speed
-    speeds = [n * RPM for n in range(800, int(round(rated / RPM)), 100)] + [rated]
-    curve = full_load_curve(engine, speeds)
-    k = int(np.argmax(curve.torque))
-    return EngineRating(rated, float(curve.power[-1]), float(curve.torque[-1]),
-                        float(curve.torque[k]), float(curve.engine_speed[k]),
-                        float(curve.boost_pressure_ratio[-1]), float(curve.turbo_speed[-1]),
-                        curve)

@@ -1,0 +1,94 @@
+"""What the compressor and the turbine share: a quasi-steady turbomachine read from its causal map.
+
+Both devices (thesis sections 4.3-4.4) take the inlet total pressure [Pa] and temperature [K],
+the outlet total pressure [Pa] and the rotor speed [rad/s]; they look up their causal table
+(:mod:`transgen.sim.engine.preprocessor`) at the corrected speed and the pressure ratio across
+them, turn the corrected flow into the actual mass flow, and get the outlet temperature from the
+isentropic relation and the efficiency (:mod:`transgen.sim.engine.gas`).  The one difference is
+the direction of the work: a compressor raises the pressure (``PR = p02/p01``, eq. 4.7) and
+absorbs shaft power, a turbine expands the gas (``ER = p01/p02``, eq. 4.16) and delivers it.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar, Mapping
+
+from ..causality import Causality, ports
+from .gas import (OMEGA_FLOOR, Gas, actual_flow, compression_outlet_temperature, corrected_speed,
+                  expansion_outlet_temperature, torque_from_power)
+
+__all__ = ["MachinePoint", "Turbomachine"]
+
+
+@dataclass(frozen=True)
+class MachinePoint:
+    """The attributes every quasi-steady operating point has.
+
+    Attributes
+    ----------
+    m_dot : float
+        Mass flow [kg/s], inlet to outlet.
+    T_out : float
+        Outlet total temperature [K].
+    power : float
+        Shaft power [W], ``m_dot*cp*|T_out - T_in|``: absorbed by a compressor, delivered by a
+        turbine.
+    torque : float
+        Shaft torque [N*m], ``power/max(omega, omega_floor)``: positive opposes rotation for a
+        compressor and drives the rotor for a turbine.
+    eta : float
+        Efficiency [-].
+
+    The subclasses add the pressure or expansion ratio and, last, ``corrected_speed`` [rad/s]
+    and ``corrected_flow`` [kg/s], the table's coordinates.
+    """
+
+    m_dot: float
+    T_out: float
+    power: float
+    torque: float
+    eta: float
+
+
+@dataclass(frozen=True)
+class Turbomachine:
+    """A compressor or turbine described by its causal table.
+
+    Parameters
+    ----------
+    table : CompressorTable or TurbineTable
+        ``m_corr(N_corr, ...)``, ``eta(N_corr, ...)`` from the pre-processor.
+    gas : Gas
+        Working gas.
+    omega_floor : float
+        Speed floor [rad/s] for ``torque = power/speed``
+        (see :data:`~transgen.sim.engine.gas.OMEGA_FLOOR`).
+    """
+
+    table: object
+    gas: Gas
+    omega_floor: float = OMEGA_FLOOR
+    causality: ClassVar[Mapping[str, Causality]] = ports(
+        inlet=Causality.FLOW, outlet=Causality.FLOW, shaft=Causality.RESISTIVE)
+    compresses: ClassVar[bool]
+    """True for a compressor (works on the gas), False for a turbine (work from the gas)."""
+    point: ClassVar[type]
+    """The operating-point class; built from the :class:`MachinePoint` attributes, the ratio,
+    what the table's look-up gives beyond flow and efficiency, and the corrected quantities."""
+
+    def operate(self, p_in: float, T_in: float, p_out: float, omega: float):
+        """Operating point at inlet total pressure [Pa] and temperature [K], outlet total
+        pressure [Pa] and rotor speed [rad/s] (thesis Figures 4.8 and 4.12)."""
+        tab = self.table
+        n_corr = corrected_speed(omega, T_in, tab.T_ref)
+        ratio = p_out / p_in if self.compresses else p_in / p_out
+        m_corr, eta, *more = tab.lookup(n_corr, ratio)
+        m_dot = actual_flow(m_corr, p_in, T_in, tab.p_ref, tab.T_ref)
+        if self.compresses:
+            T_out = compression_outlet_temperature(T_in, max(ratio, 1.0), eta, self.gas)
+            power = m_dot * self.gas.cp * (T_out - T_in)
+        else:
+            T_out = expansion_outlet_temperature(T_in, max(ratio, 1.0), eta, self.gas)
+            power = m_dot * self.gas.cp * (T_in - T_out)
+        return self.point(m_dot, T_out, power, torque_from_power(power, omega, self.omega_floor),
+                          eta, ratio, *more, n_corr, m_corr)

@@ -1,0 +1,151 @@
+"""The run-time invariant monitor: a run is physically right, or it stops saying why.
+
+After each integration segment the simulator samples it (:class:`~.integration.Recorder`) and
+:meth:`InvariantMonitor.check` tests the samples, the segment's end included, for
+
+``finite``
+    every signal (link speeds, element torques, energies, component signals) is finite;
+``oneway_free_sign``
+    a one-way clutch that is not locked keeps its free sign: ``free * slip >= -tol``;
+``dissipation``
+    a slipping friction element dissipates ``t * slip >= 0`` (sign convention of
+    :mod:`transgen.model`: slip ``w1 - w2``, torque from link1 to link2), and the dissipated
+    energy integrated with the dynamics never decreases;
+``holding_limit``
+    a locked friction element holds ``|t| <= T_static * apply``, a locked one-way clutch only in
+    its locking direction (``free * t <= 0``);
+``energy_balance``
+    over the segment, work in = change of stored energy + dissipated + work to the load.
+
+The slip tolerance is the mode decision's (``SolverOptions.slip_tol`` relative to the largest link
+speed); torques get a relative tolerance of 1e-6 of the element's capacity or of the largest
+torque in the segment (the events locate lock and unlock to round-off, not to zero); the energy
+residual of a segment is compared with ``energy_tol`` times the energy scale of the run so far
+(the largest of work in, stored, dissipated and load work: never near zero while anything moves).
+A violation raises :class:`InvariantViolation` naming the invariant, the element (or signal),
+the time and the mode; the run then stops with ``success = False``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from transgen.errors import SimulationError
+
+__all__ = ["INVARIANTS", "InvariantViolation", "InvariantMonitor"]
+
+INVARIANTS = ("finite", "oneway_free_sign", "dissipation", "holding_limit", "energy_balance")
+_TORQUE_RTOL = 1e-6
+
+
+class InvariantViolation(SimulationError):
+    """A physical invariant failed: ``invariant``, ``element`` (or signal), time ``t`` [s], ``mode``."""
+
+    def __init__(self, invariant: str, element: str, t: float, mode: str, detail: str):
+        self.invariant, self.element, self.t, self.mode = invariant, element, t, mode
+        super().__init__(f"t={t:.6g} s: invariant '{invariant}' violated by {element} in mode {mode}: {detail}")
+
+
+@dataclass
+class _Tally:
+    samples: int = 0
+    worst: float = 0.0  # the largest violation measure seen, relative to its tolerance (< 1 passes)
+
+
+class InvariantMonitor:
+    """Checks the invariants of the module docstring on the sampled segments of one run.
+
+    ``slip_tol`` [rad/s] relative to the largest link speed (as ``SolverOptions.slip_tol``);
+    ``energy_tol``: the largest energy residual of a segment, relative to the run's energy scale.
+    """
+
+    def __init__(self, transmission, slip_tol: float, energy_tol: float):
+        self.tr = transmission
+        self.slip_tol = slip_tol
+        self.energy_tol = energy_tol
+        self.tally = {name: _Tally() for name in INVARIANTS}
+        self.segments = 0
+        self.energy_scale = 0.0
+
+    def check(self, ts: np.ndarray, block: dict[str, np.ndarray], locked: frozenset, mode: str) -> None:
+        """Check one segment's samples ``block`` (signal name -> array over ``ts``), ``locked``: the
+        indices of the elements locked (or stuck) in it. Raises :class:`InvariantViolation`."""
+        self.segments += 1
+        n = len(ts)
+        self._finite(ts, block, mode)
+        speeds = [v for k, v in block.items() if k.startswith("w_")]
+        w_max = max((float(np.max(np.abs(v))) for v in speeds), default=0.0)
+        slip_tol = max(1e-9, self.slip_tol * max(1.0, w_max))
+        torque_scale = max((float(np.max(np.abs(block[f"t_{e.name}"]))) for e in self.tr.elements), default=0.0)
+        for i, e in enumerate(self.tr.elements):
+            slip, torque = block[f"slip_{e.name}"], block[f"t_{e.name}"]
+            if i in locked:
+                if e.kind == "oneway":
+                    excess = e.free * torque
+                    limit = np.full(n, _TORQUE_RTOL * max(1.0, torque_scale))
+                    what = "a locked one-way clutch transmits against its locking direction"
+                else:
+                    capacity = e.static * block[f"apply_{e.name}"]
+                    excess = np.abs(torque) - capacity
+                    limit = np.full(n, _TORQUE_RTOL * max(e.static, torque_scale))
+                    what = "the locked torque exceeds the holding limit T_static*apply"
+                self._verdict("holding_limit", excess, limit, ts, e.name, mode,
+                              lambda k: f"{what} (t_{e.name} = {torque[k]:.6g} N*m)")
+            elif e.kind == "oneway":
+                self._verdict("oneway_free_sign", -e.free * slip, np.full(n, slip_tol), ts, e.name, mode,
+                              lambda k: f"the one-way clutch slips in its locking direction (slip {slip[k]:.6g} rad/s)")
+            else:
+                power = torque * slip
+                self._verdict("dissipation", -power, slip_tol * np.abs(torque) + 1e-12, ts, e.name, mode,
+                              lambda k: f"the slipping element creates energy (t*slip = {power[k]:.6g} W)")
+        # the dissipated energy, integrated with the dynamics, never decreases (this sees a friction
+        # torque of the wrong sign in the right-hand side even where the samples are recomputed)
+        e_diss = block["E_dissipated"]
+        slipping = [e.name for i, e in enumerate(self.tr.elements) if i not in locked and e.kind != "oneway"]
+        self._verdict("dissipation", np.maximum.accumulate(e_diss) - e_diss,  # the drawdown: solver noise stays small
+                      np.full(n, self.energy_tol * max(self.energy_scale, float(np.max(np.abs(block["E_stored"]))), 1e-9)), ts,
+                      f"the slipping elements ({', '.join(slipping) or 'none'}) and the components",
+                      mode, lambda k: f"the dissipated energy decreases (to {e_diss[k]:.6g} J from {np.max(e_diss[:k + 1]):.6g} J)")
+        self._energy(ts, block, mode)
+
+    def summary(self) -> dict:
+        """What was checked: per invariant the number of sample checks and the worst margin used
+        (violation measure over its tolerance; below 1 passes)."""
+        return {"segments": self.segments, "energy_tol": self.energy_tol,
+                "invariants": {k: {"checks": v.samples, "worst": v.worst} for k, v in self.tally.items()}}
+
+    # ------------------------------------------------------------------ checks
+    def _finite(self, ts, block, mode):
+        tally = self.tally["finite"]
+        for name, values in block.items():
+            tally.samples += len(values)
+            bad = ~np.isfinite(values)
+            if bad.any():
+                k = int(np.argmax(bad))
+                raise InvariantViolation("finite", name, float(ts[k]), mode, f"{name} = {values[k]}")
+
+    def _verdict(self, invariant: str, excess: np.ndarray, limit: np.ndarray, ts, element: str, mode: str, detail):
+        tally = self.tally[invariant]
+        tally.samples += len(excess)
+        ratio = excess / limit
+        tally.worst = max(tally.worst, float(np.max(ratio)))
+        violated = ratio > 1.0
+        if violated.any():
+            k = int(np.argmax(violated))  # the first violating sample
+            raise InvariantViolation(invariant, element, float(ts[k]), mode, detail(k))
+
+    def _energy(self, ts, block, mode):
+        tally = self.tally["energy_balance"]
+        e_in, e_diss, e_load, e_st = (block[k] for k in ("E_in", "E_dissipated", "E_load", "E_stored"))
+        self.energy_scale = max(self.energy_scale, float(np.max(np.abs(e_in))), float(np.max(np.abs(e_diss))),
+                                float(np.max(np.abs(e_load))), float(np.max(np.abs(e_st))))
+        residual = (e_in[-1] - e_in[0]) - (e_st[-1] - e_st[0]) - (e_diss[-1] - e_diss[0]) - (e_load[-1] - e_load[0])
+        tally.samples += 1
+        ratio = abs(residual) / (self.energy_tol * max(self.energy_scale, 1e-9))
+        tally.worst = max(tally.worst, ratio)
+        if ratio > 1.0:
+            raise InvariantViolation("energy_balance", "the powertrain", float(ts[-1]), mode,
+                                     f"the segment from t={ts[0]:.6g} s does not close: residual {residual:.6g} J "
+                                     f"(energy scale {self.energy_scale:.6g} J, tolerance {self.energy_tol:g})")
+

@@ -1,0 +1,210 @@
+"""Runde's mode-switching method (thesis 3.2) with located events.
+
+The states are the generalized coordinates of the current mode, the states of the components
+(engine, driveline, ...) and three energy integrals. Between events the mode and the slip
+direction of every slipping element are fixed, so the right-hand side is smooth. The integrator
+(``scipy.integrate.solve_ivp``, through :func:`.integration.integrate`) locates, by root finding
+on its dense output:
+
+* a slipping element's slip crossing zero (it may lock, or slip the other way);
+* a locked friction element's torque reaching its static capacity ``T_static * apply(t)``;
+* a locked one-way clutch's torque reversing;
+* a locked group of elements in parallel leaving its combined holding range
+  (:meth:`Transmission.holding_margin` gives all three);
+* an apply signal rising from zero or falling to zero (a kink of the element's torque, and an
+  element at zero slip may lock).
+
+A slip within the decision's tolerance is at zero slip: the speeds are projected so that it is
+exactly zero, and its slip event fires when the slip, moving off in its direction, comes back a
+thousandth of the tolerance past zero, so that a slip that accelerates the wrong way is caught at
+once, never run away from (:func:`.integration.slip_event`).
+
+At each event, and at each breakpoint of an input signal, the new mode is decided by
+:meth:`Transmission.decide` (every element at zero slip may lock or slip either way; the unique
+consistent combination is taken, otherwise the run stops naming the elements). The new mode's
+states are the link speeds at the event, so no link speed jumps.
+"""
+from __future__ import annotations
+
+import math
+import time as _time
+
+import numpy as np
+
+from transgen.errors import ModeError, SimulationError
+
+from .integration import (ComponentEvaluator, Powertrain, Recorder, Segment, SolverOptions, StateLayout, apply_events,
+                          check_finite, collect, integrate, memo_last, next_stop, sample_block, slip_event)
+from .result import Event, Result
+
+__all__ = ["simulate_switching"]
+
+
+def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None) -> Result:
+    """Simulate ``pt`` with Runde's mode-switching method (see the module docstring)."""
+    tr = pt.transmission
+    model = ComponentEvaluator(pt)
+    wall = _time.perf_counter()
+    w0 = np.asarray(pt.initial_speeds, dtype=float)
+    comp_states = [c.initial_state(w0) for c in pt.components]
+    t = options.t_start
+    recorder = Recorder(pt, options, _sample)
+    events: list[Event] = []
+    message, success = "completed", True
+    locked: frozenset | None = None
+    directions = np.sign(tr.P @ w0).astype(int)
+    energy = np.zeros(3)
+    zeno_time, zeno_count = -math.inf, 0
+    n_events = 0
+    w = w0.copy()
+    forced: dict[int, int] = {}
+
+    def slip_tol(w):
+        return max(1e-9, options.slip_tol * max(1.0, float(np.max(np.abs(w)))))
+
+    while t < options.t_end - 1e-12:
+        # the consistent mode at t
+        dummy_layout = StateLayout(pt.components, 0)
+        y_ext = np.concatenate(comp_states + [energy]) if comp_states else energy.copy()
+        u_ext, *_ = model.external(t, y_ext, w, dummy_layout)
+        previous = locked
+        try:
+            locked, directions = tr.decide(t, w, u_ext, slip_tol(w), forced)
+            mode = tr.mode(locked)
+        except (SimulationError, ModeError) as exc:
+            success, message = False, f"{exc} (mode {tr.mode_name(previous) if previous is not None else 'none'})"
+            break
+        if previous is None:
+            events.append(Event(t, "start", tuple(tr.elements[i].name for i in sorted(locked)), "", tr.mode_name(locked)))
+        elif locked != previous:
+            gained = sorted(locked - previous)
+            lost = sorted(previous - locked)
+            kind = "lock" if gained and not lost else ("unlock" if lost and not gained else "switch")
+            events.append(Event(t, kind, tuple(tr.elements[i].name for i in gained + lost),
+                                tr.mode_name(previous), tr.mode_name(locked)))
+        # zeno / chattering guard: many decisions at (nearly) the same instant
+        if t - zeno_time < 1e-9 * max(1.0, abs(t)):
+            zeno_count += 1
+            if zeno_count > 50:
+                names = sorted({x for ev in events[-10:] for x in ev.elements})
+                success, message = False, (f"t={t:.9g} s: mode chattering (Zeno behaviour) between "
+                                           f"{', '.join(names)} in mode {tr.mode_name(locked)}")
+                break
+        else:
+            zeno_time, zeno_count = t, 0
+        # project onto the new mode, and the slips at zero (within the tolerance) onto exactly zero, so
+        # that an element moving off from zero slip starts there and not at round-off on either side
+        # (no jump: these slips are below the tolerance)
+        q = w[mode.coords]
+        tol = slip_tol(w)
+        at_zero = [i for i in range(len(tr.elements)) if i not in locked and abs(tr.P[i] @ w) <= tol]
+        if at_zero:
+            a = tr.P[at_zero] @ mode.C
+            q = q - np.linalg.lstsq(a, a @ q, rcond=None)[0]
+        w = mode.C @ q
+        layout = StateLayout(pt.components, mode.dof)
+        y0 = np.concatenate([q] + comp_states + [energy])
+        slipping = [i for i in range(len(tr.elements)) if i not in locked]
+        t_stop = next_stop(pt, t, options.t_end, slipping)
+        seg_dirs = directions.copy()
+
+        def point(tt, y, C=mode.C, PC=tr.P @ mode.C, dof=mode.dof, layout=layout,
+                  active=tr.slipping_set(locked, seg_dirs, t, t_stop)):
+            q = y[:dof]
+            ww = C @ q
+            u, derivs, p_in, diss, p_load = model.external(tt, y, ww, layout)
+            slips = PC @ q
+            if active:
+                s = slips.tolist()
+                for i, col, e, scale in active:
+                    torque = e.torque_at(tt, s[i], scale)
+                    u[col] += torque
+                    diss += torque * s[i]
+            return ww, u, derivs, p_in, diss, p_load, slips
+
+        evaluate = memo_last(model, point)
+
+        def rhs(tt, y, mode=mode, layout=layout):
+            ww, u, derivs, p_in, diss, p_load, _ = evaluate(tt, y)
+            return layout.derivative(mode.B @ u, derivs, p_in, diss, p_load)
+
+        event_funcs = [slip_event(lambda tt, y: evaluate(tt, y)[6], i, int(seg_dirs[i]), tol)
+                       for i in slipping if seg_dirs[i] != 0]
+        event_funcs += apply_events(tr, slipping, t)
+        for row, i in enumerate(mode.locked_order):  # one row per locked element or group in parallel
+
+            def torque_event(tt, y, row=row, mode=mode):
+                return tr.holding_margin(mode, row, tt, mode.D[row] @ evaluate(tt, y)[1])
+
+            torque_event.terminal = True
+            torque_event.direction = -1
+            torque_event.info = ("torque", i)
+            event_funcs.append(torque_event)
+
+        for controller in pt.controllers:
+            for func, kind in controller.event_functions():
+
+                def control_event(tt, y, func=func, mode=mode):
+                    return func(tt, mode.C @ y[: mode.dof])
+
+                control_event.terminal = True
+                control_event.direction = -1
+                control_event.info = ("control", (controller, kind))
+                event_funcs.append(control_event)
+
+        try:
+            sol = integrate(rhs, t, t_stop, y0, options, event_funcs, layout.energy.start)
+        except SimulationError as exc:
+            success, message = False, f"{exc} (mode {tr.mode_name(locked)})"
+            break
+        t_end = float(sol.t[-1])
+        y_end = sol.y[:, -1]
+        try:
+            check_finite(t_end, y_end, f"mode {tr.mode_name(locked)}")
+            recorder.add(Segment(t, t_end, locked, seg_dirs, mode, sol.sol))
+        except SimulationError as exc:
+            success, message = False, str(exc)
+            break
+        w = mode.C @ y_end[: mode.dof]
+        comp_states = [y_end[sl] for sl in layout.slices]
+        energy = y_end[layout.energy]
+        forced = {}
+        if sol.status == 1:
+            n_events += 1
+            u_end = evaluate(t_end, y_end)[1]
+            for f, te in zip(event_funcs, sol.t_events):
+                kind, i = f.info
+                if len(te) and kind == "control":
+                    controller, what = i
+                    description = controller.fire(what, t_end, {e.name: e for e in tr.elements})
+                    if description:
+                        events.append(Event(t_end, "command", (), tr.mode_name(locked), tr.mode_name(locked), description))
+                if len(te) and kind == "torque":
+                    row = mode.locked_order.index(i)
+                    forced.update(tr.unlock_directions(mode, row, t_end, mode.D[row] @ u_end))
+            if n_events > options.max_events:
+                success, message = False, f"t={t_end:.6g} s: more than {options.max_events} events"
+                break
+        t = t_end
+        if progress is not None:
+            progress(t)
+
+    return collect(pt, options, recorder, events, success, message, model, wall)
+
+
+def _sample(pt: Powertrain, seg: Segment, ts: np.ndarray, ys: np.ndarray) -> dict[str, np.ndarray]:
+    tr = pt.transmission
+    mode = seg.mode
+    slipping = np.array([i not in seg.locked for i in range(len(tr.elements))])
+
+    def element_state(W, slips, U):
+        te = tr.slipping_torques_at(ts, W, seg.locked, seg.directions)
+        torques = te.copy()
+        if mode.locked_order:
+            full = U.copy()
+            full[tr.element_input] += te
+            torques += tr.split_locked_torques(mode, ts, mode.D @ full)  # per element, by the split rule
+        power = np.where(slipping[:, None], np.abs(torques * slips), 0.0)
+        return te, torques, power, 0.0
+
+    return sample_block(pt, seg, ts, ys, 0, element_state)
