@@ -201,3 +201,17 @@ def test_matrices_refuse_a_mechanism_in_which_no_combination_can_be_modelled(cap
     mech = parse_mechanism("link A J=1\nlink B J=1\nlink X J=0\nclutch K A B static=1 dynamic=1\ninput A\noutput B\n")
     with pytest.raises(ModeError, match="massless link"):
         state_space(mech, which="all")
+
+
+def test_an_error_message_into_a_closed_pipe_keeps_the_exit_code(tmp_path):
+    """``transgen ratios bad.mech 2>&1 | head -1``: the message cannot be written, the exit code is 2."""
+    bad = tmp_path / "bad.mech"
+    bad.write_text(SIMPLE2.replace("ratio=6.667", "ratio=0e400"), encoding="utf-8")
+    read_end, write_end = os.pipe()
+    os.close(read_end)
+    try:
+        run = subprocess.run([sys.executable, "-m", "transgen", "ratios", str(bad)], stdout=write_end,
+                             stderr=write_end, env=dict(os.environ, MPLBACKEND="Agg"), timeout=120)
+    finally:
+        os.close(write_end)
+    assert run.returncode == 2

@@ -318,8 +318,16 @@ EXIT_BROKEN_PIPE = 128 + 13
 SIGPIPE, without a message."""
 
 
+def _error(text: str) -> None:
+    """Print ``text`` on standard error, which may itself be a closed pipe (``2>&1 | head``)."""
+    try:
+        print(text, file=sys.stderr)
+    except BrokenPipeError:
+        pass
+
+
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
-    print(f"warning: {message}", file=sys.stderr)
+    _error(f"warning: {message}")
 
 
 def _broken_pipe() -> int:
@@ -346,19 +354,19 @@ def main(argv: list[str] | None = None) -> int:
         except BrokenPipeError:  # output piped into e.g. head
             return _broken_pipe()
         except SimulationError as exc:
-            print(f"error: {exc}", file=sys.stderr)
+            _error(f"error: {exc}")
             return 1
         except TransgenError as exc:  # a ValueError is bad input (.mech, scenario, map, modes), else a failed run
-            print(exc if _located(str(exc)) else f"error: {exc}", file=sys.stderr)
+            _error(str(exc) if _located(str(exc)) else f"error: {exc}")
             return 2 if isinstance(exc, ValueError) else 1
         except ValueError as exc:  # invalid option values found by the library (e.g. output format)
-            print(f"error: {exc}", file=sys.stderr)
+            _error(f"error: {exc}")
             return 2
         except OSError as exc:
-            print(f"error: {exc.strerror or exc}" + (f": {exc.filename}" if exc.filename else ""), file=sys.stderr)
+            _error(f"error: {exc.strerror or exc}" + (f": {exc.filename}" if exc.filename else ""))
             return 1
         except KeyboardInterrupt:
-            print("interrupted", file=sys.stderr)
+            _error("interrupted")
             return 130
 
 

@@ -186,7 +186,7 @@ def engaged_combinations(names, limit: int = MAX_COMBINATIONS) -> list[tuple[str
         warnings.warn(f"{len(names)} shift elements give {2 ** len(names)} combinations; only the {count} with at "
                       f"most {top} engaged are enumerated (limit {limit}): declare the gear table "
                       f"('gear NAME = ...') or the modes ('mode NAME = ...') to choose",
-                      CombinationLimitWarning, stacklevel=3)
+                      CombinationLimitWarning)  # one place: shown once per run
     return [c for r in range(top + 1) for c in itertools.combinations(names, r)]
 
 
