@@ -315,7 +315,7 @@ def test_maps_command_json_in_process(capsys):
     assert main(["maps", "we_turbine"]) == 0
     text = capsys.readouterr().out
     assert "turbine map" in text and "m_corr(N_corr, ER)" in text
-    assert main(["maps", "no_such_map"]) == 1
+    assert main(["maps", "no_such_map"]) == 2  # bad input
     assert "bundled: we_compressor, we_turbine" in capsys.readouterr().err
 
 

@@ -81,21 +81,20 @@ def test_all_solvable_modes_state_space(name):
     for m in models:
         ref = ind.dynamics(mech, m.locked, u)
         assert (m.equations is None) == (ref.alpha is None or ref.torques is None), m.locked
-    with pytest.raises(ModeError) if len(solvable) < len(models) else _nullcontext():
-        state_space(mech, which="all")
+    # every combination: those that cannot be modelled are left out and listed
+    every = state_space(mech, which="all")
+    assert [m.name for m in every.modes] == [m.name for m in solvable]
+    assert [(s.name, s.locked, s.problem) for s in every.skipped] == [
+        (m.name, m.locked, m.problem) for m in models if m.equations is None]
+    assert every.to_dict()["skipped"] == [s.to_dict() for s in every.skipped]
+    if len(solvable) < len(models):  # chosen modes that cannot be modelled are refused
+        with pytest.raises(ModeError):
+            state_space(mech, which="declared", models=models)
     ss = state_space(mech, models=solvable)
     dof_max = max(m.dof for m in solvable)
     assert len(ss.coordinates) == dof_max == {"simple2": 2, "ht740": 3}[name]
     for md in ss.modes:
         _check_mode(mech, md, ss.coordinates, name)
-
-
-class _nullcontext:
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        return False
 
 
 def test_ht740_coordinates_l1_l6():

@@ -9,11 +9,13 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
+import os
 import sys
+import warnings
 from pathlib import Path
 
 from . import __version__
-from .errors import MechError, MechValidationError, ModeError, ScenarioError, SimulationError, TransgenError
+from .errors import MechValidationError, ModeError, SimulationError, TransgenError
 
 __all__ = ["main", "load_checked"]
 
@@ -128,7 +130,11 @@ def cmd_modes(args) -> int:
         extra = "; ".join(notes) + (f"  !! {m['problem']}" if m["problem"] else "")
         print(f"  {m['name']:<5} {' '.join(m['locked']) or '(none)':<18} {m['dof']:>3}  {m['kind']:<8} {extra}")
     diag = report["diagnosis"]
-    print(f"\n  static diagnosis over all {diag['combinations']} combinations:")
+    if diag["combinations"] == diag["of"]:
+        print(f"\n  static diagnosis over all {diag['combinations']} combinations:")
+    else:
+        print(f"\n  static diagnosis over {diag['combinations']} of {diag['of']} combinations "
+              f"(at most {diag['max_engaged']} engaged):")
     print(f"    tie-ups (bindup, no DOF): {len(diag['tie_ups'])}: " + "; ".join(" ".join(x) for x in diag["tie_ups"]))
     print(f"    locked torques not unique: {len(diag['non_unique_torques'])}: "
           + "; ".join(" ".join(x) for x in diag["non_unique_torques"]))
@@ -168,6 +174,11 @@ def cmd_matrices(args) -> int:
         return 0
     coords = [c.strip() for c in args.coords.split(",") if c.strip()] if args.coords else None
     ss = state_space(mech, coords, which, args.symbolic, models=models)
+    if ss.skipped:  # combinations that have no model (tie-ups, ...): named, not an error
+        print(f"{mech.name}: {len(ss.skipped)} of {len(models)} combinations have no state-space model "
+              f"and are left out:", file=sys.stderr)
+        for m in ss.skipped:
+            print(f"  {m.name} ({' '.join(m.locked) or 'none'} locked, {m.kind}): {m.problem}", file=sys.stderr)
     if args.output is None:
         if args.format not in (None, "json"):
             raise ModeError("-o OUT is needed for npz, mat and latex output")
@@ -308,6 +319,34 @@ def _terminate(signum, frame):
     raise KeyboardInterrupt
 
 
+EXIT_BROKEN_PIPE = 128 + 13
+"""Exit code when the reader of standard output went away (``| head``): as a tool killed by
+SIGPIPE, without a message."""
+
+
+def _error(text: str) -> None:
+    """Print ``text`` on standard error, which may itself be a closed pipe (``2>&1 | head``)."""
+    try:
+        print(text, file=sys.stderr)
+    except BrokenPipeError:
+        pass
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    _error(f"warning: {message}")
+
+
+def _broken_pipe() -> int:
+    """Standard output is a closed pipe: point it at /dev/null so that the interpreter's final
+    flush does not complain, and exit quietly."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):  # pragma: no cover - no file descriptor to redirect
+        pass
+    return EXIT_BROKEN_PIPE
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; return the exit code."""
     import signal
@@ -317,29 +356,35 @@ def main(argv: list[str] | None = None) -> int:
             signal.signal(signal.SIGTERM, _terminate)
     parser = build_parser()
     args = parser.parse_args(argv)
-    try:
-        return args.func(args)
-    except (MechError, ScenarioError, ModeError) as exc:
-        print(str(exc), file=sys.stderr)
-        return 2
-    except SimulationError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 1
-    except TransgenError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 1
-    except ValueError as exc:  # invalid option values found by the library (e.g. output format)
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    except OSError as exc:
-        print(f"error: {exc.strerror or exc}" + (f": {exc.filename}" if exc.filename else ""), file=sys.stderr)
-        return 1
-    except BrokenPipeError:  # output piped into e.g. head
-        sys.stderr.close()
-        return 0
-    except KeyboardInterrupt:
-        print("interrupted", file=sys.stderr)
-        return 130
+    with warnings.catch_warnings():
+        warnings.showwarning = _show_warning
+        try:
+            code = args.func(args)
+            sys.stdout.flush()  # a closed pipe shows here, not at exit
+            return code
+        except BrokenPipeError:  # output piped into e.g. head
+            return _broken_pipe()
+        except SimulationError as exc:
+            _error(f"error: {exc}")
+            return 1
+        except TransgenError as exc:  # a ValueError is bad input (.mech, scenario, map, modes), else a failed run
+            _error(str(exc) if _located(str(exc)) else f"error: {exc}")
+            return 2 if isinstance(exc, ValueError) else 1
+        except ValueError as exc:  # invalid option values found by the library (e.g. output format)
+            _error(f"error: {exc}")
+            return 2
+        except OSError as exc:
+            _error(f"error: {exc.strerror or exc}" + (f": {exc.filename}" if exc.filename else ""))
+            return 1
+        except KeyboardInterrupt:
+            _error("interrupted")
+            return 130
+
+
+def _located(message: str) -> bool:
+    """Whether ``message`` already starts ``FILE:LINE:COL: error:`` (or ``FILE:LINE: error:``)."""
+    first = message.split("\n", 1)[0]
+    return ": error: " in first and first.split(": error: ", 1)[0].rsplit(":", 1)[-1].isdigit()
 
 
 if __name__ == "__main__":  # pragma: no cover

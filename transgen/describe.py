@@ -1,11 +1,9 @@
 """Plain-data (JSON-ready) descriptions of a mechanism and of its modes."""
 from __future__ import annotations
 
-import itertools
-
 from .equations import diagnose_singular, locking_groups
 from .graph import build_graph
-from .kinematics import analyze
+from .kinematics import analyze, engaged_combinations
 from .model import Mechanism
 from .modes import mode_models
 
@@ -54,9 +52,8 @@ def modes_report(mech: Mechanism, which: str = "auto") -> dict:
     motion is unique, the simulator splits their torque by its documented rule."""
     models = mode_models(mech, which)
     g = build_graph(mech)
-    names = list(mech.element_names)
     tie_ups, non_unique, massless = [], [], []
-    combos = [c for r in range(len(names) + 1) for c in itertools.combinations(names, r)]
+    combos = engaged_combinations(mech.element_names)
     for combo in combos:
         if analyze(mech, combo, g).kind == "tie-up":
             tie_ups.append(list(combo))
@@ -74,7 +71,8 @@ def modes_report(mech: Mechanism, which: str = "auto") -> dict:
              "parallel": [list(grp.members) for grp in m.parallel]}
             for m in models
         ],
-        "diagnosis": {"combinations": len(combos), "tie_ups": tie_ups, "non_unique_torques": non_unique,
+        "diagnosis": {"combinations": len(combos), "of": 2 ** len(mech.element_names),
+                      "max_engaged": max(map(len, combos), default=0), "tie_ups": tie_ups, "non_unique_torques": non_unique,
                       "undetermined_massless": massless,
                       "parallel": [list(grp.members) for grp in locking_groups(g) if len(grp.members) > 1]},
     }

@@ -260,9 +260,13 @@ def solve(eq: ModeEquations, g: nx.DiGraph) -> ModeEquations:
         rows = 1.0 / np.abs(eq.E).max(axis=1)
         E1 = eq.E * rows[:, None]
         cols = 1.0 / np.abs(E1).max(axis=0)
+        # numpy's gesv, not scipy's lu_factor/lu_solve: the same LU with partial pivoting, but
+        # scipy's costs milliseconds per small system (thread start-up in getrs)
         with np.errstate(all="ignore"):
-            y = scipy.linalg.lu_solve(scipy.linalg.lu_factor(E1 * cols[None, :], check_finite=False),
-                                      -(eq.F * rows[:, None]))
+            try:
+                y = np.linalg.solve(E1 * cols[None, :], -(eq.F * rows[:, None]))
+            except np.linalg.LinAlgError:
+                raise ModeError(f"mode {'+'.join(eq.locked) or 'none'}: E is singular") from None
         G = y * cols[:, None]
         if not np.all(np.isfinite(G)):
             raise ModeError(f"mode {'+'.join(eq.locked) or 'none'}: E is singular")

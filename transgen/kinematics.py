@@ -17,12 +17,14 @@ Classification of a combination of engaged elements:
 from __future__ import annotations
 
 import itertools
+import math
+import warnings
 from dataclasses import dataclass, field
 
 import networkx as nx
 import numpy as np
 
-from .errors import Diagnostic
+from .errors import CombinationLimitWarning, Diagnostic
 from .graph import build_graph, coefficient, element_nodes, link_nodes, transformer_ports
 from .model import HOUSING, Mechanism
 
@@ -35,6 +37,8 @@ __all__ = [
     "Combination",
     "analyze",
     "combinations",
+    "engaged_combinations",
+    "MAX_COMBINATIONS",
     "gear_ratios",
     "GearRow",
     "GearTable",
@@ -160,11 +164,40 @@ def analyze(mech: Mechanism, engaged=(), graph: nx.DiGraph | None = None) -> Com
     return Combination(engaged, dof, None, "other", detail=detail)
 
 
+MAX_COMBINATIONS = 1024
+"""Most combinations of shift elements enumerated (all of them for up to 10 elements)."""
+
+
+def engaged_combinations(names, limit: int = MAX_COMBINATIONS) -> list[tuple[str, ...]]:
+    """Every combination of ``names`` (all 2^k, fewest engaged first).
+
+    When 2^k exceeds ``limit`` (the work grows as 2^k: 14 elements give 16384 modes), only the
+    combinations with at most ``r`` engaged elements, ``r`` the largest with at most ``limit`` of
+    them, and a :class:`~transgen.errors.CombinationLimitWarning` says so. Real gears engage two
+    or three elements, so these are the ones that matter.
+    """
+    names = list(names)
+    top, count = len(names), 2 ** len(names)
+    if count > limit:
+        top, count = -1, 0
+        while top < len(names) and count + math.comb(len(names), top + 1) <= limit:
+            top += 1
+            count += math.comb(len(names), top)
+        warnings.warn(f"{len(names)} shift elements give {2 ** len(names)} combinations; only the {count} with at "
+                      f"most {top} engaged are enumerated (limit {limit}): declare the gear table "
+                      f"('gear NAME = ...') or the modes ('mode NAME = ...') to choose",
+                      CombinationLimitWarning)  # one place: shown once per run
+    return [c for r in range(top + 1) for c in itertools.combinations(names, r)]
+
+
 def combinations(mech: Mechanism, max_engaged: int | None = None) -> list[Combination]:
-    """Every combination of engaged shift elements (all 2^k, or up to ``max_engaged``)."""
+    """Every combination of engaged shift elements (all 2^k, or up to ``max_engaged``; at most
+    :data:`MAX_COMBINATIONS`, see :func:`engaged_combinations`)."""
     g = build_graph(mech)
     names = element_nodes(g)
-    top = len(names) if max_engaged is None else min(max_engaged, len(names))
+    if max_engaged is None:
+        return [analyze(mech, combo, g) for combo in engaged_combinations(names)]
+    top = min(max_engaged, len(names))
     return [analyze(mech, combo, g) for r in range(top + 1) for combo in itertools.combinations(names, r)]
 
 

@@ -18,6 +18,7 @@ from __future__ import annotations
 import difflib
 import functools
 import math
+import sys
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -115,6 +116,10 @@ def _lines(text: str) -> list[str]:
     return [line.rstrip("\r") for line in text.split("\n")]
 
 
+MAX_SYNTAX_ERRORS = 100
+"""Lines with syntax errors reported before :func:`parse_tree` stops looking."""
+
+
 def parse_tree(text: str, filename: str = "<string>") -> Tree:
     """Parse ``.mech`` text into a lark tree; raise :class:`MechSyntaxError` with every bad line."""
     if not text.endswith("\n"):
@@ -130,6 +135,10 @@ def parse_tree(text: str, filename: str = "<string>") -> Tree:
             _parser().parse(line + "\n")
         except UnexpectedInput as exc:
             diagnostics.append(_syntax_diagnostic(exc, filename, lines, number - 1))
+            if len(diagnostics) == MAX_SYNTAX_ERRORS and number < len(lines):
+                diagnostics.append(Diagnostic(filename, number + 1, 1, f"too many syntax errors: stopped after "
+                                              f"{MAX_SYNTAX_ERRORS}", lines[number]))
+                break
     if not diagnostics:  # pragma: no cover - a file is valid iff all its lines are
         diagnostics.append(Diagnostic(filename, 1, 1, "syntax error", lines[0] if lines else ""))
     raise MechSyntaxError(diagnostics)
@@ -169,6 +178,10 @@ class _Reporter:
         self.lines = _lines(text)
         self.diagnostics: list[Diagnostic] = []
 
+    def suggest(self, name: str, known) -> str:
+        """``_suggest``, for the first few errors only (each costs a scan of ``known``)."""
+        return _suggest(name, known) if len(self.diagnostics) < 50 else ""
+
     def error(self, span: Span, message: str) -> None:
         line = max(span.line, 1)
         source = self.lines[line - 1] if line <= len(self.lines) else ""
@@ -199,16 +212,55 @@ def _statements(tree: Tree, report: _Reporter) -> list[_Statement]:
     return statements
 
 
-# Allowed parameters per statement: key -> kind ("float>=0", "float>0", "int>0", "name", or a
-# tuple of allowed words).
+@dataclass(frozen=True)
+class Quantity:
+    """The admissible values of a numeric parameter (SI units).
+
+    A value is a finite, normal double (no overflow to infinity, no underflow to a subnormal or to
+    0) or exactly 0 where ``zero`` allows it; its magnitude lies in ``[low, high]``. The range is
+    physical: it keeps out values no transmission has (and whose ratios would defeat the rank
+    tests of 64-bit arithmetic, e.g. inertias 1e-300 next to 1e300).
+    """
+
+    low: float
+    high: float
+    unit: str = ""
+    sign: str = "any"  # "any", ">=0" (zero and positive), ">0"
+    integer: bool = False  # a tooth count
+
+    @property
+    def zero(self) -> bool:
+        return self.sign == ">=0"
+
+    def describe(self) -> str:
+        unit = f" {self.unit}" if self.unit else ""
+        span = f"{self.low:g} and {self.high:g}{unit}"
+        if self.integer:
+            return f"a whole number between {span}"
+        if self.sign == "any":
+            return f"between {span} in magnitude (negative allowed)"
+        return ("0 or " if self.zero else "") + f"between {span}"
+
+
+MAX_NUMBER_LENGTH = 64
+"""Longest number text accepted (a double has 17 significant digits)."""
+
+INERTIA = Quantity(1e-15, 1e15, "kg*m^2", ">=0")
+TEETH = Quantity(1, 100_000, sign=">0", integer=True)
+RADIUS = Quantity(1e-4, 100.0, "m", ">0")
+CAPACITY = Quantity(sys.float_info.min, 1e8, "N*m", ">=0")
+RATIO = Quantity(1e-6, 1e6)
+"""Ranges of the numbers of a ``.mech`` file (see README, "Numbers")."""
+
+# Allowed parameters per statement: key -> a Quantity, "name" (a link), or a tuple of allowed words.
 _PARAMS: dict[str, dict[str, object]] = {
-    "link": {"J": "float>=0"},
-    "planetary": {"sun": "name", "ring": "name", "carrier": "name", "Ns": "int>0", "Nr": "int>0", "pinions": ("1", "2")},
-    "gears": {"N1": "int>0", "N2": "int>0", "r1": "float>0", "r2": "float>0", "mesh": ("external", "internal")},
-    "clutch": {"static": "float>=0", "dynamic": "float>=0"},
-    "brake": {"static": "float>=0", "dynamic": "float>=0", "type": ("plate", "band")},
+    "link": {"J": INERTIA},
+    "planetary": {"sun": "name", "ring": "name", "carrier": "name", "Ns": TEETH, "Nr": TEETH, "pinions": ("1", "2")},
+    "gears": {"N1": TEETH, "N2": TEETH, "r1": RADIUS, "r2": RADIUS, "mesh": ("external", "internal")},
+    "clutch": {"static": CAPACITY, "dynamic": CAPACITY},
+    "brake": {"static": CAPACITY, "dynamic": CAPACITY, "type": ("plate", "band")},
     "oneway": {"free": ("positive", "negative")},
-    "gear": {"ratio": "float"},
+    "gear": {"ratio": RATIO},
 }
 _REQUIRED: dict[str, tuple[str, ...]] = {
     "link": ("J",),
@@ -217,11 +269,49 @@ _REQUIRED: dict[str, tuple[str, ...]] = {
     "brake": ("static", "dynamic"),
     "oneway": ("free",),
 }
+_NOT_FINITE = frozenset({"nan", "inf", "infinity"})
 
 
 def _suggest(name: str, known) -> str:
+    if len(name) > 100:
+        return ""
     close = difflib.get_close_matches(name, list(known), n=1, cutoff=0.5)
     return f"; did you mean '{close[0]}'?" if close else ""
+
+
+def shorten(text: str, limit: int = 40) -> str:
+    """``text``, or its start and length when longer than ``limit`` (keeps messages bounded)."""
+    return text if len(text) <= limit else f"{text[:limit - 16]}... ({len(text)} characters)"
+
+
+def read_number(text: str, key: str, quantity: Quantity) -> float | int | str:
+    """The value of the number ``text`` for parameter ``key``, or an error message (a ``str``
+    that starts with ``key``) when it is not admissible for ``quantity``."""
+    shown = shorten(text)
+    if len(text) > MAX_NUMBER_LENGTH:
+        return f"{key} is written with {len(text)} characters (at most {MAX_NUMBER_LENGTH}): {shown}"
+    number = float(text)
+    if quantity.integer:
+        if not math.isfinite(number) or number != int(number) or number <= 0:
+            return f"{key} is a tooth count: a positive whole number, not {shown}"
+        if number > quantity.high:
+            return f"{key} is a tooth count: at most {quantity.high:g}, not {shown}"
+        return int(number)
+    if not math.isfinite(number):
+        return f"{key} must be a finite number, not {shown} (beyond the largest double, 1.8e308)"
+    mantissa = text.lower().split("e")[0]
+    if abs(number) < sys.float_info.min and any(c in mantissa for c in "123456789"):
+        return (f"{key} {shown} is below the smallest normal double (2.2e-308) and would read as "
+                f"{'0' if number == 0 else 'a subnormal'}; {key} must be {quantity.describe()}")
+    if quantity.sign == ">0" and number <= 0:
+        return f"{key} must be positive, not {shown}"
+    if quantity.sign == ">=0" and number < 0:
+        return f"{key} must not be negative, not {shown}"
+    if number == 0 and quantity.zero:
+        return 0.0
+    if not quantity.low <= abs(number) <= quantity.high:
+        return f"{key} must be {quantity.describe()}, not {shown}"
+    return number
 
 
 def _check_params(stmt: _Statement, report: _Reporter) -> dict[str, object]:
@@ -234,38 +324,29 @@ def _check_params(stmt: _Statement, report: _Reporter) -> dict[str, object]:
         key_span = stmt.params[key + "@key"][0].span
         if key not in allowed:
             known = ", ".join(allowed) if allowed else "none"
-            report.error(key_span, f"unknown parameter '{key}' for '{stmt.keyword}'{_suggest(key, allowed)} (known: {known})")
+            report.error(key_span, f"unknown parameter '{shorten(key)}' for '{stmt.keyword}'{_suggest(key, allowed)} (known: {known})")
             continue
         kind = allowed[key]
         if isinstance(kind, tuple):
             if word.text not in kind:
-                report.error(word.span, f"{key} must be one of {', '.join(kind)}, not '{word.text}'")
+                report.error(word.span, f"{key} must be one of {', '.join(kind)}, not '{shorten(word.text)}'")
                 continue
             values[key] = word.text
         elif kind == "name":
             if is_number:
-                report.error(word.span, f"{key} must name a link, not the number {word.text}")
+                report.error(word.span, f"{key} must name a link, not the number {shorten(word.text)}")
                 continue
             values[key] = word
         else:
             if not is_number:
-                report.error(word.span, f"{key} must be a number, not '{word.text}'")
+                if word.text.lower() in _NOT_FINITE:
+                    report.error(word.span, f"{key} must be a number, not '{word.text}' (NaN and infinity are refused)")
+                else:
+                    report.error(word.span, f"{key} must be a number, not '{shorten(word.text)}'")
                 continue
-            number = float(word.text)
-            if not math.isfinite(number):
-                what = "is a tooth count: a positive whole number" if kind == "int>0" else "must be a finite number"
-                report.error(word.span, f"{key} {what}, not {word.text}")
-                continue
-            if kind == "int>0":
-                if number != int(number) or number <= 0:
-                    report.error(word.span, f"{key} is a tooth count: a positive whole number, not {word.text}")
-                    continue
-                number = int(number)
-            elif kind == "float>0" and number <= 0:
-                report.error(word.span, f"{key} must be positive, not {word.text}")
-                continue
-            elif kind == "float>=0" and number < 0:
-                report.error(word.span, f"{key} must not be negative, not {word.text}")
+            number = read_number(word.text, key, kind)
+            if isinstance(number, str):
+                report.error(word.span, number)
                 continue
             values[key] = word.text if stmt.keyword == "gear" and key == "ratio" else number
     for key in _REQUIRED.get(stmt.keyword, ()):
@@ -420,11 +501,11 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str) -> 
             elif what:
                 report.error(ref.span, f"'{ref.text}' is a {what}, not a link")
             else:
-                report.error(ref.span, f"unknown link '{ref.text}'{_suggest(ref.text, link_names)}")
+                report.error(ref.span, f"unknown link '{shorten(ref.text)}'{report.suggest(ref.text, link_names)}")
     element_names = {n for n, (what, _) in declared.items() if what in ("clutch", "brake", "one-way clutch")}
     for ref in element_refs:
         if ref.text not in element_names:
-            report.error(ref.span, f"unknown shift element '{ref.text}'{_suggest(ref.text, element_names)}")
+            report.error(ref.span, f"unknown shift element '{shorten(ref.text)}'{report.suggest(ref.text, element_names)}")
     for role, found in (("input", inputs), ("output", outputs)):
         if not found:
             last = max(1, len(report.lines) - (1 if report.lines and report.lines[-1] == "" else 0))
@@ -494,18 +575,22 @@ def load_mechanism(path: str | Path) -> Mechanism:
     up in the bundled library (:mod:`transgen.library`).
     """
     path = Path(path)
+    hint = ""
     if not path.exists():
-        from .library import bundled_path
+        from .library import bundled_mechanisms, bundled_path
 
         found = bundled_path(path.name)
         if found is not None:
             path = found
+        elif path.suffix in ("", ".mech"):
+            hint = _suggest(path.stem, bundled_mechanisms())
+            hint = f"{hint[:-1]} (a bundled mechanism, see 'transgen list')?" if hint else ""
     try:
         text = path.read_text(encoding="utf-8")
     except UnicodeDecodeError as exc:
         raise MechSyntaxError([Diagnostic(str(path), 1, 1, f"not a text file ({exc.reason})")]) from None
     except OSError as exc:
-        raise MechSyntaxError([Diagnostic(str(path), 1, 1, f"cannot read file: {exc.strerror}")]) from None
+        raise MechSyntaxError([Diagnostic(str(path), 1, 1, f"cannot read file: {exc.strerror}{hint}")]) from None
     return parse_mechanism(text, str(path))
 
 

@@ -39,7 +39,7 @@ from .equations import (LockingGroup, ModeEquations, assemble, complete_locked, 
                         solve)
 from .errors import ModeError
 from .graph import build_graph
-from .kinematics import analyze, numeric_rank
+from .kinematics import analyze, engaged_combinations, numeric_rank
 from .model import Mechanism
 
 __all__ = [
@@ -119,8 +119,7 @@ def select_modes(mech: Mechanism, which: str = "auto") -> list[Mode]:
         return [Mode(d.name, complete_locked(g, d.locked), "declared") for d in mech.modes]
     if which == "all":
         names = list(mech.element_names)
-        combos = {tuple(sorted(complete_locked(g, c), key=names.index)): None
-                  for r in range(len(names) + 1) for c in itertools.combinations(names, r)}
+        combos = {tuple(sorted(complete_locked(g, c), key=names.index)): None for c in engaged_combinations(names)}
         return [Mode(f"M{i + 1}", c, "") for i, c in enumerate(combos)]
     if which != "default":
         raise ValueError(f"unknown mode selection {which!r}")

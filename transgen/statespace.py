@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .equations import kinematic_basis
-from .errors import ModeError
+from .errors import MAX_SHOWN, ModeError
 from .graph import build_graph, link_nodes
 from .model import Mechanism
 from .modes import (
@@ -31,7 +31,7 @@ from .modes import (
     mode_models,
 )
 
-__all__ = ["ModeStateSpace", "StateSpaceSet", "state_space"]
+__all__ = ["ModeStateSpace", "SkippedMode", "StateSpaceSet", "state_space"]
 
 
 @dataclass(frozen=True)
@@ -73,6 +73,20 @@ class ModeStateSpace:
 
 
 @dataclass(frozen=True)
+class SkippedMode:
+    """A combination of locked elements that has no state-space model (a tie-up, locked torques
+    that are not unique, an undetermined massless link): ``problem`` says which."""
+
+    name: str
+    locked: tuple[str, ...]
+    kind: str
+    problem: str
+
+    def to_dict(self) -> dict:
+        return {"name": self.name, "locked": list(self.locked), "kind": self.kind, "problem": self.problem}
+
+
+@dataclass(frozen=True)
 class StateSpaceSet:
     """The state-space matrices of every modelled mode, for one choice of coordinates."""
 
@@ -81,6 +95,7 @@ class StateSpaceSet:
     inputs: tuple[str, ...]
     modes: tuple[ModeStateSpace, ...]
     symbolic: bool = False
+    skipped: tuple[SkippedMode, ...] = ()
 
     def mode(self, name: str) -> ModeStateSpace:
         for m in self.modes:
@@ -108,6 +123,7 @@ class StateSpaceSet:
                  "locked_groups": [list(grp) for grp in m.locked_groups]}
                 for m in self.modes
             ],
+            "skipped": [m.to_dict() for m in self.skipped],
         }
 
 
@@ -154,19 +170,32 @@ def state_space(mech: Mechanism, coordinates=None, which: str = "auto", symbolic
     """State-space matrices of the modelled modes of ``mech``.
 
     ``coordinates``: link names (default: the file's ``coordinates`` statement, else
-    :func:`~transgen.modes.default_coordinates`). Raises :class:`ModeError` when a mode cannot be
-    modelled or the coordinates are not valid.
+    :func:`~transgen.modes.default_coordinates`). When the modes are every combination of
+    elements (``which="all"``, or a mechanism without gear table or modes), the combinations that
+    cannot be modelled (tie-ups, ...) are left out and listed in ``skipped``. Raises
+    :class:`ModeError` when a chosen mode (declared or default) or every combination cannot be
+    modelled, or the coordinates are not valid.
     """
     g = build_graph(mech)
     links = link_nodes(g)
     models = mode_models(mech, which, symbolic) if models is None else models
     bad = [m for m in models if m.equations is None]
-    if bad:
-        raise ModeError("; ".join(f"{m.name}: {m.problem}" for m in bad))
+    if bad and (len(bad) == len(models) or not _every_combination(mech, which)):
+        shown = [f"{m.name}: {m.problem}" for m in bad[:MAX_SHOWN]]
+        raise ModeError("; ".join(shown + ([f"... and {len(bad) - MAX_SHOWN} more modes"] if len(bad) > MAX_SHOWN else [])))
+    skipped = tuple(SkippedMode(m.name, m.locked, m.kind, m.problem) for m in bad)
+    models = [m for m in models if m.equations is not None]
     for m in models:
         if m.problem:
             warnings.warn(f"mode {m.name}: {m.problem}", stacklevel=2)
     coords = tuple(coordinates or mech.coordinates) or default_coordinates(models, links, mech.input, mech.output)
     check_coordinates(models, links, coords)
     modes = tuple(_mode_state_space(m, links, coords, bool(symbolic)) for m in models)
-    return StateSpaceSet(mech.name, coords, models[0].equations.u if models else (), modes, bool(symbolic))
+    return StateSpaceSet(mech.name, coords, models[0].equations.u if models else (), modes, bool(symbolic), skipped)
+
+
+def _every_combination(mech: Mechanism, which: str) -> bool:
+    """Whether the mode selection ``which`` is every combination (see :func:`select_modes`)."""
+    if which == "auto":
+        which = "declared" if mech.modes else "default"
+    return which == "all" or (which == "default" and not any(g.kind == "gear" for g in mech.gears))

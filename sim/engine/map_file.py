@@ -50,6 +50,7 @@ of the shipped maps and converter table (``sim/data/``).
 from __future__ import annotations
 
 import math
+import re
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -84,7 +85,7 @@ def _floats(values, what: str, problems: list[str]) -> tuple[float, ...]:
     try:
         out = tuple(float(v) for v in values)
     except (TypeError, ValueError):
-        problems.append(f"{what}: expected a list of numbers, got {values!r}")
+        problems.append(f"{what}: expected a list of numbers, got {repr(values)[:60]}")
         return ()
     if not all(math.isfinite(v) for v in out):
         problems.append(f"{what}: values must be finite")
@@ -242,14 +243,22 @@ def load_map(path: str | Path) -> CompressorMap | TurbineMap:
     """
     path = Path(path)
     try:
-        doc = tomllib.loads(path.read_text(encoding="utf-8"))
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise MapError(f"{path}:1:1: error: cannot read map file ({exc})") from None
+    try:
+        doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise MapError(f"{path}: error: not valid TOML: {exc}") from None
+        at = re.search(r"\(at line (\d+), column (\d+)\)", str(exc))
+        line, col = (int(at.group(1)), int(at.group(2))) if at else (
+            (text.count("\n") + 1, 1) if "end of document" in str(exc) else (1, 1))
+        message = re.sub(r"\s*\(at line \d+, column \d+\)", "", str(exc))
+        raise MapError(f"{path}:{line}:{col}: error: not valid TOML: {message}") from None
     problems: list[str] = []
-    kind = _FORMATS.get(doc.get("format"))
+    kind = _FORMATS.get(doc.get("format")) if isinstance(doc.get("format"), str) else None
     if kind is None:
-        raise MapError(f"{path}: error: 'format' must be one of {sorted(_FORMATS)}, "
-                       f"got {doc.get('format')!r}")
+        raise MapError(f"{path}:{_key_line(text, 'format')}:1: error: 'format' must be one of {sorted(_FORMATS)}, "
+                       f"got {str(doc.get('format'))[:40]!r}")
     if doc.get("version") != 1:
         problems.append(f"unsupported version {doc.get('version')!r} (expected 1)")
     unit = _SPEED_UNITS.get(doc.get("speed_unit", "rpm"))
@@ -257,12 +266,17 @@ def load_map(path: str | Path) -> CompressorMap | TurbineMap:
         problems.append(f"speed_unit must be one of {sorted(_SPEED_UNITS)}")
         unit = 1.0
     ref = doc.get("reference", {})
+    ref = ref if isinstance(ref, dict) else {}
     T_ref, p_ref = ref.get("temperature"), ref.get("pressure")
     if not isinstance(T_ref, (int, float)) or not isinstance(p_ref, (int, float)):
         problems.append("[reference] needs numeric 'temperature' [K] and 'pressure' [Pa]")
-    provenance = tuple((str(k), str(v)) for k, v in doc.get("provenance", {}).items())
+    provenance = doc.get("provenance", {})
+    provenance = tuple((str(k), str(v)) for k, v in provenance.items()) if isinstance(provenance, dict) else ()
     lines = doc.get("speed_line", [])
-    if not lines:
+    if not isinstance(lines, list) or not all(isinstance(t, dict) for t in lines):
+        problems.append("speed_line must be an array of tables ([[speed_line]])")
+        lines = []
+    elif not lines:
         problems.append("no [[speed_line]] tables")
 
     def col(table: dict, key: str, what: str) -> tuple[float, ...]:
@@ -292,23 +306,54 @@ def load_map(path: str | Path) -> CompressorMap | TurbineMap:
                 t = {}
             mlines.append(MapLine(tuple(v * unit for v in col(t, "speed", label)),
                                   col(t, "mass_flow", label), col(t, "pressure_ratio", label)))
-        _raise_problems(problems, str(path))
+        _raise_problems(problems, _where(path, text, problems))
         try:
             return CompressorMap(str(doc.get("name", path.stem)), speed_lines, mlines[0],
                                  mlines[1], float(T_ref), float(p_ref), provenance)
         except MapError as exc:
-            raise MapError(f"{path}: {exc}") from None
+            raise MapError(f"{path}:1:1: error: {exc}") from None
     speed_lines = tuple(
         TurbineSpeedLine(speed_of(t, i), col(t, "expansion_ratio", f"speed_line[{i}]"),
                          col(t, "mass_flow", f"speed_line[{i}]"),
                          col(t, "efficiency", f"speed_line[{i}]"))
         for i, t in enumerate(lines))
-    _raise_problems(problems, str(path))
+    _raise_problems(problems, _where(path, text, problems))
     try:
         return TurbineMap(str(doc.get("name", path.stem)), speed_lines, float(T_ref),
                           float(p_ref), provenance)
     except MapError as exc:
-        raise MapError(f"{path}: {exc}") from None
+        raise MapError(f"{path}:1:1: error: {exc}") from None
+
+
+def _key_line(text: str, key: str, after: int = 0) -> int:
+    """1-based line of ``key = ...`` or of the table ``[key]`` / ``[[key]]`` at or after line
+    ``after`` (0-based), else 1."""
+    pattern = re.compile(r"^\s*(\[\[?\s*" + re.escape(key) + r"\s*\]|" + re.escape(key) + r"\s*=)")
+    lines = text.split("\n")
+    for i in range(after, len(lines)):
+        if pattern.match(lines[i]):
+            return i + 1
+    return 1
+
+
+def _where(path: Path, text: str, problems: list[str]) -> str:
+    """``FILE:LINE:1: error`` at the table (and key) of the first problem."""
+    if not problems:
+        return str(path)
+    first = problems[0]
+    line = 1
+    m = re.match(r"speed_line\[(\d+)\](?:\.(\w+))?", first)
+    if m:
+        starts = [i for i, t in enumerate(text.split("\n")) if re.match(r"^\s*\[\[\s*speed_line\s*\]\]", t)]
+        if int(m.group(1)) < len(starts):
+            line = starts[int(m.group(1))] + 1
+            key_line = _key_line(text, m.group(2), line - 1) if m.group(2) else 1
+            line = key_line if key_line > 1 else line
+    else:
+        m = re.match(r"\[?(\w+)", first)
+        if m:
+            line = _key_line(text, m.group(1))
+    return f"{path}:{line}:1: error"
 
 
 def _toml_str(s: str) -> str:

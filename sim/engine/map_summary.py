@@ -8,6 +8,7 @@ flows in kg/s; :func:`map_summary_text` is its human-readable form.
 """
 from __future__ import annotations
 
+import difflib
 from pathlib import Path
 
 import numpy as np
@@ -37,8 +38,10 @@ def load_named_map(ref: str | Path) -> tuple[Path, CompressorMap | TurbineMap]:
         bundled = bundled_maps()
         stem = path.stem if path.suffix in ("", ".toml") else str(ref)
         if stem not in bundled:
-            raise MapError(f"{ref}: no such map file and no bundled map of that name "
-                           f"(bundled: {', '.join(bundled)})")
+            close = difflib.get_close_matches(stem, list(bundled), n=1, cutoff=0.5)
+            hint = f"; did you mean '{close[0]}'?" if close else ""
+            raise MapError(f"{ref}:1:1: error: no such map file and no bundled map of that name "
+                           f"(bundled: {', '.join(bundled)}){hint}")
         path = bundled[stem]
     return path, load_map(path)
 
