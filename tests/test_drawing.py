@@ -402,3 +402,15 @@ def test_rendered_files_of_the_thesis_examples(tmp_path):
                                    tmp_path / f"std_{name}.png"))
     assert all(Path(p).stat().st_size > 10_000 for p in written)
     assert len(list(tmp_path.iterdir())) == 5
+
+
+def test_titles_with_dollar_signs_are_drawn_as_text(tmp_path):
+    """A title is plain text: '$' is no mathtext markup (matplotlib refused '$x' before)."""
+    from transgen import parse_mechanism
+    from transgen.drawing import draw_graph, draw_std, save_figure
+
+    mech = parse_mechanism('transmission "costs $5 and 50% of $x$ \\\\ done"\nlink A J=1\nlink B J=1\n'
+                           "clutch C A B static=10 dynamic=10\ninput A\noutput B\n")
+    for draw, name in ((draw_graph, "g.svg"), (draw_std, "s.png")):
+        save_figure(draw(mech), tmp_path / name)
+        assert (tmp_path / name).stat().st_size > 0

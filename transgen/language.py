@@ -12,6 +12,9 @@ Parsing happens in three steps, each a plain function:
 
 All problems are collected and raised together as one :class:`~transgen.errors.MechError`.
 Parsing never evaluates code: numbers are read with :func:`float` / :func:`int`.
+
+Size: about 630 lines, over the project's 500: the grammar's tree walk, the number checks and the
+located diagnostics are one pass over the text; splitting them would hand positions across modules.
 """
 from __future__ import annotations
 

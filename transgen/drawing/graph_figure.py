@@ -81,7 +81,7 @@ def draw_graph(g, ax=None):
                                linestyle="-" if kind != "source" else "--", zorder=2,
                                hatch="///" if kind == "housing" else None)
         ax.add_patch(patch)
-        ax.text(b.x, b.y, lay.texts[n], ha="center", va="center", fontsize=NODE_FONT * scale,
+        ax.text(b.x, b.y, lay.texts[n], ha="center", va="center", parse_math=False, fontsize=NODE_FONT * scale,
                 zorder=4, gid=n, color="#111111",
                 bbox=dict(boxstyle="square,pad=0.05", facecolor=face, edgecolor="none") if kind == "housing" else None)
 
@@ -118,10 +118,10 @@ def draw_graph(g, ax=None):
         if not cands:
             cands = [((x0 + x1) / 2, (y0 + y1) / 2)]
         r = place_label(cands, w, h, obstacles, placed, lines, k)
-        ax.text(r.x, r.y, port, ha="center", va="center", fontsize=SMALL_FONT * scale, zorder=3,
+        ax.text(r.x, r.y, port, ha="center", va="center", parse_math=False, fontsize=SMALL_FONT * scale, zorder=3,
                 style="italic", color="#5a4510", gid=f"port:{u}->{v}",
                 bbox=dict(boxstyle="round,pad=0.1", facecolor="white", edgecolor="none", alpha=0.9))
     if title:
-        ax.text((xmin + xmax) / 2, ymax - MARGIN / 2 - title_h / 2 + 0.05, title, ha="center", va="center",
+        ax.text((xmin + xmax) / 2, ymax - MARGIN / 2 - title_h / 2 + 0.05, title, ha="center", va="center", parse_math=False,
                 fontsize=TITLE_FONT * scale, fontweight="bold", gid="title")
     return fig

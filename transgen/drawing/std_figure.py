@@ -122,7 +122,7 @@ def draw_std(std, ax=None, leaving: bool = False):
                         edgecolor="#222222", linewidth=1.3, zorder=2, gid=n)
         ax.add_patch(patch)
         patches[n] = patch
-        ax.text(e.x, e.y, lay.texts[n], ha="center", va="center", fontsize=NODE_FONT * scale,
+        ax.text(e.x, e.y, lay.texts[n], ha="center", va="center", parse_math=False, fontsize=NODE_FONT * scale,
                 zorder=4, gid=n, linespacing=1.2)
 
     obstacles = list(bubbles.values())
@@ -161,16 +161,16 @@ def draw_std(std, ax=None, leaving: bool = False):
         w, h = text_size(text, 8.0)
         w, h = w + 0.08, h + 0.02
         r = place_label([_bezier(p0, ctrl, p2, s) for s in ts], w, h, obstacles, placed, lines, k)
-        ax.text(r.x, r.y, text, ha="center", va="center", fontsize=8.0 * scale, color=color, zorder=3,
+        ax.text(r.x, r.y, text, ha="center", va="center", parse_math=False, fontsize=8.0 * scale, color=color, zorder=3,
                 gid=f"transition:{t.source}->{t.target}",
                 bbox=dict(boxstyle="round,pad=0.12", facecolor="white", edgecolor=color, linewidth=0.5, alpha=0.95))
 
     for x0, y0, x1, y1, lx, ly, text, color, gid in stubs:
         ax.add_line(Line2D([x0, x1], [y0, y1], color=color, linestyle=(0, (2, 1.5)), linewidth=1.0, zorder=1))
-        ax.text(lx, ly, text, ha="center", va="center", fontsize=SMALL_FONT * scale, color=color, zorder=3, gid=gid)
+        ax.text(lx, ly, text, ha="center", va="center", parse_math=False, fontsize=SMALL_FONT * scale, color=color, zorder=3, gid=gid)
     if leaving:
-        ax.text((xmin + xmax) / 2, ymax - MARGIN / 2 - th - 0.12, _LEAVING_NOTE, ha="center", va="center",
+        ax.text((xmin + xmax) / 2, ymax - MARGIN / 2 - th - 0.12, _LEAVING_NOTE, ha="center", va="center", parse_math=False,
                 fontsize=SMALL_FONT * scale, color="#444444", gid="leaving-note")
-    ax.text((xmin + xmax) / 2, ymax - MARGIN / 2 - th / 2, title, ha="center", va="center",
+    ax.text((xmin + xmax) / 2, ymax - MARGIN / 2 - th / 2, title, ha="center", va="center", parse_math=False,
             fontsize=TITLE_FONT * scale, fontweight="bold", gid="title")
     return fig
