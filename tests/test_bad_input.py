@@ -182,13 +182,13 @@ def test_misspelled_bundled_names_get_a_suggestion(argv, suggestion, capsys, tmp
 
 
 @pytest.mark.parametrize("argv", [["ratios", "zf8hp70"], ["matrices", "simple2"], ["list"]])
-def test_writing_into_a_closed_pipe_exits_quietly(argv):
+def test_writing_into_a_closed_pipe_exits_quietly(argv, tmp_path):
     """As ``transgen ratios zf8hp70 | head -1`` when head has gone: no message, exit 141."""
     read_end, write_end = os.pipe()
     os.close(read_end)  # every write now fails with EPIPE
     try:
         run = subprocess.run([sys.executable, "-m", "transgen", *argv], stdout=write_end, stderr=subprocess.PIPE,
-                             env=dict(os.environ, MPLBACKEND="Agg"), timeout=120)
+                             env=dict(os.environ, MPLBACKEND="Agg"), timeout=120, cwd=tmp_path)  # not the checkout
     finally:
         os.close(write_end)
     assert run.stderr == b"" and run.returncode == EXIT_BROKEN_PIPE
@@ -211,7 +211,7 @@ def test_an_error_message_into_a_closed_pipe_keeps_the_exit_code(tmp_path):
     os.close(read_end)
     try:
         run = subprocess.run([sys.executable, "-m", "transgen", "ratios", str(bad)], stdout=write_end,
-                             stderr=write_end, env=dict(os.environ, MPLBACKEND="Agg"), timeout=120)
+                             stderr=write_end, env=dict(os.environ, MPLBACKEND="Agg"), timeout=120, cwd=tmp_path)
     finally:
         os.close(write_end)
     assert run.returncode == 2
