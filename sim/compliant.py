@@ -80,7 +80,7 @@ def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
             directions = np.where(at_zero, np.sign(acc).astype(int), directions)
         seg_dirs = directions.copy()
         point.__defaults__ = (seg_stuck, tr.P @ mode.C, tr.slipping_set(seg_locked, seg_dirs, t, t_stop))
-        evaluate = memo_last(model, point)
+        evaluate = memo_last(model, point, t_stop)
 
         def rhs(tt, y, seg_stuck=seg_stuck):
             ww, u, derivs, p_in, diss, p_load, slips, _ = evaluate(tt, y)
@@ -95,7 +95,7 @@ def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
                 event_funcs.append(unstick)
             elif seg_dirs[i] != 0:
                 event_funcs.append(slip_event(lambda tt, y: evaluate(tt, y)[6], i, int(seg_dirs[i]), tol))
-        event_funcs += apply_events(tr, np.flatnonzero(~seg_stuck), t)
+        event_funcs += apply_events(tr, np.flatnonzero(~seg_stuck), t, t_stop)
         try:
             sol = recorder.integrate(rhs, t, t_stop, y0, event_funcs, layout.energy.start,
                                      lambda t1, dense: Segment(t, t1, seg_locked, seg_dirs, mode, dense, seg_stuck),

@@ -112,7 +112,8 @@ def next_stop(pt: Powertrain, t: float, t_end: float, released=()) -> float:
     signal (a kink or jump of an apply, a torque, a throttle, ...), the next crossing of
     :data:`~.transmission.APPLY_THRESHOLD` by the apply of an element of ``released`` (indices of
     the elements not locked; a rise from zero may lock one, both directions are kinks of its
-    torque), or ``t_end``."""
+    torque), the next local minimum of the apply of a locked friction element (where its holding
+    limit is lowest: the unlock event cannot be stepped over), or ``t_end``."""
     after = t + 1e-12 * max(1.0, abs(t))
     stop = t_end
     # the next breakpoint, looked for in growing windows (a periodic signal has one every period)
@@ -125,12 +126,14 @@ def next_stop(pt: Powertrain, t: float, t_end: float, released=()) -> float:
             stop = min(points + [t_end])
             break
         window *= 8
-    for i in released:
-        e = pt.transmission.elements[i]
-        if e.kind != "oneway":
-            crossing = e.apply.next_crossing(APPLY_THRESHOLD, after, stop)
-            if crossing is not None and crossing < stop:
-                stop = crossing
+    released = set(released)
+    for i, e in enumerate(pt.transmission.elements):
+        if e.kind == "oneway":
+            continue
+        # a released element: its apply crossing zero; a locked one: its apply's lowest point
+        point = e.apply.next_crossing(APPLY_THRESHOLD, after, stop) if i in released else e.apply.next_minimum(after, stop)
+        if point is not None and point < stop:
+            stop = point
     return stop
 
 
@@ -162,21 +165,32 @@ class ComponentEvaluator:
         return u, derivs, p_in, dissipated, p_load
 
 
-def memo_last(model: "ComponentEvaluator", func):
+def memo_last(model: "ComponentEvaluator", func, t_stop: float = math.inf):
     """``func(t, y)`` remembered for the last ``(t, y)``: the integrator calls the right-hand side
     and every event function with the same point, which then costs one evaluation
-    (counted in ``model.calls``)."""
+    (counted in ``model.calls``).
+
+    ``t_stop``: the segment's end. Signals are right-continuous (a step takes its new value at its
+    time), but a segment ending at a breakpoint integrates the piece before it: at ``t_stop`` the
+    signals are evaluated at :func:`left_of` it, so that its last step and its events see the value
+    the segment integrated, not the one after the jump."""
     last = {}
+    t_left = left_of(t_stop)
 
     def wrapper(t, y):
         key = (t, y.tobytes())
         if key not in last:
             model.calls += 1
             last.clear()
-            last[key] = func(t, y)
+            last[key] = func(t if t < t_left else t_left, y)
         return last[key]
 
     return wrapper
+
+
+def left_of(t: float) -> float:
+    """The last float before ``t``: where a segment ending at ``t`` evaluates its signals."""
+    return math.nextafter(t, -math.inf) if math.isfinite(t) else t
 
 
 def slip_event(slips_of, i: int, moving: int, tol: float):
@@ -195,7 +209,7 @@ def slip_event(slips_of, i: int, moving: int, tol: float):
     return event
 
 
-def apply_events(tr: Transmission, indices, t0: float) -> list:
+def apply_events(tr: Transmission, indices, t0: float, t_stop: float = math.inf) -> list:
     """Terminal events of the friction elements ``indices`` whose apply signal varies: the apply
     crossing :data:`~.transmission.APPLY_THRESHOLD` (a rise from zero, where an element at zero
     slip may lock, or a fall to zero; both are kinks of the element torque, which must not be
@@ -206,8 +220,8 @@ def apply_events(tr: Transmission, indices, t0: float) -> list:
         if e.kind == "oneway" or isinstance(e.apply, Constant):
             continue
 
-        def event(tt, y, signal=e.apply):
-            return signal.value(tt) - APPLY_THRESHOLD
+        def event(tt, y, signal=e.apply, t_left=left_of(t_stop)):
+            return signal.value(tt if tt < t_left else t_left) - APPLY_THRESHOLD
 
         event.terminal, event.info = True, ("apply", i)
         event.direction = -1 if e.applied_just_after(t0) else 1
@@ -243,7 +257,7 @@ class Recorder:
         self.segments: list[Segment] = []
         self.blocks: list[dict[str, np.ndarray]] = []
         self.times: list[np.ndarray] = []
-        self.monitor = (InvariantMonitor(pt.transmission, options.slip_tol, options.energy_tol)
+        self.monitor = (InvariantMonitor(pt.transmission, options.slip_tol, options.energy_tol, 1e3 * options.atol)
                         if options.monitor else None)
 
     def integrate(self, rhs, t0: float, t1: float, y0: np.ndarray, events: list, n_dynamic: int, segment,
@@ -262,7 +276,10 @@ class Recorder:
 
     def add(self, seg: Segment) -> None:
         ts = output_times(seg.t0, seg.t1, self.options.output_dt)
-        block = self.sampler(self.pt, seg, ts, seg.sol(ts))  # the dense output at all samples at once
+        # the dense output at all samples at once; the segment's end sampled with the signals' values
+        # before any jump there (:func:`left_of`), the next segment's start gives those after it
+        at = np.minimum(ts, left_of(seg.t1))
+        block = self.sampler(self.pt, seg, at, seg.sol(ts))
         self.segments.append(seg)
         self.blocks.append(block)
         self.times.append(ts)
@@ -323,8 +340,9 @@ def collect(pt: Powertrain, options: SolverOptions, recorder: Recorder, events: 
 def energy_scale(arrays: dict[str, np.ndarray]) -> float:
     """The energy [J] a run's energy residual is measured against: the largest of the work in,
     the dissipated energy, the work to the load and the stored energy over the run (never near
-    zero while anything moves, also when no work goes in, e.g. a coast-down), at least 1e-12."""
-    return max([float(np.max(np.abs(arrays[k]))) for k in ("E_in", "E_dissipated", "E_load", "E_stored")] + [1e-12])
+    zero while anything moves, also when no work goes in, e.g. a coast-down), at least 1e-9 J (so
+    that the round-off of a run in which nothing moves is no residual)."""
+    return max([float(np.max(np.abs(arrays[k]))) for k in ("E_in", "E_dissipated", "E_load", "E_stored")] + [1e-9])
 
 
 def sample_block(pt: Powertrain, seg: Segment, ts: np.ndarray, ys: np.ndarray, n_extra: int,

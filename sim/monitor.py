@@ -21,7 +21,9 @@ The slip tolerance is the mode decision's (``SolverOptions.slip_tol`` relative t
 speed); torques get a relative tolerance of 1e-6 of the element's capacity or of the largest
 torque in the segment (the events locate lock and unlock to round-off, not to zero); the energy
 residual of a segment is compared with ``energy_tol`` times the energy scale of the run so far
-(the largest of work in, stored, dissipated and load work: never near zero while anything moves).
+(the largest of work in, stored, dissipated and load work), at least ``energy_floor`` (the
+recorder passes 1000 times the integrator's ``atol``: what its absolute tolerance leaves in the
+energy integrals early in a run from rest).
 A violation raises :class:`InvariantViolation` naming the invariant, the element (or signal),
 the time and the mode; the run then stops with ``success = False``.
 """
@@ -60,10 +62,11 @@ class InvariantMonitor:
     ``energy_tol``: the largest energy residual of a segment, relative to the run's energy scale.
     """
 
-    def __init__(self, transmission, slip_tol: float, energy_tol: float):
+    def __init__(self, transmission, slip_tol: float, energy_tol: float, energy_floor: float = 0.0):
         self.tr = transmission
         self.slip_tol = slip_tol
         self.energy_tol = energy_tol
+        self.energy_floor = energy_floor
         self.tally = {name: _Tally() for name in INVARIANTS}
         self.segments = 0
         self.energy_scale = 0.0
@@ -104,7 +107,7 @@ class InvariantMonitor:
         e_diss = block["E_dissipated"]
         slipping = [e.name for i, e in enumerate(self.tr.elements) if i not in locked and e.kind != "oneway"]
         self._verdict("dissipation", np.maximum.accumulate(e_diss) - e_diss,  # the drawdown: solver noise stays small
-                      np.full(n, self.energy_tol * max(self.energy_scale, float(np.max(np.abs(block["E_stored"]))), 1e-9)), ts,
+                      np.full(n, self._energy_limit(float(np.max(np.abs(block["E_stored"]))))), ts,
                       f"the slipping elements ({', '.join(slipping) or 'none'}) and the components",
                       mode, lambda k: f"the dissipated energy decreases (to {e_diss[k]:.6g} J from {np.max(e_diss[:k + 1]):.6g} J)")
         self._energy(ts, block, mode)
@@ -135,6 +138,12 @@ class InvariantMonitor:
             k = int(np.argmax(violated))  # the first violating sample
             raise InvariantViolation(invariant, element, float(ts[k]), mode, detail(k))
 
+    def _energy_limit(self, scale: float = 0.0) -> float:
+        """The energy [J] a segment may miss by: ``energy_tol`` of the run's energy scale, at least
+        ``energy_floor`` (what the integrator's absolute tolerance leaves in the energy integrals,
+        which dominates early in a run from rest)."""
+        return max(self.energy_tol * max(self.energy_scale, scale), self.energy_floor, 1e-12)
+
     def _energy(self, ts, block, mode):
         tally = self.tally["energy_balance"]
         e_in, e_diss, e_load, e_st = (block[k] for k in ("E_in", "E_dissipated", "E_load", "E_stored"))
@@ -142,10 +151,10 @@ class InvariantMonitor:
                                 float(np.max(np.abs(e_load))), float(np.max(np.abs(e_st))))
         residual = (e_in[-1] - e_in[0]) - (e_st[-1] - e_st[0]) - (e_diss[-1] - e_diss[0]) - (e_load[-1] - e_load[0])
         tally.samples += 1
-        ratio = abs(residual) / (self.energy_tol * max(self.energy_scale, 1e-9))
+        ratio = abs(residual) / self._energy_limit()
         tally.worst = max(tally.worst, ratio)
         if ratio > 1.0:
             raise InvariantViolation("energy_balance", "the powertrain", float(ts[-1]), mode,
                                      f"the segment from t={ts[0]:.6g} s does not close: residual {residual:.6g} J "
-                                     f"(energy scale {self.energy_scale:.6g} J, tolerance {self.energy_tol:g})")
+                                     f"(energy scale {self.energy_scale:.6g} J, tolerance {self.energy_tol:g}, floor {self.energy_floor:g} J)")
 

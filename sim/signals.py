@@ -74,6 +74,19 @@ class Signal:
         simulator restarts its integrator there, so that no solver steps over a short pulse."""
         return _piecewise_linear_crossing(self, level, t0, t1) if self.piecewise_linear else None
 
+    def next_minimum(self, t0: float, t1: float) -> float | None:
+        """The first local minimum in ``(t0, t1)`` [s] strictly inside a smooth piece; ``inf`` when
+        there is none, ``None`` when the signal cannot tell. A locked element's holding limit
+        ``T_static * apply`` is smallest there, and the simulator ends a segment at it so that the
+        unlock event cannot be stepped over (a locked mode's dynamics do not see the apply)."""
+        return _next_minimum(self, t0, t1)
+
+
+def _next_minimum(signal: "Signal", t0: float, t1: float) -> float | None:
+    """:meth:`Signal.next_minimum` of a signal without its own: a piecewise-linear one has its
+    minima at breakpoints (``inf``), any other cannot tell (``None``)."""
+    return math.inf if signal.piecewise_linear else None
+
 
 def _piecewise_linear_crossing(signal: "Signal", level: float, t0: float, t1: float) -> float:
     """:meth:`Signal.next_crossing` of a signal that is linear between its breakpoints (jumps are
@@ -228,6 +241,17 @@ class Sine(Signal):
 
     def upper_bound(self, t0: float, t1: float) -> float:
         return self.offset + abs(self.amplitude)
+
+    def next_minimum(self, t0, t1):
+        if self.amplitude == 0.0 or self.frequency == 0.0:
+            return math.inf
+        omega = 2 * math.pi * self.frequency
+        root = 1.5 * math.pi if self.amplitude > 0 else 0.5 * math.pi  # where the sine is lowest
+        k = math.floor((omega * t0 + self.phase - root) / (2 * math.pi)) + 1
+        t = (root + 2 * math.pi * k - self.phase) / omega
+        if t <= t0:
+            t += 2 * math.pi / omega
+        return t if t < t1 else math.inf
 
     def next_crossing(self, level, t0, t1):
         if self.amplitude == 0.0 or self.frequency == 0.0:
@@ -414,6 +438,12 @@ class Spliced(Signal):
     @property
     def piecewise_linear(self) -> bool:
         return self.before.piecewise_linear and self.after.piecewise_linear
+
+    def next_minimum(self, t0, t1):
+        first = self.before.next_minimum(t0, min(t1, self.t)) if t0 < self.t else math.inf
+        if first is None or first < math.inf:
+            return first
+        return self.after.next_minimum(max(t0, self.t), t1) if t1 > self.t else math.inf
 
     def next_crossing(self, level, t0, t1):
         if t0 < self.t:

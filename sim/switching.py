@@ -99,8 +99,9 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None) ->
         tol = slip_tol(w)
         at_zero = [i for i in range(len(tr.elements)) if i not in locked and abs(tr.P[i] @ w) <= tol]
         a = tr.P[at_zero] @ mode.C
-        a = a[np.linalg.norm(a, axis=1) > 1e-9 * max(1.0, float(np.max(np.abs(mode.C))))]  # not held at zero already
-        if len(a):
+        if a.size:  # rows not held at zero by the mode already (round-off rows would zero a coordinate)
+            a = a[np.linalg.norm(a, axis=1) > 1e-9 * max(1.0, float(np.max(np.abs(mode.C))))]
+        if a.size:
             q = q - np.linalg.lstsq(a, a @ q, rcond=1e-9)[0]
         w = mode.C @ q
         layout = StateLayout(pt.components, mode.dof)
@@ -123,7 +124,7 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None) ->
                     diss += torque * s[i]
             return ww, u, derivs, p_in, diss, p_load, slips
 
-        evaluate = memo_last(model, point)
+        evaluate = memo_last(model, point, t_stop)
 
         def rhs(tt, y, mode=mode, layout=layout):
             ww, u, derivs, p_in, diss, p_load, _ = evaluate(tt, y)
@@ -131,7 +132,7 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None) ->
 
         event_funcs = [slip_event(lambda tt, y: evaluate(tt, y)[6], i, int(seg_dirs[i]), tol)
                        for i in slipping if seg_dirs[i] != 0]
-        event_funcs += apply_events(tr, slipping, t)
+        event_funcs += apply_events(tr, slipping, t, t_stop)
         for row, i in enumerate(mode.locked_order):  # one row per locked element or group in parallel
 
             def torque_event(tt, y, row=row, mode=mode):

@@ -441,6 +441,10 @@ class Transmission:
         gearing cannot slip: it is left without torque in that mode (its load has passed to the
         elements that lock the same motion).
 
+        Where several combinations pass and all but one hold a lock that carries only round-off
+        torque (a torque passing through zero, a tiny apply), the one that needs no such lock is
+        taken: locking and slipping then describe the same motion.
+
         ``forced`` maps elements whose unlocking condition has just been met (their row's torque
         reached its holding limit: :meth:`unlock_directions`) to the direction they start to slip
         in: at that instant locking and slipping are both borderline, and the event has already
@@ -498,16 +502,23 @@ class Transmission:
                 # a released element at zero slip moves off the way its slip accelerates
                 for i in released:
                     directions[i] = int(np.sign(slip_acc[i]))
-                if not any(lk == locked and np.array_equal(d, directions) for lk, d in consistent):
-                    consistent.append((locked, directions))
+                if not any(lk == locked and np.array_equal(d, directions) for lk, d, _ in consistent):
+                    # a lock that holds only round-off torque is no lock the motion needs
+                    idle = bool(len(t_locked)) and bool(np.any(np.abs(t_locked) <= 1e-9 * (1.0 + np.max(np.abs(u)))))
+                    consistent.append((locked, directions, idle))
+        if len(consistent) > 1:
+            # locking and slipping both pass where a lock would hold nothing (a torque through zero):
+            # the combination that needs no such lock is the motion
+            needed = [c for c in consistent if not c[2]]
+            consistent = needed if len(needed) == 1 else consistent
         if len(consistent) == 1:
-            return consistent[0]
+            return consistent[0][:2]
         names = ", ".join(self.elements[i].name for z in zero for i in z[0]) or "none"
         if not consistent:
             raise SimulationError(
                 f"t={t:.6g} s: no consistent mode for the elements at zero slip ({names}); "
                 f"{rejected} candidate mode(s) have non-unique locked torques or undetermined members")
-        options = "; ".join("+".join(self.elements[i].name for i in sorted(lk)) or "none" for lk, _ in consistent)
+        options = "; ".join("+".join(self.elements[i].name for i in sorted(lk)) or "none" for lk, _, _ in consistent)
         raise SimulationError(f"t={t:.6g} s: several consistent modes for the elements at zero slip ({names}): {options}")
 
     def _without_implied(self, locked: frozenset, previous: frozenset) -> frozenset:
