@@ -2,8 +2,8 @@
 and its long fuzz (benchmarks/fuzz_invariants.py).
 
 A case is a chain of 2-5 links (inertias 0.01-10 kg*m^2) in which consecutive links are joined by
-a friction clutch, a one-way clutch or a simple planetary (with a third link of the chain), plus
-brakes, with random apply signals (constant, step, ramp, table, sine, a sine with offset 0 being
+a friction clutch, a one-way clutch or a simple planetary (with a third link of the chain or the
+housing as its third member), plus brakes, with random apply signals (constant, step, ramp, table, sine, a sine with offset 0 being
 clipped at zero: kinks and rises from zero), a random input torque and output torque, random
 initial speeds (some slips start at exactly zero, some links at rest), run for 0.2-0.5 s.
 
@@ -30,6 +30,7 @@ from hypothesis import strategies as st
 from transgen.errors import MechError, ScenarioError, TransgenError
 from transgen.sim.scenario import load_scenario
 
+HOUSING = "housing"
 SOLVERS = ("DOP853", "RK45", "LSODA", "Radau", "BDF")
 
 #: Tolerances of the properties (issue 10).
@@ -151,11 +152,11 @@ def cases(draw) -> Case:
         elements.append((name, kind, static, 0))
 
     for k in range(n - 1):
-        joints = ["clutch", "oneway"] + (["planetary"] if n >= 3 and len(planetaries) < 2 else [])
+        joints = ["clutch", "oneway"] + (["planetary"] if len(planetaries) < 2 else [])
         joint = draw(st.sampled_from(joints))
         a, b = links[k], links[k + 1]
         if joint == "planetary":
-            third = draw(st.sampled_from([x for x in links if x not in (a, b)]))
+            third = draw(st.sampled_from([x for x in links if x not in (a, b)] + [HOUSING]))  # a fixed member
             sun, ring, carrier = draw(st.permutations([a, b, third]))
             if any({sun, ring, carrier} == {p[0], p[1], p[2]} for p in planetaries):
                 joint = "clutch"  # two planetaries on the same three links tie them up or duplicate
@@ -188,9 +189,10 @@ def cases(draw) -> Case:
                 speeds[link] = speeds[a] if how == "same" else speeds[a] - free * abs(speeds[link] - speeds[a])
             elif a == link and b is None and free * speeds[link] < 0:
                 speeds[link] = -speeds[link]
+    speeds[HOUSING] = 0.0
     for i, (sun, ring, carrier, ns, nr) in enumerate(planetaries):
         others = {x for j, p in enumerate(planetaries) if j != i for x in p[:3]}
-        free = [x for x in (carrier, sun, ring) if x not in others]
+        free = [x for x in (carrier, sun, ring) if x not in others and x != HOUSING]
         assume(free)
         x = free[0]
         if x == carrier:
@@ -199,6 +201,7 @@ def cases(draw) -> Case:
             speeds[sun] = ((ns + nr) * speeds[carrier] - nr * speeds[ring]) / ns
         else:
             speeds[ring] = ((ns + nr) * speeds[carrier] - ns * speeds[sun]) / nr
+    speeds.pop(HOUSING, None)
     scale = max(1.0, max(abs(v) for v in speeds.values()))
     assume(all(free * (speeds[a] - (speeds[b] if b else 0.0)) >= -1e-12 * scale for a, b, free in oneways))
     bound = draw(st.sampled_from([10.0, 100.0, 300.0]))

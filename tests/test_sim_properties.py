@@ -34,7 +34,7 @@ from hypothesis import HealthCheck, Phase, assume, given, settings
 import random_mechanisms as rm
 from test_sim_trust import scenario
 
-EXAMPLES = 24
+EXAMPLES = 36
 
 @pytest.fixture(scope="module")
 def outcomes(tmp_path_factory):
