@@ -18,9 +18,11 @@ LSODA, Radau and BDF. The properties, each its own test over the same derandomiz
 5. the mode decision is unique: never "several consistent modes", and "no consistent mode" only
    where candidates were refused for a non-unique torque split (elements in parallel).
 
-Violations that match a known simulator bug (``KNOWN_BUGS``, each with a minimal reproducer test
-below marked xfail) make the property test xfail naming the bug and listing the cases; any other
-violation fails it with the case's .mech and TOML text. ``benchmarks/fuzz_invariants.py`` runs the
+The examples are generated once (module fixture, no shrinking: five solvers per example make
+shrinking slow, and a failure prints the case's .mech and TOML text). Violations that match a known
+simulator bug (``random_mechanisms.KNOWN_BUGS``, each with a minimal reproducer test below, marked
+xfail, with its closed-form answer) make the property test xfail naming the bug; any other
+violation fails it. ``benchmarks/fuzz_invariants.py`` runs the
 same generator for hundreds of examples.
 """
 from __future__ import annotations
@@ -34,7 +36,8 @@ from hypothesis import HealthCheck, Phase, assume, given, settings
 import random_mechanisms as rm
 from test_sim_trust import scenario
 
-EXAMPLES = 36
+EXAMPLES = 36  # about 10-50 s on this 2-core machine, depending on its load
+
 
 @pytest.fixture(scope="module")
 def outcomes(tmp_path_factory):
