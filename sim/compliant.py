@@ -20,7 +20,8 @@ from transgen.errors import ModeError, SimulationError
 
 from .result import Event
 from .integration import (ComponentEvaluator, Powertrain, Recorder, Segment, SolverOptions, StateLayout, apply_events,
-                          collect, memo_last, next_stop, sample_block, slip_event)
+                          collect, memo_last, next_stop, sample_block, signal_time,
+                          slip_event)
 
 __all__ = ["simulate_compliant"]
 
@@ -80,7 +81,7 @@ def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
             directions = np.where(at_zero, np.sign(acc).astype(int), directions)
         seg_dirs = directions.copy()
         point.__defaults__ = (seg_stuck, tr.P @ mode.C, tr.slipping_set(seg_locked, seg_dirs, t, t_stop))
-        evaluate = memo_last(model, point, t_stop)
+        evaluate = memo_last(model, point, t_stop, signal_time(pt, t))
 
         def rhs(tt, y, seg_stuck=seg_stuck):
             ww, u, derivs, p_in, diss, p_load, slips, _ = evaluate(tt, y)

@@ -27,7 +27,7 @@ from .signals import Constant
 from .transmission import APPLY_THRESHOLD, ModeData, Transmission
 
 __all__ = ["SolverOptions", "Powertrain", "Segment", "StateLayout", "ComponentEvaluator", "next_stop", "memo_last",
-           "slip_event", "apply_events",
+           "slip_event", "apply_events", "signal_time",
            "check_finite", "integrate", "output_times", "Recorder", "collect", "energy_scale",
            "sample_block"]
 
@@ -107,6 +107,15 @@ class StateLayout:
         return out
 
 
+def signal_time(pt: Powertrain, t: float) -> float:
+    """Where a segment starting at ``t`` evaluates its signals at its start: ``t``, or the last
+    breakpoint closer after it than a segment can be long (1e-12 relative): a jump that close is
+    taken as passed, not stepped over with the value before it."""
+    after = t + 1e-12 * max(1.0, abs(t))
+    points = [p for o in (*pt.transmission.elements, *pt.components) for p in o.breakpoints(t, after) if t < p <= after]
+    return max(points, default=t)
+
+
 def next_stop(pt: Powertrain, t: float, t_end: float, released=()) -> float:
     """Where the segment starting at ``t`` must end at the latest: the next breakpoint of an input
     signal (a kink or jump of an apply, a torque, a throttle, ...), the next crossing of
@@ -165,7 +174,7 @@ class ComponentEvaluator:
         return u, derivs, p_in, dissipated, p_load
 
 
-def memo_last(model: "ComponentEvaluator", func, t_stop: float = math.inf):
+def memo_last(model: "ComponentEvaluator", func, t_stop: float = math.inf, t_from: float = -math.inf):
     """``func(t, y)`` remembered for the last ``(t, y)``: the integrator calls the right-hand side
     and every event function with the same point, which then costs one evaluation
     (counted in ``model.calls``).
@@ -173,7 +182,8 @@ def memo_last(model: "ComponentEvaluator", func, t_stop: float = math.inf):
     ``t_stop``: the segment's end. Signals are right-continuous (a step takes its new value at its
     time), but a segment ending at a breakpoint integrates the piece before it: at ``t_stop`` the
     signals are evaluated at :func:`left_of` it, so that its last step and its events see the value
-    the segment integrated, not the one after the jump."""
+    the segment integrated, not the one after the jump; before ``t_from`` (:func:`signal_time`)
+    they are evaluated at it."""
     last = {}
     t_left = left_of(t_stop)
 
@@ -182,7 +192,7 @@ def memo_last(model: "ComponentEvaluator", func, t_stop: float = math.inf):
         if key not in last:
             model.calls += 1
             last.clear()
-            last[key] = func(t if t < t_left else t_left, y)
+            last[key] = func(min(max(t, t_from), t_left), y)
         return last[key]
 
     return wrapper

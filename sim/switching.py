@@ -34,7 +34,8 @@ import numpy as np
 from transgen.errors import ModeError, SimulationError
 
 from .integration import (ComponentEvaluator, Powertrain, Recorder, Segment, SolverOptions, StateLayout, apply_events,
-                          collect, memo_last, next_stop, sample_block, slip_event)
+                          collect, memo_last, next_stop, sample_block, signal_time,
+                          slip_event)
 from .result import Event, Result
 
 __all__ = ["simulate_switching"]
@@ -66,10 +67,11 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None) ->
         # the consistent mode at t
         dummy_layout = StateLayout(pt.components, 0)
         y_ext = np.concatenate(comp_states + [energy]) if comp_states else energy.copy()
-        u_ext, *_ = model.external(t, y_ext, w, dummy_layout)
+        t_sig = signal_time(pt, t)
+        u_ext, *_ = model.external(t_sig, y_ext, w, dummy_layout)
         previous = locked
         try:
-            locked, directions = tr.decide(t, w, u_ext, slip_tol(w), forced, previous or frozenset())
+            locked, directions = tr.decide(t_sig, w, u_ext, slip_tol(w), forced, previous or frozenset())
             mode = tr.mode(locked)
         except (SimulationError, ModeError) as exc:
             success, message = False, f"{exc} (mode {tr.mode_name(previous) if previous is not None else 'none'})"
@@ -124,7 +126,7 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None) ->
                     diss += torque * s[i]
             return ww, u, derivs, p_in, diss, p_load, slips
 
-        evaluate = memo_last(model, point, t_stop)
+        evaluate = memo_last(model, point, t_stop, t_sig)
 
         def rhs(tt, y, mode=mode, layout=layout):
             ww, u, derivs, p_in, diss, p_load, _ = evaluate(tt, y)
@@ -132,7 +134,7 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None) ->
 
         event_funcs = [slip_event(lambda tt, y: evaluate(tt, y)[6], i, int(seg_dirs[i]), tol)
                        for i in slipping if seg_dirs[i] != 0]
-        event_funcs += apply_events(tr, slipping, t, t_stop)
+        event_funcs += apply_events(tr, slipping, t_sig, t_stop)
         for row, i in enumerate(mode.locked_order):  # one row per locked element or group in parallel
 
             def torque_event(tt, y, row=row, mode=mode):
