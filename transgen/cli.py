@@ -312,6 +312,9 @@ def _add_sim_commands(sub) -> None:
     except ImportError:  # pragma: no cover - the simulator is part of the package
         return
     add_commands(sub)
+    from .sim.study.cli import add_commands as add_study_commands
+
+    add_study_commands(sub)
 
 
 def _terminate(signum, frame):

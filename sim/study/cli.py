@@ -1,0 +1,211 @@
+"""``transgen sweep``: the command line of :func:`transgen.sim.study.sweep` (a thin layer).
+
+``--grid KEY=V1,V2,...`` (TOML values), ``--grid KEY=LO:HI:N`` (N values from LO to HI inclusive)
+or, with ``--samples N``, ``--grid KEY=LO:HI`` (a Latin-hypercube range). Bad keys and values are
+``error:`` lines naming the key, with the closest known key, and exit 2 before any run starts.
+"""
+from __future__ import annotations
+
+import json
+import re
+import sys
+import time
+
+__all__ = ["add_commands", "cmd_sweep", "parse_grid"]
+
+_RANGE = re.compile(r"\s*([^:,]+?)\s*:\s*([^:,]+?)\s*(?::\s*([^:,]+?)\s*)?")
+
+
+def add_commands(sub) -> None:
+    """Add ``sweep`` to the ``transgen`` parser."""
+    s = sub.add_parser("sweep", help="run a scenario over a grid or a Latin-hypercube sample of parameters",
+                       description="Run a scenario (a .toml file or a bundled name) over a full grid of dotted-key "
+                                   "overrides (--grid KEY=V1,V2,... or KEY=LO:HI:N) or a Latin-hypercube sample "
+                                   "(--samples N with --grid KEY=LO:HI). One CSV row per run: the parameters, "
+                                   "success, message, wall time, the energy balance, every scalar of the shift "
+                                   "report per shift and the turbocharger figures. Rerunning with the same -o "
+                                   "resumes: finished rows are kept, not run again.")
+    s.add_argument("scenario", metavar="SCENARIO", help="scenario .toml file or bundled name")
+    s.add_argument("--grid", metavar="KEY=VALUES", action="append", required=True,
+                   help="a parameter and its values: KEY=V1,V2,... (TOML values), KEY=LO:HI:N (N values, "
+                        "inclusive) or, with --samples, KEY=LO:HI; repeatable")
+    s.add_argument("--samples", type=int, metavar="N", help="a Latin-hypercube sample of N runs over the LO:HI ranges")
+    s.add_argument("--seed", type=int, default=0, help="seed of the Latin-hypercube sample (default 0)")
+    engine = s.add_mutually_exclusive_group()
+    engine.add_argument("--workers", type=int, metavar="N",
+                        help="local worker processes (default: one per core; 1: in this process)")
+    engine.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                        help="run on a Dask distributed cluster (needs transgen[distributed])")
+    s.add_argument("-o", "--output", required=True, metavar="RESULTS.csv",
+                   help="results CSV, rewritten atomically as rows complete; an existing one is resumed")
+    s.add_argument("--json", action="store_true", help="print a JSON summary (schema transgen.sweep/1)")
+    s.add_argument("--plot", metavar="DIR", help="write plots of the shift metrics into DIR")
+    s.add_argument("--format", default="png", help="plot formats, comma-separated: png,svg,pdf (default png)")
+    s.add_argument("--quiet", action="store_true", help="no progress on standard error")
+    s.set_defaults(func=cmd_sweep)
+
+
+def _values(spec: str) -> list[str]:
+    """``spec`` split at the commas outside brackets, braces and quotes."""
+    parts, depth, quote, current = [], 0, None, []
+    for ch in spec:
+        if quote:
+            quote = None if ch == quote else quote
+        elif ch in "\"'":
+            quote = ch
+        elif ch in "[{":
+            depth += 1
+        elif ch in "]}":
+            depth -= 1
+        elif ch == "," and depth == 0:
+            parts.append("".join(current))
+            current = []
+            continue
+        current.append(ch)
+    parts.append("".join(current))
+    return parts
+
+
+def _is_number(x) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool)
+
+
+def parse_grid(text: str, sampled: bool = False) -> tuple[str, object]:
+    """``(key, values)`` of one ``--grid`` option; with ``sampled`` ``(key, (lo, hi))``.
+    Raises ScenarioError (``--grid KEY: error: ...``)."""
+    from transgen.errors import ScenarioError
+    from transgen.sim import parse_override
+
+    from .design import linspace_values
+
+    key, eq, spec = text.partition("=")
+    key = key.strip()
+    if not eq or not key:
+        raise ScenarioError(f"--grid {text}: error: expected KEY=V1,V2,... or KEY=LO:HI:N, "
+                            f"e.g. driveline.vehicle_mass=20000,36000")
+
+    def value(part: str):
+        return parse_override(f"{key}={part}")[1]
+
+    match = _RANGE.fullmatch(spec)
+    if match:
+        lo, hi = value(match.group(1)), value(match.group(2))
+        if _is_number(lo) and _is_number(hi):
+            count = match.group(3)
+            if sampled:
+                if count is not None:
+                    raise ScenarioError(f"--grid {key}: error: with --samples give the range as LO:HI, not LO:HI:N")
+                return key, (lo, hi)
+            n = value(count) if count is not None else None
+            if not isinstance(n, int) or isinstance(n, bool) or n < 1:
+                raise ScenarioError(f"--grid {key}: error: LO:HI:N needs the number of values N (a whole number "
+                                    f">= 1), e.g. {key}={lo}:{hi}:5; or sample the range with --samples")
+            return key, linspace_values(lo, hi, n)
+    if sampled:
+        raise ScenarioError(f"--grid {key}: error: with --samples every parameter is a range LO:HI, e.g. {key}=0.5:0.9")
+    return key, [value(part) for part in _values(spec)]
+
+
+def _as_grid_error(message: str) -> str:
+    """An override error of the scenario reader (``--set KEY: error: ...``) as the option that
+    gave the value (``--grid KEY: error: ...``)."""
+    return message.replace("--set", "--grid") if message.startswith("--set ") else message
+
+
+def _progress_printer(enabled: bool):
+    if not enabled:
+        return None, lambda: None
+    width = [0]
+
+    def show(p) -> None:
+        text = "  " + p.text()
+        print("\r" + text.ljust(width[0]), end="", file=sys.stderr, flush=True)
+        width[0] = max(width[0], len(text))
+
+    def end() -> None:
+        if width[0]:
+            print(file=sys.stderr)
+    return show, end
+
+
+def cmd_sweep(args) -> int:
+    from transgen import __version__
+    from transgen.errors import ScenarioError
+
+    from .executors import make_executor
+    from .sweep import sweep
+
+    sampled = args.samples is not None
+    grid: dict = {}
+    try:
+        for text in args.grid:
+            key, values = parse_grid(text, sampled)
+            if key in grid:
+                raise ScenarioError(f"--grid {key}: error: given twice (list all its values in one --grid)")
+            grid[key] = values
+        if args.plot:
+            from transgen.sim.cli import _plot_formats
+
+            formats = _plot_formats(args.format)
+        executor = make_executor(args.workers, args.scheduler)
+    except (ScenarioError, ValueError, ImportError) as exc:
+        return _fail(exc)
+    show, end = _progress_printer(not (args.quiet or args.json) and sys.stderr.isatty())
+    start = time.perf_counter()
+    try:
+        table = sweep(args.scenario, grid, samples=args.samples, seed=args.seed, executor=executor,
+                      progress=show, results=args.output)
+    except ScenarioError as exc:
+        end()
+        return _fail(exc)
+    finally:
+        end()
+    elapsed = time.perf_counter() - start
+    written = [args.output]
+    if args.plot:
+        from transgen.export import output_set
+
+        from .plots import plot_sweep
+
+        with output_set():
+            written += [str(p) for p in plot_sweep(table, args.plot, formats)]
+    rows = table.rows
+    failed = table.failed
+    if args.json:
+        summary = {
+            "schema": "transgen.sweep/1",
+            "transgen_version": __version__,
+            "scenario": args.scenario,
+            "design": {"kind": "latin_hypercube" if sampled else "grid", "parameters": grid,
+                       "samples": args.samples, "seed": args.seed if sampled else None},
+            "executor": repr(executor),
+            "runs": len(rows),
+            "succeeded": len(rows) - len(failed),
+            "failed": len(failed),
+            "wall_time": elapsed,
+            "results": args.output,
+            "written": written,
+            "columns": table.columns,
+            "units": {"wall_time": "s", **table.units()},
+            "failures": [{"key": r["key"], "message": r.get("message", "")} for r in failed],
+            "rows": table.rows,
+        }
+        print(json.dumps(summary, indent=2, default=str, allow_nan=False))
+    else:
+        print(f"{len(rows)} runs: {len(rows) - len(failed)} succeeded, {len(failed)} failed, {elapsed:.1f} s "
+              f"({executor!r})")
+        for r in failed[:10]:
+            print(f"  failed {r['key']}: {' '.join(f'{p}={r.get(p)}' for p in table.parameters)}: "
+                  f"{str(r.get('message', '')).splitlines()[0] if r.get('message') else ''}")
+        if len(failed) > 10:
+            print(f"  ... and {len(failed) - 10} more failed runs (see the message column)")
+        for w in written:
+            print(f"  wrote {w}")
+    return 0
+
+
+def _fail(exc) -> int:
+    message = _as_grid_error(str(exc))
+    first = message.split("\n", 1)[0]
+    print(message if ": error: " in first else f"error: {message}", file=sys.stderr)
+    return 2

@@ -1,0 +1,126 @@
+"""Where the runs of a study execute: in this process, in local processes, or on a Dask cluster.
+
+An executor has one method, ``run(fn, shared, tasks)``: it calls ``fn(shared, task)`` for every
+task and yields the results as they complete (in any order). ``shared`` (the scenario's texts)
+is the same for every task and sent to each worker once where the engine allows it. ``fn`` must
+be an importable module-level function (it is sent by name). Stopping the iteration early (an
+error, Ctrl-C) cancels the runs not started.
+
+* :class:`SerialExecutor` - one after the other in this process;
+* :class:`LocalExecutor` - a :class:`concurrent.futures.ProcessPoolExecutor` (``workers``, default
+  :func:`os.cpu_count`), started with the ``forkserver`` method where there is one (forking a
+  process that runs threads is unsafe), else ``spawn``;
+* :class:`DaskExecutor` - a Dask distributed cluster by scheduler address
+  (``tcp://HOST:PORT``) or an existing ``distributed.Client``; the optional extra
+  ``transgen[distributed]``, imported only here.
+"""
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Iterable, Iterator
+
+__all__ = ["SerialExecutor", "LocalExecutor", "DaskExecutor", "make_executor", "DISTRIBUTED_MISSING"]
+
+DISTRIBUTED_MISSING = ("the Dask executor needs dask.distributed, which is not installed: "
+                       "pip install 'transgen[distributed]'")
+
+
+class SerialExecutor:
+    """Runs the tasks one after the other in this process."""
+
+    workers = 1
+
+    def run(self, fn: Callable, shared, tasks: Iterable) -> Iterator:
+        for task in tasks:
+            yield fn(shared, task)
+
+    def __repr__(self) -> str:
+        return "SerialExecutor()"
+
+
+class LocalExecutor:
+    """Runs the tasks in ``workers`` local processes (default: :func:`os.cpu_count`)."""
+
+    def __init__(self, workers: int | None = None):
+        if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
+            raise ValueError(f"--workers: error: the number of workers is a whole number >= 1, not {workers!r}")
+        self.workers = workers or os.cpu_count() or 1
+
+    def run(self, fn: Callable, shared, tasks: Iterable) -> Iterator:
+        import multiprocessing
+        from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+
+        methods = multiprocessing.get_all_start_methods()
+        context = multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
+        if context.get_start_method() == "forkserver":  # workers fork from a server that has the simulator loaded
+            context.set_forkserver_preload(["transgen.sim.study.task"])
+        pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=context)
+        try:
+            pending = {pool.submit(fn, shared, task) for task in tasks}
+            while pending:
+                done, pending = wait(pending, return_when=FIRST_COMPLETED)
+                for future in done:
+                    yield future.result()
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
+
+    def __repr__(self) -> str:
+        return f"LocalExecutor(workers={self.workers})"
+
+
+class DaskExecutor:
+    """Runs the tasks on a Dask distributed cluster: give the scheduler's ``address``
+    (``tcp://HOST:PORT``; a client is opened and closed for each :meth:`run`) or a ``client``.
+
+    The workers need transgen installed (the same version: the numbers come from their copy of
+    the simulator); they get the scenario's texts (scattered once to every worker) and the
+    overrides of each run."""
+
+    def __init__(self, address: str | None = None, client=None):
+        if (address is None) == (client is None):
+            raise ValueError("DaskExecutor: give the scheduler address or a distributed.Client (one of them)")
+        self.address, self.client = address, client
+        _distributed()  # a missing extra is an error before anything runs
+
+    @property
+    def workers(self) -> int:
+        client = self.client
+        return len(client.scheduler_info().get("workers", {})) if client is not None else 0
+
+    def run(self, fn: Callable, shared, tasks: Iterable) -> Iterator:
+        distributed = _distributed()
+        client = self.client if self.client is not None else distributed.Client(self.address, timeout="20s")
+        try:
+            [shared_future] = client.scatter([shared], broadcast=True, hash=False)
+            futures = [client.submit(fn, shared_future, task, pure=False) for task in tasks]
+            try:
+                for future in distributed.as_completed(futures):
+                    yield future.result()
+            finally:
+                client.cancel(futures)
+        finally:
+            if self.client is None:
+                client.close()
+
+    def __repr__(self) -> str:
+        return f"DaskExecutor({self.address or self.client!r})"
+
+
+def _distributed():
+    try:
+        import distributed
+    except ImportError as exc:
+        raise ImportError(DISTRIBUTED_MISSING) from exc
+    return distributed
+
+
+def make_executor(workers: int | None = None, scheduler: str | None = None):
+    """The executor of the command line's options: ``scheduler`` (a Dask address) or ``workers``
+    local processes (1: serially in this process; None: one per core)."""
+    if scheduler is not None:
+        if workers is not None:
+            raise ValueError("--workers and --scheduler: error: choose one (the cluster's workers run the tasks)")
+        return DaskExecutor(scheduler)
+    if workers == 1:
+        return SerialExecutor()
+    return LocalExecutor(workers)

@@ -1,0 +1,206 @@
+"""Run a scenario over a design of overrides: :func:`sweep`.
+
+Every variant is checked before any run starts (:func:`validate_variants`: a bad key or value is
+a :class:`~transgen.errors.ScenarioError` naming the key, with the closest known key). Each run
+is then a task for the executor: the texts of the scenario's files, its path and the overrides
+(:func:`.task.run_task`). A failed run is a row, never the end of the sweep.
+
+With ``results=PATH`` the study resumes: rows of an earlier file at that path whose key
+(:func:`~.design.row_key`) is in the design are kept and not run again, and the file is
+rewritten atomically (temporary file + rename) as rows complete, and once more when the sweep
+ends or is interrupted, so that a killed sweep loses nothing it finished. Rows of that file that
+are not in the design are kept, after the design's rows.
+"""
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from .design import full_grid, latin_hypercube, row_key
+from .table import FIRST_COLUMNS, SweepTable
+
+__all__ = ["sweep", "SweepProgress", "validate_variants", "design_variants", "scenario_path"]
+
+
+@dataclass(frozen=True)
+class SweepProgress:
+    """Where a sweep is: ``done`` of ``total`` rows (``resumed`` of them from an earlier results
+    file), ``failed`` of the done, ``elapsed`` seconds since the runs started."""
+
+    done: int
+    failed: int
+    total: int
+    resumed: int
+    elapsed: float
+
+    @property
+    def rate(self) -> float:
+        """Runs per second finished in this sweep (0 before the first)."""
+        ran = self.done - self.resumed
+        return ran / self.elapsed if ran and self.elapsed > 0 else 0.0
+
+    @property
+    def remaining(self) -> float | None:
+        """Estimated seconds left (None before the first run finished)."""
+        return (self.total - self.done) / self.rate if self.rate > 0 else None
+
+    def text(self) -> str:
+        left = self.remaining
+        eta = "" if left is None else f", {_clock(left)} left"
+        return (f"{self.done}/{self.total} runs, {self.failed} failed, {self.rate:.2f} runs/s, "
+                f"{_clock(self.elapsed)} elapsed{eta}")
+
+
+def _clock(seconds: float) -> str:
+    seconds = int(round(seconds))
+    return f"{seconds // 3600}:{seconds // 60 % 60:02d}:{seconds % 60:02d}"
+
+
+def scenario_path(scenario: str | Path) -> str:
+    """The path the workers load: a scenario file's resolved path, or a bundled scenario's (the
+    texts are keyed by it); anything else as given (loading it gives the error)."""
+    from transgen.sim.scenario import bundled_scenarios
+
+    path = Path(scenario)
+    if path.is_file():
+        return str(path.resolve())
+    bundled = bundled_scenarios()
+    if path.stem in bundled and path.suffix in ("", ".toml"):
+        return str(bundled[path.stem].resolve())
+    return str(scenario)
+
+
+def design_variants(grid: Mapping[str, Sequence], samples: int | None = None, seed: int = 0) -> list[dict]:
+    """The variants of a design: the full grid, or with ``samples`` a Latin-hypercube sample of
+    the ranges ``grid`` gives (key -> (lo, hi))."""
+    if not grid:
+        raise ValueError("--grid: error: give at least one parameter to vary (--grid KEY=V1,V2,...)")
+    for key in grid:
+        if key == "key" or key in FIRST_COLUMNS or key.split(".")[0] in ("energy", "turbo") \
+                or key.split(".")[0].startswith("shift") and key.split(".")[0][5:].isdigit():
+            raise ValueError(f"--grid {key}: error: not a scenario key (the name of a result column)")
+    return full_grid(grid) if samples is None else latin_hypercube(grid, samples, seed)
+
+
+def validate_variants(path: str, variants: Sequence[Mapping]) -> dict[str, str]:
+    """Load the scenario with every variant (or, when that is fewer loads, with each distinct
+    key/value alone and the first variant whole) and return the texts of every file those loads
+    read. Raises :class:`~transgen.errors.ScenarioError` (``--set KEY: error: ...`` for a bad key
+    or value) at the first problem: before any run."""
+    from transgen.sim import scenario_files
+
+    pairs: dict[tuple, tuple] = {}
+    for variant in variants:
+        for key, value in variant.items():
+            pairs.setdefault((key, repr(value)), (key, value))
+    checks = [dict(v) for v in variants]
+    if len(pairs) + 1 < len(checks):
+        checks = [dict(variants[0])] + [{key: value} for key, value in pairs.values()]
+    files: dict[str, str] = {}
+    for overrides in checks:
+        files.update(scenario_files(path, overrides))
+    return files
+
+
+def sweep(scenario: str | Path, grid: Mapping[str, Sequence], samples: int | None = None, seed: int = 0,
+          executor=None, progress: Callable[[SweepProgress], None] | None = None,
+          results: str | Path | None = None) -> SweepTable:
+    """Run ``scenario`` (a file or a bundled name) over a design of overrides; one row per run.
+
+    Parameters
+    ----------
+    grid : mapping
+        Dotted key (``driveline.vehicle_mass``, ``mech.C4.static``, see
+        :func:`transgen.sim.scenario_keys`) -> list of values (TOML data): the full factorial
+        grid; with ``samples``: key -> ``(lo, hi)``, the ranges of a Latin-hypercube sample.
+    samples, seed : int
+        Number of Latin-hypercube samples and the seed of the sample (reproducible).
+    executor :
+        :class:`~.executors.SerialExecutor`, :class:`~.executors.LocalExecutor` (the default:
+        one process per core) or :class:`~.executors.DaskExecutor`; the numbers are the same.
+    progress : callable
+        Called with a :class:`SweepProgress` when the runs start and after every row.
+    results : path
+        CSV results file: resume from it and rewrite it atomically as rows complete.
+
+    Returns
+    -------
+    SweepTable
+        Rows in the design's order (see :mod:`.table` for the columns).
+
+    Raises
+    ------
+    ScenarioError
+        For a bad key or value (before any run); ValueError for a bad design or results file.
+    """
+    from .executors import LocalExecutor
+    from .task import run_task
+
+    path = scenario_path(scenario)
+    name = Path(path).stem
+    variants = design_variants(grid, samples, seed)
+    parameters = list(grid)
+    keys: list[str] = []
+    unique: list[dict] = []
+    for variant in variants:  # a value given twice is one run
+        key = row_key(name, variant)
+        if key not in keys:
+            keys.append(key)
+            unique.append(variant)
+    earlier = SweepTable.from_csv(results) if results is not None and Path(results).is_file() else None
+    files = validate_variants(path, unique)
+
+    previous = {str(r["key"]): r for r in (earlier.rows if earlier else [])}
+    rows: list[dict | None] = [previous.get(k) for k in keys]
+    extra = [r for k, r in previous.items() if k not in set(keys)]
+    parameters += [p for p in (earlier.parameters if earlier else []) if p not in parameters]
+    todo = [(i, unique[i]) for i, row in enumerate(rows) if row is None]
+    resumed = len(keys) - len(todo)
+    failed = sum(1 for r in rows if r is not None and not r.get("success"))
+
+    def table() -> SweepTable:
+        return SweepTable([r for r in rows if r is not None] + extra, parameters)
+
+    writer = _ResultsWriter(results)
+    start = time.perf_counter()
+    done = resumed
+    if progress is not None:
+        progress(SweepProgress(done, failed, len(keys), resumed, 0.0))
+    try:
+        if todo:
+            for index, row in (executor or LocalExecutor()).run(run_task, {"path": path, "files": files}, todo):
+                rows[index] = {"key": keys[index], **unique[index], **row}
+                done += 1
+                failed += not row.get("success")
+                writer.write(table, final=False)
+                if progress is not None:
+                    progress(SweepProgress(done, failed, len(keys), resumed, time.perf_counter() - start))
+    finally:
+        writer.write(table, final=True)
+    return table()
+
+
+class _ResultsWriter:
+    """Rewrites the results file atomically after rows complete: after every row while writing
+    takes little time, else at most once per four write durations (a big file is not rewritten
+    for every row), and always at the end."""
+
+    def __init__(self, path):
+        self.path = path
+        self.next_time = 0.0
+        self.dirty = False
+
+    def write(self, table: Callable[[], SweepTable], final: bool) -> None:
+        """``final=False``: a row completed; ``final=True``: the sweep ends (write what is pending)."""
+        if self.path is None:
+            return
+        self.dirty = self.dirty or not final
+        now = time.perf_counter()
+        if not self.dirty or (not final and now < self.next_time):
+            return
+        table().to_csv(self.path)
+        self.dirty = False
+        took = time.perf_counter() - now
+        self.next_time = time.perf_counter() + 4 * took
