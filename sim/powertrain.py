@@ -36,7 +36,6 @@ from .engine.gas import RPM
 from .engine.map_file import DATA_DIR, CompressorMap, MapError, TurbineMap, parse_map
 from .engine.torque_converter import DEFAULT_TORQUE_CONVERTER, TorqueConverter, TorqueConverterError
 from .engine.turbocharger import BasicTurbo, IterativeTurbo, PortAreas, TurboShaft
-from .scenario_schema import GOVERNOR_KEYS
 from .signals import Signal
 
 __all__ = [
@@ -45,6 +44,7 @@ __all__ = [
     "turbodiesel_component",
     "converter_component",
     "CRANK_MODELS",
+    "GOVERNOR_KEYS",
     "ENGINE_KEYS",
     "SHAFT_KEYS",
     "PORT_KEYS",
@@ -246,6 +246,8 @@ class ConverterComponent(Component):
 # ----------------------------------------------------------------------------- scenario keys
 
 
+GOVERNOR_KEYS = frozenset({"idle_rpm", "gain"})
+"""Keys of ``[input] governor = {...}``: the idle governor (:class:`SpeedGovernor`)."""
 ENGINE_KEYS = frozenset(f.name for f in fields(EngineParams) if f.name not in ("air", "exhaust", "shaft"))
 """Keys of ``[input] engine = {...}``: the fields of :class:`~transgen.sim.engine.EngineParams`
 (SI units, as documented there) that are numbers or lists of numbers."""
