@@ -50,7 +50,7 @@ ANY = "*"
 
 
 def _leaves(keys) -> dict:
-    return {k: LEAF for k in keys}
+    return {k: LEAF for k in sorted(keys)}
 
 
 def key_tree(elements=None, links=None) -> dict:
