@@ -16,18 +16,18 @@ from __future__ import annotations
 
 import copy
 import difflib
-import math
+import json
 import re
 import tomllib
 from collections.abc import Mapping
 
 from transgen.errors import ScenarioError
 
-from .scenario_file import Source, non_finite, shown
+from .scenario_file import Source, bounded, non_finite, shown
 from .scenario_schema import ANY as _ANY
 from .scenario_schema import LEAF, SIGNAL, SIGNAL_KEYS, key_tree
 
-__all__ = ["parse_override", "parse_value", "split_key", "apply_overrides", "check_keys", "mech_overrides",
+__all__ = ["parse_override", "parse_value", "toml_value", "split_key", "apply_overrides", "check_keys", "mech_overrides",
            "settable_keys", "MECH_PREFIX"]
 
 MECH_PREFIX = "mech"
@@ -76,9 +76,26 @@ def parse_override(text: str) -> tuple[str, object]:
     key, eq, value = text.partition("=")
     key = key.strip()
     if not eq or not key:
-        raise ScenarioError(f"--set {shown(text)}: error: expected KEY=VALUE, e.g. driveline.vehicle_mass=20000")
+        raise ScenarioError(f"--set {bounded(text.strip(), 200)}: error: expected KEY=VALUE, e.g. driveline.vehicle_mass=20000")
     split_key(key)
     return key, parse_value(value, key)
+
+
+def toml_value(value) -> str:
+    """``value`` (plain TOML data) written as a TOML value, as ``--set`` reads it back."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, float)):
+        return repr(value)
+    if isinstance(value, str):
+        return json.dumps(value, ensure_ascii=False)  # a TOML basic string
+    if isinstance(value, dict):
+        return "{ " + ", ".join(f"{_toml_key(k)} = {toml_value(v)}" for k, v in value.items()) + " }" if value else "{}"
+    return "[" + ", ".join(toml_value(v) for v in value) + "]"
+
+
+def _toml_key(key: str) -> str:
+    return key if _PART.fullmatch(key) else json.dumps(key)
 
 
 def _plain(value, key: str):
@@ -199,7 +216,8 @@ def _hint(key: str, known) -> str:
 
 def settable_keys(data: dict, mech=None) -> dict[str, object]:
     """Every dotted key the scenario ``data`` accepts -> its value in ``data`` (None where the
-    file does not set it and the default applies). Signals are one key each (their keys are
+    file does not set it and the default applies; a turbodiesel's engine, shaft and port
+    parameters show their defaults). Signals are one key each (their keys are
     settable too); with ``mech``, the mechanism's parameters (``mech.NAME.PARAM``) follow."""
     tree = key_tree(mech.element_names, mech.link_names) if mech is not None else key_tree(None, None)
     out: dict[str, object] = {}
@@ -219,6 +237,13 @@ def settable_keys(data: dict, mech=None) -> dict[str, object]:
             out[name] = value
 
     walk(tree, data, "")
+    inp = data.get("input")
+    if isinstance(inp, dict) and inp.get("type") == "turbodiesel":
+        from .powertrain import turbodiesel_defaults
+
+        for key, value in turbodiesel_defaults().items():
+            if out.get(f"input.{key}", 0) is None and (inp.get("turbo") == "iterative" or not key.startswith("ports.")):
+                out[f"input.{key}"] = value
     if mech is not None:
         from transgen.parameters import mechanism_parameters
 

@@ -36,7 +36,6 @@ from .engine.gas import RPM
 from .engine.map_file import DATA_DIR, CompressorMap, MapError, TurbineMap, parse_map
 from .engine.torque_converter import DEFAULT_TORQUE_CONVERTER, TorqueConverter, TorqueConverterError
 from .engine.turbocharger import BasicTurbo, IterativeTurbo, PortAreas, TurboShaft
-from .scenario_schema import GOVERNOR_KEYS
 from .signals import Signal
 
 __all__ = [
@@ -45,10 +44,12 @@ __all__ = [
     "turbodiesel_component",
     "converter_component",
     "CRANK_MODELS",
+    "GOVERNOR_KEYS",
     "ENGINE_KEYS",
     "SHAFT_KEYS",
     "PORT_KEYS",
     "read_converter",
+    "turbodiesel_defaults",
 ]
 
 CRANK_MODELS = ("torque", "inertial")
@@ -246,6 +247,8 @@ class ConverterComponent(Component):
 # ----------------------------------------------------------------------------- scenario keys
 
 
+GOVERNOR_KEYS = frozenset({"idle_rpm", "gain"})
+"""Keys of ``[input] governor = {...}``: the idle governor (:class:`SpeedGovernor`)."""
 ENGINE_KEYS = frozenset(f.name for f in fields(EngineParams) if f.name not in ("air", "exhaust", "shaft"))
 """Keys of ``[input] engine = {...}``: the fields of :class:`~transgen.sim.engine.EngineParams`
 (SI units, as documented there) that are numbers or lists of numbers."""
@@ -253,6 +256,18 @@ SHAFT_KEYS = frozenset(f.name for f in fields(TurboShaft))
 """Keys of ``[input] shaft = {...}``: turbo rotor inertia and damping (:class:`TurboShaft`)."""
 PORT_KEYS = frozenset(f.name for f in fields(PortAreas))
 """Keys of ``[input] ports = {...}``: duct areas [m^2] of the iterative algorithm (:class:`PortAreas`)."""
+
+def turbodiesel_defaults() -> dict[str, object]:
+    """``"engine.NAME"``, ``"shaft.NAME"``, ``"ports.NAME"`` -> the default value of every key of
+    the turbodiesel's sub-tables (lists for tuples), the values a scenario gets without them."""
+    out: dict[str, object] = {}
+    for table, keys, obj in (("engine", ENGINE_KEYS, EngineParams()), ("shaft", SHAFT_KEYS, TurboShaft()),
+                             ("ports", PORT_KEYS, PortAreas())):
+        for name in sorted(keys):
+            value = getattr(obj, name)
+            out[f"{table}.{name}"] = list(value) if isinstance(value, tuple) else value
+    return out
+
 
 _SIGNED = frozenset({"c_vol", "c_fric"})  # polynomial coefficients: any sign
 _NON_NEGATIVE = frozenset({"x_cv", "h_tot", "firing_speed", "full_load_fuel", "full_load_speed", "c1", "c2"})

@@ -40,7 +40,7 @@ from .file_access import FileAccess
 from .scenario_file import MAX_STEPS, Reader, Source, as_float, bounded, read_source, shown
 from .transmission import Transmission
 
-__all__ = ["Scenario", "load_scenario", "scenario_files", "scenario_keys", "parse_scenario", "bundled_scenarios", "output_signals", "RPM"]
+__all__ = ["Scenario", "load_scenario", "scenario_files", "scenario_keys", "scenario_path", "parse_scenario", "bundled_scenarios", "output_signals", "RPM"]
 
 RPM = 2 * math.pi / 60
 
@@ -114,8 +114,9 @@ def scenario_keys(path: str | Path, overrides: Mapping[str, object] | None = Non
     return settable_keys(scenario.data, scenario.mechanism)
 
 
-def _load(path: str | Path, overrides, access: FileAccess) -> Scenario:
-    path = Path(path)
+def scenario_path(path: str | Path, access: FileAccess | None = None) -> Path:
+    """The scenario file ``path`` names: the file, or the bundled scenario of that name."""
+    path, access = Path(path), access or FileAccess()
     bundled = bundled_scenarios()
     if not access.is_file(path) and path.stem in bundled and path.suffix in ("", ".toml"):
         path = bundled[path.stem]
@@ -123,6 +124,11 @@ def _load(path: str | Path, overrides, access: FileAccess) -> Scenario:
         close = difflib.get_close_matches(path.stem, list(bundled), n=1)
         hint = f"; did you mean '{close[0]}'?" if close else f" (bundled: {', '.join(bundled)})"
         raise ScenarioError(f"{path}:1:1: error: no such scenario file{hint}")
+    return path
+
+
+def _load(path: str | Path, overrides, access: FileAccess) -> Scenario:
+    path = scenario_path(path, access)
     return _build(*read_source(path, None, (), access), path, overrides, access)
 
 

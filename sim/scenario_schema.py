@@ -1,7 +1,8 @@
 """The tables and keys a scenario file may have: the one list that the readers of
 :mod:`.scenario` check a file against and that the dotted keys of ``--set`` come from.
 
-Each ``*_KEYS`` set is what one table accepts; :func:`key_tree` arranges them as a tree over
+Each ``*_KEYS`` set is what one table accepts (the sub-tables of a turbodiesel's ``[input]``
+are :mod:`.powertrain`'s); :func:`key_tree` arranges them as a tree over
 the dotted keys (``driveline.vehicle_mass``, ``elements.C4.apply``, ``load.0.c1``), with the
 names that depend on the mechanism (its shift elements and links) filled in. Signals
 (``elements.C4.apply``, ``input.throttle_signal``, ...) accept the keys of every signal type
@@ -10,7 +11,7 @@ names that depend on the mechanism (its shift elements and links) filled in. Sig
 from __future__ import annotations
 
 __all__ = ["TOP_KEYS", "SIMULATION_KEYS", "COMPLIANT_KEYS", "ELEMENT_KEYS", "FRICTION_KEYS", "INITIAL_KEYS",
-           "SHIFTS_KEYS", "EVENT_KEYS", "AUTO_SHIFT_KEYS", "OUTPUT_KEYS", "INPUT_KEYS", "GOVERNOR_KEYS",
+           "SHIFTS_KEYS", "EVENT_KEYS", "AUTO_SHIFT_KEYS", "OUTPUT_KEYS", "INPUT_KEYS",
            "LOAD_KEYS", "CONVERTER_KEYS", "DRIVELINE_KEYS", "SIGNAL_KEYS", "SIGNAL", "LEAF", "ANY", "key_tree"]
 
 TOP_KEYS = frozenset({"mechanism", "include", "title", "description", "simulation", "compliant", "initial", "input",
@@ -29,7 +30,6 @@ OUTPUT_KEYS = frozenset({"signals", "dt"})
 INPUT_KEYS = frozenset({"type", "torque", "speed_rpm", "throttle", "torque_table", "throttle_signal", "converter",
                         "J_engine", "engine_speed_rpm", "idle_rpm", "engine", "turbo", "fuel_signal", "governor",
                         "crank_model", "shaft", "ports", "compressor_map", "turbine_map"})
-GOVERNOR_KEYS = frozenset({"idle_rpm", "gain"})
 LOAD_KEYS = frozenset({"torque", "signal", "c0", "c1", "c2"})
 CONVERTER_KEYS = frozenset({"pump", "turbine", "pump_torque", "turbine_torque", "file"})
 DRIVELINE_KEYS = frozenset({"output_inertia", "stiffness", "damping", "final_drive", "wheel_radius", "vehicle_mass",
@@ -50,7 +50,7 @@ ANY = "*"
 
 
 def _leaves(keys) -> dict:
-    return {k: LEAF for k in keys}
+    return {k: LEAF for k in sorted(keys)}
 
 
 def key_tree(elements=None, links=None) -> dict:
@@ -58,7 +58,7 @@ def key_tree(elements=None, links=None) -> dict:
     :data:`SIGNAL`; a one-entry list ``[subtree]`` is an array of tables (keys are indices).
     ``elements`` and ``links`` are the mechanism's shift-element and link names (None: any
     name, the key :data:`ANY`)."""
-    from .powertrain import ENGINE_KEYS, PORT_KEYS, SHAFT_KEYS
+    from .powertrain import ENGINE_KEYS, GOVERNOR_KEYS, PORT_KEYS, SHAFT_KEYS
     from .schedule import ShiftTemplate
 
     signals = {"torque", "throttle_signal", "fuel_signal", "output_torque", "signal", "apply"}

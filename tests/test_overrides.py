@@ -211,3 +211,167 @@ def test_scenario_keys_list_values_known_keys_and_mechanism_parameters():
         assert key in turbo
     current = {k: v for k, v in keys.items() if v is not None}
     assert load_scenario("ht740_improved", current).data == load_scenario("ht740_improved").data
+
+
+# --------------------------------------------------------------------------- turbodiesel
+
+TURBO_SHORT = {"simulation.t_end": 1.5}
+
+
+def test_turbodiesel_defaults_written_out_give_the_same_run_number_for_number():
+    keys = scenario_keys("ht740_turbo_iterative")
+    explicit = {k: v for k, v in keys.items() if k.startswith(("input.engine.", "input.shaft.", "input.ports."))}
+    assert len(explicit) > 30 and keys["input.shaft.inertia"] == 2.0e-4 and keys["input.engine.V_im"] == 0.022
+    a = load_scenario("ht740_turbo_iterative", TURBO_SHORT).run()
+    b = load_scenario("ht740_turbo_iterative", {**TURBO_SHORT, **explicit}).run()
+    _same(a, b)
+    current = {k: v for k, v in scenario_keys("ht740_turbo").items() if v is not None}
+    _same(load_scenario("ht740_turbo", TURBO_SHORT).run(), load_scenario("ht740_turbo", {**current, **TURBO_SHORT}).run())
+
+
+@pytest.mark.filterwarnings("ignore:.*operating point outside the data")  # low ambient pressure
+@pytest.mark.parametrize("key, value", [("input.engine.V_im", 0.044), ("input.shaft.inertia", 4e-4),
+                                        ("input.shaft.c1", 1e-4), ("input.engine.p_amb", 90000.0),
+                                        ("input.ports.turbine_inlet", 0.003)])
+def test_turbodiesel_parameters_change_the_turbocharger(key, value):
+    a = load_scenario("ht740_turbo_iterative", TURBO_SHORT).run()
+    b = load_scenario("ht740_turbo_iterative", {**TURBO_SHORT, key: value}).run()
+    assert a.success and b.success
+    assert not np.array_equal(a["omega_tc"], b["omega_tc"]) or not np.array_equal(a["p_im"], b["p_im"])
+    engine = load_scenario("ht740_turbo_iterative", {key: value}).powertrain.components[0].engine
+    table, name = key.split(".")[1:]
+    obj = {"engine": engine.params, "shaft": engine.turbo.shaft, "ports": getattr(engine.turbo, "ports", None)}[table]
+    assert getattr(obj, name) == value
+
+
+def test_turbodiesel_map_files_are_read_relative_to_the_file_and_from_files(tmp_path):
+    from transgen.sim.engine import DATA_DIR
+
+    (tmp_path / "maps").mkdir()
+    comp = (DATA_DIR / "we_compressor.toml").read_text(encoding="utf-8")
+    (tmp_path / "maps" / "c.toml").write_text(comp, encoding="utf-8")
+    turbo = bundled_scenarios()["ht740_turbo"]
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(f'include = ["{turbo.as_posix()}"]\n[input]\ncompressor_map = "maps/c.toml"\n'
+                        '[simulation]\nt_end = 1.5\n', encoding="utf-8")
+    a, b = load_scenario(scenario).run(), load_scenario("ht740_turbo", TURBO_SHORT).run()
+    _same(a, b)  # the same map from another file
+    files = scenario_files(scenario)
+    assert str((tmp_path / "maps" / "c.toml").resolve()) in files
+    scenario.write_text(scenario.read_text().replace("compressor_map", "turbine_map"), encoding="utf-8")
+    with pytest.raises(ScenarioError, match=r"s.toml:3:1: error: bad turbine_map: .* is a compressor map"):
+        load_scenario(scenario)
+
+
+@pytest.mark.parametrize("key, value, words", [
+    ("input.engine.V_imm", 1.0, r"unknown key 'V_imm' in \[input.engine\]; did you mean 'input.engine.V_im'"),
+    ("input.engine.V_im", 0.0, r"'V_im' must be positive"),
+    ("input.engine.n_cyl", 6.5, r"'n_cyl' must be a whole number >= 1"),
+    ("input.engine.c_vol", [1.0, 2.0], r"'c_vol' must have 3 entries"),
+    ("input.engine.full_load_fuel", [1e-4, 2e-4], r"full_load_speed and full_load_fuel must have as many entries"),
+    ("input.shaft.inertia", -1.0, r"'inertia' must be positive"),
+    ("input.ports.turbine_inlet", 0.003, r"port areas are used by the iterative turbo algorithm only"),
+    ("input.compressor_map", "no_such_map.toml", r"cannot read the map file"),
+    ("input.turbine_map", "we_compressor", r"cannot read the map file"),
+])
+def test_bad_turbodiesel_values_are_refused(key, value, words):
+    with pytest.raises(ScenarioError, match=words) as err:
+        load_scenario("ht740_turbo", {key: value})
+    assert str(err.value).startswith(f"--set {key}: error: ")
+
+
+# ------------------------------------------------------------------------ command line
+
+
+def _transgen(tmp_path, *argv):
+    """``python -m transgen ARGV`` in ``tmp_path`` (not the checkout): (exit code, stdout, stderr)."""
+    run = subprocess.run([sys.executable, "-m", "transgen", *argv], capture_output=True, text=True, timeout=300,
+                         env=dict(os.environ, MPLBACKEND="Agg"), cwd=tmp_path)
+    return run.returncode, run.stdout, run.stderr
+
+
+def test_simulate_set_changes_the_run_and_bad_keys_exit_2_before_it(tmp_path):
+    code, out, err = _transgen(tmp_path, "simulate", "ht740_improved", "--set", "simulation.t_end=1.0",
+                               "--set", "driveline.vehicle_mass=20000", "--json", "-o", "r.csv")
+    assert code == 0, err
+    assert json.loads(out)["success"] is True
+    header, *rows = (tmp_path / "r.csv").read_text().splitlines()
+    assert float(rows[-1].split(",")[0]) == pytest.approx(1.0)
+    for argv, words in [(["--set", "driveline.vehicle_mas=1"], "did you mean 'driveline.vehicle_mass'?"),
+                        (["--set", "vehicle_mass=1"], "did you mean 'driveline.vehicle_mass'?"),
+                        (["--set", "driveline.vehicle_mass=heavy"], "must be a finite number"),
+                        (["--set", "driveline.vehicle_mass"], "expected KEY=VALUE"),
+                        (["--set", "mech.P2.Nr=10"], "must exceed sun teeth"),
+                        (["--set", "simulation.rtol=nan"], "not a finite number")]:
+        code, out, err = _transgen(tmp_path, "simulate", "ht740_improved", "-o", "bad.csv", *argv)
+        key = argv[1].split("=")[0]
+        assert code == 2, (argv, err)
+        assert err.startswith(f"--set {key}: error: ") and words in err and "Traceback" not in err, err
+        assert not (tmp_path / "bad.csv").exists() and out == ""
+
+
+def test_scenario_keys_command_lists_keys_and_values(tmp_path):
+    code, out, err = _transgen(tmp_path, "scenario", "keys", "ht740_improved", "--set", "driveline.grade_percent=1.5")
+    assert code == 0, err
+    lines = dict(line.split(" = ", 1) for line in out.splitlines())
+    assert {k.strip(): v for k, v in lines.items()}["driveline.vehicle_mass"] == "36000.0"
+    assert {k.strip(): v for k, v in lines.items()}["driveline.grade_percent"] == "1.5"
+    assert {k.strip(): v for k, v in lines.items()}["auto_shift.upshift_rpm"] == "(default)"
+    code, out, err = _transgen(tmp_path, "scenario", "keys", "ht740_improved", "--json")
+    assert code == 0, err
+    keys = json.loads(out)["keys"]
+    assert keys == json.loads(json.dumps(scenario_keys("ht740_improved")))
+    for key, text in [(k.strip(), v) for k, v in lines.items()]:   # every value reads back as --set reads it
+        if text != "(default)":
+            assert parse_override(f"{key}={text}")[1] == (1.5 if key == "driveline.grade_percent" else keys[key]), key
+    code, _, err = _transgen(tmp_path, "scenario", "keys", "ht740_improvd")
+    assert code == 2 and "did you mean 'ht740_improved'" in err
+
+
+def test_scenario_copy_writes_the_includes_and_the_copy_runs_from_its_folder(tmp_path):
+    code, out, err = _transgen(tmp_path, "scenario", "copy", "ht740_improved", "mine")
+    assert code == 0, err
+    written = sorted(p.relative_to(tmp_path / "mine").as_posix() for p in (tmp_path / "mine").rglob("*.toml"))
+    assert written == ["ht740_improved.toml", "shared/m915_driveline.toml", "shared/m915_truck.toml"]
+    copy = tmp_path / "mine" / "ht740_improved.toml"
+    assert copy.read_text() == bundled_scenarios()["ht740_improved"].read_text()
+    a = load_scenario(copy, SHORT)
+    assert all(str(tmp_path) in k or k.endswith((".mech", "torque_converter_heavy_truck.toml"))
+               for k in scenario_files(copy))   # the includes are the copies
+    _same(a.run(), load_scenario("ht740_improved", SHORT).run())
+    # run from the copy's folder, by its relative name
+    code, out, err = _transgen(tmp_path / "mine", "simulate", "ht740_improved.toml", "--set", "simulation.t_end=0.5",
+                               "--quiet")
+    assert code == 0, err
+    # existing files are kept, all of them: nothing is written
+    (tmp_path / "mine" / "shared" / "m915_truck.toml").write_text("# edited\n")
+    code, out, err = _transgen(tmp_path, "scenario", "copy", "ht740_improved", "mine")
+    assert code == 2 and "m915_truck.toml" in err and "--force" in err
+    assert (tmp_path / "mine" / "shared" / "m915_truck.toml").read_text() == "# edited\n"
+    code, out, err = _transgen(tmp_path, "scenario", "copy", "ht740_improved", "mine", "--force")
+    assert code == 0, err
+    assert "m915_truck.toml" in out
+    assert (tmp_path / "mine" / "shared" / "m915_truck.toml").read_text().startswith("# M915")
+
+
+def test_scenario_copy_writes_all_files_or_none(tmp_path, monkeypatch):
+    from transgen.sim.scenario_copy import copy_scenario
+
+    calls = []
+    import transgen.export as export
+
+    real = export.write_text
+
+    def failing(path, text):
+        calls.append(path)
+        if len(calls) == 2:
+            raise OSError("disk full")
+        real(path, text)
+
+    monkeypatch.setattr(export, "write_text", failing)
+    with pytest.raises(OSError):
+        copy_scenario("ht740_turbo_iterative", tmp_path / "out")
+    assert not [p for p in (tmp_path / "out").rglob("*") if p.is_file()]
+    monkeypatch.setattr(export, "write_text", real)
+    written = copy_scenario("ht740_turbo_iterative", tmp_path / "out")
+    assert sorted(p.name for p in written) == ["ht740_turbo.toml", "ht740_turbo_iterative.toml", "m915_driveline.toml"]

@@ -28,7 +28,7 @@ def test_worked_mech_example_parses_and_matches_its_ratios():
 
 
 def test_scenario_reference_uses_known_top_level_tables():
-    from transgen.sim.scenario import _TOP_KEYS
+    from transgen.sim.scenario_schema import TOP_KEYS as _TOP_KEYS
 
     block = next(b for b in _blocks("toml") if "[simulation]" in b)
     for table in re.findall(r"^\[\[?([a-z_]+)", block, flags=re.M):
