@@ -58,6 +58,19 @@ def test_latin_hypercube_hits_every_stratum_once_and_is_reproducible():
         latin_hypercube({"m": (2.0, 1.0)}, 4)
 
 
+def test_sampled_design_fixes_single_values_and_refuses_lists():
+    from transgen.sim.study.sweep import design_variants
+
+    variants = design_variants({"simulation.t_end": [6.0], "driveline.vehicle_mass": (20000.0, 36000.0)}, 4, seed=2)
+    assert [v["simulation.t_end"] for v in variants] == [6.0] * 4
+    assert [v["driveline.vehicle_mass"] for v in variants] == \
+        [v["m"] for v in latin_hypercube({"m": (20000.0, 36000.0)}, 4, seed=2)]
+    with pytest.raises(ValueError, match="a sampled parameter is a range"):
+        design_variants({"a.b": [1, 2]}, 4)
+    with pytest.raises(ValueError, match="the name of a result column"):
+        design_variants({"shift1.torque_hole": [1]})
+
+
 def test_linspace_is_inclusive_and_keeps_whole_numbers():
     assert linspace_values(20000, 36000, 3) == [20000, 28000, 36000]
     assert linspace_values(0.6, 0.8, 3) == pytest.approx([0.6, 0.7, 0.8])
@@ -81,7 +94,7 @@ def test_grid_options():
     for bad, message in (("novalue", "expected KEY="), ("a.b=1:2", "needs the number of values"),
                          ("a.b=nan", "finite"), ("a.b=1,2", None)):
         if message is None:
-            with pytest.raises(ScenarioError, match="every parameter is a range"):
+            with pytest.raises(ScenarioError, match="a parameter is a range LO:HI"):
                 parse_grid(bad, sampled=True)
         else:
             with pytest.raises(ScenarioError, match=message):
@@ -244,3 +257,23 @@ def test_plots_over_one_parameter_and_heat_maps_over_two(serial, tmp_path):
     assert all(p.stat().st_size > 0 for p in written)
     one = SweepTable([r for r in serial.rows if r["input.throttle_signal"] == 0.6], serial.parameters)
     assert any(p.name == "shift1_torque_hole_over_driveline_vehicle_mass.png" for p in plot_sweep(one, tmp_path / "one"))
+
+
+def test_readme_sweep_commands_parse_and_name_known_keys():
+    import re
+    import shlex
+
+    from transgen.cli import build_parser
+    from transgen.sim import scenario_keys
+
+    readme = (Path(__file__).resolve().parent.parent / "README.md").read_text(encoding="utf-8")
+    lines = [line for line in re.sub(r"\\\n\s*", " ", readme).splitlines() if line.strip().startswith("transgen sweep ")]
+    assert len(lines) >= 5
+    parser = build_parser()
+    keys = {}
+    for line in lines:
+        args = parser.parse_args(shlex.split(line.split("#")[0].split(">")[0].strip("` "))[1:])
+        known = keys.setdefault(args.scenario, scenario_keys(args.scenario))
+        for text in args.grid:
+            key, _ = parse_grid(text, sampled=args.samples is not None)
+            assert key in known, (line, key)

@@ -1,7 +1,7 @@
 """``transgen sweep``: the command line of :func:`transgen.sim.study.sweep` (a thin layer).
 
 ``--grid KEY=V1,V2,...`` (TOML values), ``--grid KEY=LO:HI:N`` (N values from LO to HI inclusive)
-or, with ``--samples N``, ``--grid KEY=LO:HI`` (a Latin-hypercube range). Bad keys and values are
+or, with ``--samples N``, ``--grid KEY=LO:HI`` (a Latin-hypercube range) or ``--grid KEY=V`` (fixed). Bad keys and values are
 ``error:`` lines naming the key, with the closest known key, and exit 2 before any run starts.
 """
 from __future__ import annotations
@@ -28,7 +28,7 @@ def add_commands(sub) -> None:
     s.add_argument("scenario", metavar="SCENARIO", help="scenario .toml file or bundled name")
     s.add_argument("--grid", metavar="KEY=VALUES", action="append", required=True,
                    help="a parameter and its values: KEY=V1,V2,... (TOML values), KEY=LO:HI:N (N values, "
-                        "inclusive) or, with --samples, KEY=LO:HI; repeatable")
+                        "inclusive) or, with --samples, KEY=LO:HI (sampled) or KEY=V (fixed); repeatable")
     s.add_argument("--samples", type=int, metavar="N", help="a Latin-hypercube sample of N runs over the LO:HI ranges")
     s.add_argument("--seed", type=int, default=0, help="seed of the Latin-hypercube sample (default 0)")
     engine = s.add_mutually_exclusive_group()
@@ -101,9 +101,11 @@ def parse_grid(text: str, sampled: bool = False) -> tuple[str, object]:
                 raise ScenarioError(f"--grid {key}: error: LO:HI:N needs the number of values N (a whole number "
                                     f">= 1), e.g. {key}={lo}:{hi}:5; or sample the range with --samples")
             return key, linspace_values(lo, hi, n)
-    if sampled:
-        raise ScenarioError(f"--grid {key}: error: with --samples every parameter is a range LO:HI, e.g. {key}=0.5:0.9")
-    return key, [value(part) for part in _values(spec)]
+    values = [value(part) for part in _values(spec)]
+    if sampled and len(values) != 1:
+        raise ScenarioError(f"--grid {key}: error: with --samples a parameter is a range LO:HI (e.g. {key}=0.5:0.9) "
+                            f"or one fixed value")
+    return key, values
 
 
 def _as_grid_error(message: str) -> str:
@@ -155,7 +157,7 @@ def cmd_sweep(args) -> int:
     try:
         table = sweep(args.scenario, grid, samples=args.samples, seed=args.seed, executor=executor,
                       progress=show, results=args.output)
-    except ScenarioError as exc:
+    except (ScenarioError, ValueError) as exc:  # found before any run: bad values, design or results file
         end()
         return _fail(exc)
     finally:

@@ -9,7 +9,7 @@ error, Ctrl-C) cancels the runs not started.
 * :class:`SerialExecutor` - one after the other in this process;
 * :class:`LocalExecutor` - a :class:`concurrent.futures.ProcessPoolExecutor` (``workers``, default
   :func:`os.cpu_count`), started with the ``forkserver`` method where there is one (forking a
-  process that runs threads is unsafe), else ``spawn``;
+  process that runs threads is unsafe), else ``spawn``; each worker runs its BLAS on one thread;
 * :class:`DaskExecutor` - a Dask distributed cluster by scheduler address
   (``tcp://HOST:PORT``) or an existing ``distributed.Client``; the optional extra
   ``transgen[distributed]``, imported only here.
@@ -54,7 +54,7 @@ class LocalExecutor:
         context = multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
         if context.get_start_method() == "forkserver":  # workers fork from a server that has the simulator loaded
             context.set_forkserver_preload(["transgen.sim.study.task"])
-        pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=context)
+        pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=context, initializer=_one_blas_thread)
         try:
             pending = {pool.submit(fn, shared, task) for task in tasks}
             while pending:
@@ -104,6 +104,17 @@ class DaskExecutor:
 
     def __repr__(self) -> str:
         return f"DaskExecutor({self.address or self.client!r})"
+
+
+def _one_blas_thread() -> None:
+    """Worker start: one BLAS thread (the pool has one process per core; a BLAS pool per process
+    would oversubscribe the cores, as Dask's nanny also prevents with OPENBLAS_NUM_THREADS=1).
+    threadpoolctl where it is installed, else the BLAS keeps its setting."""
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:  # pragma: no cover - threadpoolctl is optional here
+        return
+    threadpool_limits(1)
 
 
 def _distributed():

@@ -100,8 +100,9 @@ def plot_heatmap(table: SweepTable, metric: str, x: str, y: str, ax=None):
     ax.set_xticks(range(len(xs)), [str(v) for v in xs], rotation=45 if len(xs) > 6 else 0)
     ax.set_yticks(range(len(ys)), [str(v) for v in ys])
     for (i, j), value in np.ndenumerate(grid):
-        if np.isfinite(value) and len(xs) * len(ys) <= 100:
-            ax.text(j, i, f"{value:.4g}", ha="center", va="center", fontsize=7, color="w")
+        if np.isfinite(value) and len(xs) * len(ys) <= 100:  # dark text on the bright cells of viridis
+            ax.text(j, i, f"{value:.4g}", ha="center", va="center", fontsize=7,
+                    color="k" if image.norm(value) > 0.6 else "w")
     ax.set_xlabel(_label(x))
     ax.set_ylabel(_label(y))
     ax.set_title(metric)

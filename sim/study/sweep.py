@@ -74,14 +74,24 @@ def scenario_path(scenario: str | Path) -> str:
 
 def design_variants(grid: Mapping[str, Sequence], samples: int | None = None, seed: int = 0) -> list[dict]:
     """The variants of a design: the full grid, or with ``samples`` a Latin-hypercube sample of
-    the ranges ``grid`` gives (key -> (lo, hi))."""
+    the ranges ``grid`` gives (key -> (lo, hi) tuple; key -> [value]: fixed)."""
     if not grid:
         raise ValueError("--grid: error: give at least one parameter to vary (--grid KEY=V1,V2,...)")
     for key in grid:
         if key == "key" or key in FIRST_COLUMNS or key.split(".")[0] in ("energy", "turbo") \
                 or key.split(".")[0].startswith("shift") and key.split(".")[0][5:].isdigit():
             raise ValueError(f"--grid {key}: error: not a scenario key (the name of a result column)")
-    return full_grid(grid) if samples is None else latin_hypercube(grid, samples, seed)
+    if samples is None:
+        return full_grid(grid)
+    ranges = {k: v for k, v in grid.items() if isinstance(v, tuple)}
+    fixed = {}
+    for key, values in grid.items():
+        if key not in ranges:
+            if isinstance(values, (str, bytes)) or not isinstance(values, Sequence) or len(values) != 1:
+                raise ValueError(f"--grid {key}: error: a sampled parameter is a range (LO, HI) (LO:HI on the "
+                                 f"command line); a fixed one has one value")
+            fixed[key] = values[0]
+    return [{k: fixed[k] if k in fixed else v[k] for k in grid} for v in latin_hypercube(ranges, samples, seed)]
 
 
 def validate_variants(path: str, variants: Sequence[Mapping]) -> dict[str, str]:
@@ -114,7 +124,8 @@ def sweep(scenario: str | Path, grid: Mapping[str, Sequence], samples: int | Non
     grid : mapping
         Dotted key (``driveline.vehicle_mass``, ``mech.C4.static``, see
         :func:`transgen.sim.scenario_keys`) -> list of values (TOML data): the full factorial
-        grid; with ``samples``: key -> ``(lo, hi)``, the ranges of a Latin-hypercube sample.
+        grid; with ``samples``: key -> ``(lo, hi)`` (a tuple), the ranges of a Latin-hypercube
+        sample, or a list of one value (fixed in every run).
     samples, seed : int
         Number of Latin-hypercube samples and the seed of the sample (reproducible).
     executor :
@@ -142,19 +153,16 @@ def sweep(scenario: str | Path, grid: Mapping[str, Sequence], samples: int | Non
     name = Path(path).stem
     variants = design_variants(grid, samples, seed)
     parameters = list(grid)
-    keys: list[str] = []
-    unique: list[dict] = []
+    by_key: dict[str, dict] = {}
     for variant in variants:  # a value given twice is one run
-        key = row_key(name, variant)
-        if key not in keys:
-            keys.append(key)
-            unique.append(variant)
+        by_key.setdefault(row_key(name, variant), variant)
+    keys, unique = list(by_key), list(by_key.values())
     earlier = SweepTable.from_csv(results) if results is not None and Path(results).is_file() else None
     files = validate_variants(path, unique)
 
     previous = {str(r["key"]): r for r in (earlier.rows if earlier else [])}
     rows: list[dict | None] = [previous.get(k) for k in keys]
-    extra = [r for k, r in previous.items() if k not in set(keys)]
+    extra = [r for k, r in previous.items() if k not in by_key]
     parameters += [p for p in (earlier.parameters if earlier else []) if p not in parameters]
     todo = [(i, unique[i]) for i, row in enumerate(rows) if row is None]
     resumed = len(keys) - len(todo)

@@ -1,0 +1,81 @@
+"""Throughput of a parameter study (transgen.sim.study): 64 HT-740 runs (ht740_improved, 20 s
+each; an 8 x 8 grid of vehicle mass and throttle) serially in this process, on 1 and 2 local
+worker processes and on a Dask cluster of 2 worker processes on 127.0.0.1 (started here, its start
+not timed; a cluster is started once and used for many sweeps).
+
+Each sweep is timed end to end (validation, pool start, runs) and over its runs alone (from the
+moment the runs start to the last row); the rows of every engine are checked to be identical,
+number for number.
+
+Goals (issue 11): on an idle 2-core machine 2 local workers at least 1.8x faster than 1; Dask adds
+at most 10 % per run over the local pool.
+
+    python benchmarks/bench_sweep.py [--runs 64] [--t-end 20] [--no-dask]
+"""
+import argparse
+import math
+import os
+import time
+
+from transgen.sim.study import DaskExecutor, LocalExecutor, SerialExecutor, sweep
+
+
+def grid(runs: int, t_end: float | None) -> dict:
+    side = max(1, int(round(math.sqrt(runs))))
+    other = max(1, runs // side)
+    g = {"driveline.vehicle_mass": [20000 + i * (16000 // max(side - 1, 1)) for i in range(side)],
+         "input.throttle_signal": [round(0.55 + j * 0.35 / max(other - 1, 1), 4) for j in range(other)]}
+    if t_end is not None:
+        g = {"simulation.t_end": [t_end], **g}
+    return g
+
+
+def timed(label: str, executor, design: dict) -> tuple[float, float, list]:
+    marks = []
+
+    def progress(p):
+        marks.append(time.perf_counter())
+    start = time.perf_counter()
+    table = sweep("ht740_improved", design, executor=executor, progress=progress)
+    total = time.perf_counter() - start
+    runs = time.perf_counter() - marks[0]
+    assert not table.failed, table.failed[0]["message"]
+    n = len(table)
+    print(f"  {label:<22} {n / total:7.3f} runs/s end to end ({total:6.1f} s), {n / runs:7.3f} runs/s over "
+          f"the runs ({runs:6.1f} s)", flush=True)
+    cells = [[r.get(c) for c in table.columns if c != "wall_time"] for r in table.rows]
+    return total, runs, cells
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--runs", type=int, default=64)
+    ap.add_argument("--t-end", type=float, default=None, help="simulated time per run (default: the scenario's 20 s)")
+    ap.add_argument("--no-dask", action="store_true")
+    args = ap.parse_args()
+    design = grid(args.runs, args.t_end)
+    print(f"sweep of {args.runs} ht740_improved runs on {os.cpu_count()} cores:", flush=True)
+    serial = timed("serial", SerialExecutor(), design)
+    one = timed("1 local worker", LocalExecutor(1), design)
+    two = timed("2 local workers", LocalExecutor(2), design)
+    assert one[2] == serial[2] and two[2] == serial[2], "local workers gave different numbers"
+    print(f"  speed-up of 2 workers over 1: {one[0] / two[0]:.2f}x end to end, {one[1] / two[1]:.2f}x over the runs "
+          f"(goal >= 1.8x on an idle machine)")
+    if args.no_dask:
+        return
+    try:
+        import distributed
+    except ImportError:
+        print("  Dask: not installed (pip install 'transgen[distributed]')")
+        return
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                  dashboard_address=None) as cluster:
+        dask = timed("Dask, 2 workers", DaskExecutor(cluster.scheduler_address), design)
+    assert dask[2] == serial[2], "Dask gave different numbers"
+    print(f"  Dask per run over the 2-worker pool: {100 * (dask[0] / two[0] - 1):+.1f} % end to end, "
+          f"{100 * (dask[1] / two[1] - 1):+.1f} % over the runs (goal <= +10 %)")
+    print("  rows identical, number for number: serial = 1 worker = 2 workers = Dask")
+
+
+if __name__ == "__main__":
+    main()
