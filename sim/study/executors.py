@@ -53,7 +53,9 @@ class LocalExecutor:
         methods = multiprocessing.get_all_start_methods()
         context = multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
         if context.get_start_method() == "forkserver":  # workers fork from a server that has the simulator loaded
-            context.set_forkserver_preload(["transgen.sim.study.task"])
+            from .task import PRELOAD
+
+            context.set_forkserver_preload(list(PRELOAD))
         pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=context, initializer=_one_blas_thread)
         try:
             pending = {pool.submit(fn, shared, task) for task in tasks}

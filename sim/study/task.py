@@ -18,7 +18,11 @@ from __future__ import annotations
 import time
 from collections.abc import Mapping
 
-__all__ = ["run_variant", "run_task", "result_scalars", "flatten"]
+__all__ = ["run_variant", "run_task", "result_scalars", "flatten", "PRELOAD"]
+
+#: modules a worker needs, imported once by a process pool's fork server rather than by every worker
+PRELOAD = ("transgen.sim.study.task", "transgen.sim.scenario", "transgen.sim.report", "transgen.sim.switching",
+           "transgen.sim.compliant", "transgen.sim.powertrain", "transgen.sim.engine.turbo_report")
 
 #: fields of the turbo report that compare two runs (a sweep row is one run)
 _TURBO_COMPARISONS = ("comparison", "decoupled")
