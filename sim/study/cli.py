@@ -11,7 +11,7 @@ import re
 import sys
 import time
 
-__all__ = ["add_commands", "cmd_sweep", "parse_grid"]
+__all__ = ["add_commands", "cmd_sweep", "parse_grid", "sweep_units"]
 
 _RANGE = re.compile(r"\s*([^:,]+?)\s*:\s*([^:,]+?)\s*(?::\s*([^:,]+?)\s*)?")
 
@@ -153,10 +153,16 @@ def cmd_sweep(args) -> int:
     except (ScenarioError, ValueError, ImportError) as exc:
         return _fail(exc)
     show, end = _progress_printer(not (args.quiet or args.json) and sys.stderr.isatty())
+    last = []
+
+    def progress(p) -> None:
+        last[:] = [p]
+        if show is not None:
+            show(p)
     start = time.perf_counter()
     try:
         table = sweep(args.scenario, grid, samples=args.samples, seed=args.seed, executor=executor,
-                      progress=show, results=args.output)
+                      progress=progress, results=args.output)
     except (ScenarioError, ValueError) as exc:  # found before any run: bad values, design or results file
         end()
         return _fail(exc)
@@ -177,6 +183,7 @@ def cmd_sweep(args) -> int:
         summary = {
             "schema": "transgen.sweep/1",
             "transgen_version": __version__,
+            "units": sweep_units(table),
             "scenario": args.scenario,
             "design": {"kind": "latin_hypercube" if sampled else "grid", "parameters": grid,
                        "samples": args.samples, "seed": args.seed if sampled else None},
@@ -184,11 +191,12 @@ def cmd_sweep(args) -> int:
             "runs": len(rows),
             "succeeded": len(rows) - len(failed),
             "failed": len(failed),
+            "resumed": last[-1].resumed if last else 0,
             "wall_time": elapsed,
             "results": args.output,
             "written": written,
+            "parameters": table.parameters,
             "columns": table.columns,
-            "units": {"wall_time": "s", **table.units()},
             "failures": [{"key": r["key"], "message": r.get("message", "")} for r in failed],
             "rows": table.rows,
         }
@@ -204,6 +212,14 @@ def cmd_sweep(args) -> int:
         for w in written:
             print(f"  wrote {w}")
     return 0
+
+
+def sweep_units(table) -> dict[str, str]:
+    """The ``units`` map of the ``--json`` summary (schema ``transgen.sweep/1``): the unit of
+    every result column that has one, ``"1"`` for the counts, ``""`` for the parameters (their
+    SI unit as in the scenario file; transgen does not know the unit of every key)."""
+    counts = dict.fromkeys(("runs", "succeeded", "failed", "resumed", "samples", "seed"), "1")
+    return {"wall_time": "s", **counts, **dict.fromkeys(table.parameters, ""), **table.units()}
 
 
 def _fail(exc) -> int:
