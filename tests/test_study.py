@@ -162,6 +162,17 @@ def test_bad_keys_and_values_stop_before_any_run(tmp_path):
     assert not out.exists()
 
 
+def test_validation_loads_each_value_within_a_run_of_the_design():
+    from transgen.sim.study.sweep import scenario_path, validate_variants
+
+    path = scenario_path(SCENARIO)
+    # t_start = 25 s is valid with t_end = 30 s, not with the file's t_end = 20 s
+    files = validate_variants(path, full_grid({"simulation.t_start": [25.0], "simulation.t_end": [30.0, 40.0]}))
+    assert path in files and any(f.endswith("ht740.mech") for f in files)
+    with pytest.raises(ScenarioError, match="t_end"):
+        validate_variants(path, full_grid({"simulation.t_start": [25.0]}))
+
+
 # ------------------------------------------------------------------------------------ executors
 def test_local_process_pool_gives_the_same_numbers(serial):
     pooled = sweep(SCENARIO, GRID, executor=LocalExecutor(2))

@@ -1,7 +1,8 @@
 """Run a scenario over a design of overrides: :func:`sweep`.
 
-Every variant is checked before any run starts (:func:`validate_variants`: a bad key or value is
-a :class:`~transgen.errors.ScenarioError` naming the key, with the closest known key). Each run
+Every distinct value is checked before any run starts (:func:`validate_variants`: a bad key or
+value is a :class:`~transgen.errors.ScenarioError` naming the key, with the closest known key; a
+combination that only fails together is a failed row). Each run
 is then a task for the executor: the texts of the scenario's files, its path and the overrides
 (:func:`.task.run_task`). A failed run is a row, never the end of the sweep.
 
@@ -95,19 +96,17 @@ def design_variants(grid: Mapping[str, Sequence], samples: int | None = None, se
 
 
 def validate_variants(path: str, variants: Sequence[Mapping]) -> dict[str, str]:
-    """Load the scenario with every variant (or, when that is fewer loads, with each distinct
-    key/value alone and the first variant whole) and return the texts of every file those loads
-    read. Raises :class:`~transgen.errors.ScenarioError` (``--set KEY: error: ...`` for a bad key
+    """Load the scenario with the first variant that has each distinct key/value (every variant
+    of a sample; the first row and column of a grid) and return the texts of every file those
+    loads read. Raises :class:`~transgen.errors.ScenarioError` (``--set KEY: error: ...`` for a bad key
     or value) at the first problem: before any run."""
     from transgen.sim import scenario_files
 
-    pairs: dict[tuple, tuple] = {}
-    for variant in variants:
+    first: dict[tuple, int] = {}  # each distinct key/value -> the first variant that has it
+    for index, variant in enumerate(variants):
         for key, value in variant.items():
-            pairs.setdefault((key, repr(value)), (key, value))
-    checks = [dict(v) for v in variants]
-    if len(pairs) + 1 < len(checks):
-        checks = [dict(variants[0])] + [{key: value} for key, value in pairs.values()]
+            first.setdefault((key, repr(value)), index)
+    checks = [variants[i] for i in sorted(set(first.values()))]
     files: dict[str, str] = {}
     for overrides in checks:
         files.update(scenario_files(path, overrides))
