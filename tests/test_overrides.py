@@ -375,3 +375,18 @@ def test_scenario_copy_writes_all_files_or_none(tmp_path, monkeypatch):
     monkeypatch.setattr(export, "write_text", real)
     written = copy_scenario("ht740_turbo_iterative", tmp_path / "out")
     assert sorted(p.name for p in written) == ["ht740_turbo.toml", "ht740_turbo_iterative.toml", "m915_driveline.toml"]
+
+
+def test_gear_pair_radii_and_one_way_direction_are_parameters():
+    base = load_scenario("oneway_overrun")
+    bigger = load_scenario("oneway_overrun", {"mech.Gi1.r2": 0.09})
+    assert bigger.mechanism.gear_pairs[0].n2 == 0.09 and base.mechanism.gear_pairs[0].n2 == 0.08
+    a, b = base.run(), bigger.run()
+    assert a.success and b.success
+    assert abs(a["w_Lo"][-1] - b["w_Lo"][-1]) > 1e-3 * abs(a["w_Lo"][-1])   # another first-gear ratio
+    turned = load_scenario("oneway_overrun", {"mech.F1.free": "negative"})
+    assert turned.mechanism.element("F1").free == "negative"
+    with pytest.raises(ScenarioError, match=r"--set mech.Gi1.N1: error: gears Gi1 has no parameter 'N1'"):
+        load_scenario("oneway_overrun", {"mech.Gi1.N1": 20})
+    with pytest.raises(ScenarioError, match=r"free must be one of positive, negative"):
+        load_scenario("oneway_overrun", {"mech.F1.free": "both"})
