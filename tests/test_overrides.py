@@ -133,6 +133,15 @@ def test_bad_overrides_are_refused_naming_the_key(key, value, words):
     assert "m915" not in message and ".toml:" not in message  # not located in a file
 
 
+def test_an_error_about_a_file_value_beside_an_override_names_the_override():
+    with pytest.raises(ScenarioError, match=r"ht740_improved.toml:\d+:\d+: error: unknown key 't' for a ramp signal"
+                                            r".*\(with --set elements.C4.apply.type\)"):
+        load_scenario("ht740_improved", {"elements.C4.apply.type": "ramp"})
+    with pytest.raises(ScenarioError, match=r"^--set elements.C4.apply: error: ramp needs t1 > t0"):  # all of it from --set
+        load_scenario("ht740_improved", {"elements.C4.apply": {"type": "ramp", "t0": 4.0, "t1": 5.0, "v0": 0, "v1": 1}}
+                      | {"elements.C4.apply.t1": 3.0})
+
+
 def test_mechanism_parameters_change_the_matrices_and_the_result():
     base = load_scenario("ht740_improved", SHORT)
     heavy = load_scenario("ht740_improved", {**SHORT, "mech.L1.J": 2.5})
