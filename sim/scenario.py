@@ -258,6 +258,9 @@ def _build(data: dict, source: Source, path: Path, overrides=None, access: FileA
         template = _template(r, data, ("shifts", "template"))
         events = []
         event_list = shifts_t.get("events", [])
+        if not event_list and "template" in shifts_t:
+            raise r.error(("shifts", "template"), "a shift template shapes the shift events: give [shifts] events = "
+                                                  f"[{_EVENT}, ...] (or use [auto_shift] template)")
         if not isinstance(event_list, list):
             raise r.error(("shifts", "events"), f"events must be a list of {_EVENT}, not {shown(event_list)}")
         for k, ev in enumerate(event_list):

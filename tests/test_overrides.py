@@ -94,12 +94,27 @@ def test_overrides_reach_every_table():
     assert s.data["elements"]["C4"]["apply"]["t"][2] == 5.5
 
 
+def test_an_entry_of_a_list_is_a_key():
+    s = load_scenario("ht740_improved", {"elements.C4.apply.t.2": 5.5, "input.torque_table.2.3": 1650})
+    assert s.data["elements"]["C4"]["apply"]["t"] == [0.0, 4.0, 5.5, 9.0, 9.02, 9.3]
+    assert s.data["input"]["torque_table"][2][3] == 1650
+    with pytest.raises(ScenarioError, match=r"^--set elements.C4.apply.t.9: error: 'elements.C4.apply.t' is a list of "
+                                            r"6 entries: give an index 0..5"):
+        load_scenario("ht740_improved", {"elements.C4.apply.t.9": 1.0})
+    with pytest.raises(ScenarioError, match=r"^--set elements.C4.apply.t.2: error: table times 't' must not decrease"):
+        load_scenario("ht740_improved", {"elements.C4.apply.t.2": 3.0})
+
+
 def test_a_key_absent_from_the_file_but_known_is_set():
     s = load_scenario("ht740_improved", {"driveline.grade_percent": 2.0})
     assert s.data["driveline"]["grade_percent"] == 2.0
     # a table the file lacks: its other required keys are asked for, naming the override
     with pytest.raises(ScenarioError, match=r"^--set auto_shift.upshift_rpm: error: .*order"):
         load_scenario("ht740_improved", {"auto_shift.upshift_rpm": [[1500]]})
+    # a shift template without shift events would change nothing: refused
+    with pytest.raises(ScenarioError, match=r"^--set shifts.template.ramp_time: error: a shift template shapes the "
+                                            r"shift events"):
+        load_scenario("ht740_improved", {"shifts.template.ramp_time": 0.4})
 
 
 @pytest.mark.parametrize("key, value, words", [
