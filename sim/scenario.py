@@ -15,6 +15,11 @@ line and a caret, located at the key or list entry that is wrong (positions from
 error keeps tomllib's line and column. Everything is checked before a run: NaN and infinity
 anywhere, types, names (with suggestions), ``[output]`` signals, shift times. Parsing never
 evaluates code.
+
+:func:`load_scenario` takes ``overrides`` (dotted keys -> values, :mod:`.overrides`), set in
+the merged data before the build so that the same checks apply (errors ``--set KEY: error:``),
+and ``files`` (texts by absolute path, :mod:`.file_access`) to build a scenario without the
+disk; :func:`scenario_files` collects those texts and :func:`scenario_keys` lists the keys.
 """
 from __future__ import annotations
 
