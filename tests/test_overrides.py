@@ -165,6 +165,11 @@ def test_mechanism_parameters_change_the_matrices_and_the_result():
     assert heavy.mechanism.link("L1").inertia == 2.5
     ratio = load_scenario("ht740_improved", {**SHORT, "mech.P3.Nr": 80})
     assert ratio.mechanism.planetaries[2].n_ring == 80
+    from transgen.statespace import state_space
+
+    for changed in (heavy, ratio):   # the mode matrices follow the parameter
+        m_a, m_b = (state_space(s.mechanism, coordinates=["L1", "L6"]).mode("M1") for s in (base, changed))
+        assert m_a.B.shape == m_b.B.shape and not np.allclose(m_a.B, m_b.B)
     a, b = _final(base), _final(ratio)
     assert abs(a - b) > 1e-3 * abs(a)   # another first-gear ratio, another output speed
     same = load_scenario("ht740_improved", {**SHORT, "mech.C4.static": 2900.0}).run()
