@@ -249,7 +249,7 @@ def settable_keys(data: dict, mech=None) -> dict[str, object]:
         from .powertrain import turbodiesel_defaults
 
         for key, value in turbodiesel_defaults().items():
-            if out.get(f"input.{key}", 0) is None and (inp.get("turbo") == "iterative" or not key.startswith("ports.")):
+            if out.get(f"input.{key}", 0) is None and (inp.get("turbo") == "iterative" or not key.startswith(("ports.", "turbo_solver."))):
                 out[f"input.{key}"] = value
     if mech is not None:
         from transgen.parameters import mechanism_parameters

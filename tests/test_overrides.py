@@ -249,8 +249,10 @@ TURBO_SHORT = {"simulation.t_end": 1.5}
 
 def test_turbodiesel_defaults_written_out_give_the_same_run_number_for_number():
     keys = scenario_keys("ht740_turbo_iterative")
-    explicit = {k: v for k, v in keys.items() if k.startswith(("input.engine.", "input.shaft.", "input.ports."))}
-    assert len(explicit) > 30 and keys["input.shaft.inertia"] == 2.0e-4 and keys["input.engine.V_im"] == 0.022
+    explicit = {k: v for k, v in keys.items()
+                if k.startswith(("input.engine.", "input.shaft.", "input.ports.", "input.air.", "input.exhaust.",
+                                 "input.turbo_solver."))}
+    assert len(explicit) > 40 and keys["input.shaft.inertia"] == 2.0e-4 and keys["input.engine.V_im"] == 0.022
     a = load_scenario("ht740_turbo_iterative", TURBO_SHORT).run()
     b = load_scenario("ht740_turbo_iterative", {**TURBO_SHORT, **explicit}).run()
     _same(a, b)
@@ -261,7 +263,8 @@ def test_turbodiesel_defaults_written_out_give_the_same_run_number_for_number():
 @pytest.mark.filterwarnings("ignore:.*operating point outside the data")  # low ambient pressure
 @pytest.mark.parametrize("key, value", [("input.engine.V_im", 0.044), ("input.shaft.inertia", 4e-4),
                                         ("input.shaft.c1", 1e-4), ("input.engine.p_amb", 90000.0),
-                                        ("input.ports.turbine_inlet", 0.003)])
+                                        ("input.ports.turbine_inlet", 0.003), ("input.air.cp", 1005.0),
+                                        ("input.exhaust.R", 290.0), ("input.turbo_solver.xtol", 1e-6)])
 def test_turbodiesel_parameters_change_the_turbocharger(key, value):
     a = load_scenario("ht740_turbo_iterative", TURBO_SHORT).run()
     b = load_scenario("ht740_turbo_iterative", {**TURBO_SHORT, key: value}).run()
@@ -269,7 +272,8 @@ def test_turbodiesel_parameters_change_the_turbocharger(key, value):
     assert not np.array_equal(a["omega_tc"], b["omega_tc"]) or not np.array_equal(a["p_im"], b["p_im"])
     engine = load_scenario("ht740_turbo_iterative", {key: value}).powertrain.components[0].engine
     table, name = key.split(".")[1:]
-    obj = {"engine": engine.params, "shaft": engine.turbo.shaft, "ports": getattr(engine.turbo, "ports", None)}[table]
+    obj = {"engine": engine.params, "shaft": engine.turbo.shaft, "ports": getattr(engine.turbo, "ports", None),
+           "air": engine.turbo.compressor.gas, "exhaust": engine.turbo.turbine.gas, "turbo_solver": engine.turbo}[table]
     assert getattr(obj, name) == value
 
 
@@ -299,7 +303,9 @@ def test_turbodiesel_map_files_are_read_relative_to_the_file_and_from_files(tmp_
     ("input.engine.c_vol", [1.0, 2.0], r"'c_vol' must have 3 entries"),
     ("input.engine.full_load_fuel", [1e-4, 2e-4], r"full_load_speed and full_load_fuel must have as many entries"),
     ("input.shaft.inertia", -1.0, r"'inertia' must be positive"),
-    ("input.ports.turbine_inlet", 0.003, r"port areas are used by the iterative turbo algorithm only"),
+    ("input.ports.turbine_inlet", 0.003, r"ports is used by the iterative turbo algorithm only"),
+    ("input.turbo_solver.maxiter", 10, r"turbo_solver is used by the iterative turbo algorithm only"),
+    ("input.air.cp", 280.0, r"air: cp \(280\) must exceed R \(287\)"),
     ("input.compressor_map", "no_such_map.toml", r"cannot read the map file"),
     ("input.turbine_map", "we_compressor", r"cannot read the map file"),
 ])

@@ -53,9 +53,9 @@ def test_every_command_is_documented(command):
 
 
 def test_every_turbodiesel_parameter_and_input_key_is_documented():
-    from transgen.sim.powertrain import ENGINE_KEYS, GOVERNOR_KEYS, PORT_KEYS, SHAFT_KEYS
+    from transgen.sim.powertrain import ENGINE_KEYS, GAS_KEYS, GOVERNOR_KEYS, PORT_KEYS, SHAFT_KEYS, SOLVER_KEYS
     from transgen.sim.scenario_schema import INPUT_KEYS
 
     section = README[README.index("## Scenario files"):README.index("### Starting with a new gearbox")]
-    for key in sorted(ENGINE_KEYS | PORT_KEYS | SHAFT_KEYS | GOVERNOR_KEYS | INPUT_KEYS):
+    for key in sorted(ENGINE_KEYS | PORT_KEYS | SHAFT_KEYS | GOVERNOR_KEYS | GAS_KEYS | SOLVER_KEYS | INPUT_KEYS):
         assert re.search(rf"\b{key}\b", section), key
