@@ -103,7 +103,9 @@ def load_scenario(path: str | Path, overrides: Mapping[str, object] | None = Non
 def scenario_files(path: str | Path, overrides: Mapping[str, object] | None = None) -> dict[str, str]:
     """Every file that loading the scenario reads (with ``overrides``), keyed as ``files`` of
     :func:`load_scenario` is: ``load_scenario(path, o, files=scenario_files(path, o))`` equals
-    ``load_scenario(path, o)`` without the disk."""
+    ``load_scenario(path, o)`` without the disk. The keys are absolute resolved paths, so on
+    another machine (or in another folder) name the scenario by its key,
+    ``str(scenario_path(path).resolve())``, not by a relative path."""
     access = FileAccess()
     _load(path, overrides, access)
     return dict(access.read)

@@ -425,3 +425,13 @@ def test_gear_pair_radii_and_one_way_direction_are_parameters():
         load_scenario("oneway_overrun", {"mech.Gi1.N1": 20})
     with pytest.raises(ScenarioError, match=r"free must be one of positive, negative"):
         load_scenario("oneway_overrun", {"mech.F1.free": "both"})
+
+
+def test_a_worker_elsewhere_loads_the_scenario_by_its_key(tmp_path, monkeypatch):
+    from transgen.sim.scenario import scenario_path
+
+    key = str(scenario_path("ht740_improved").resolve())
+    files = scenario_files("ht740_improved", SHORT)
+    assert key in files
+    monkeypatch.chdir(tmp_path)
+    _same(load_scenario(key, SHORT, files=files).run(), load_scenario("ht740_improved", SHORT).run())
