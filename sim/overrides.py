@@ -2,7 +2,8 @@
 
 A key names a value of the scenario file after its includes are merged: ``driveline.vehicle_mass``,
 ``elements.C4.apply`` (a whole signal) or ``elements.C4.apply.t1`` (one of its keys),
-``shifts.events.0.t`` (an entry of an array of tables, counted from 0), ``initial.speeds_rpm.E``;
+``shifts.events.0.t`` (an entry of an array of tables, counted from 0), ``elements.C4.apply.t.2``
+(an entry of a list), ``initial.speeds_rpm.E``;
 keys starting with ``mech.`` name a parameter of the mechanism (``mech.L1.J``, ``mech.C4.static``,
 ``mech.P2.Nr``, see :mod:`transgen.parameters`). The keys a scenario accepts are those of
 :mod:`.scenario_schema` (the readers' own tables), with the mechanism's element and link names.
@@ -190,11 +191,17 @@ def _check(parts: tuple, key: str, tree, data, mech=None) -> None:
             node, value = node[0], value[part]
             continue
         if node is SIGNAL:
-            if part not in _SIGNAL_SUBKEYS or i != len(parts) - 1:
+            if part not in _SIGNAL_SUBKEYS:
                 raise _error(key, f"unknown key '{part}' of the signal '{where}'{_hint(key, settable_keys(data, mech))}")
-            return
+            node, value = LEAF, value.get(part) if isinstance(value, dict) else None
+            continue
         if node is LEAF:
-            raise _error(key, f"'{where}' is a value, not a table{_hint(key, settable_keys(data, mech))}")
+            if isinstance(value, list) and isinstance(part, int) and part < len(value):  # an entry of a list
+                value = value[part]
+                continue
+            if isinstance(value, list):
+                raise _error(key, f"'{where}' is a list of {len(value)} entries: give an index 0..{len(value) - 1}")
+            raise _error(key, f"'{where}' is a value, not a table")
         sub = node.get(part, node.get(_ANY, _MISSING)) if isinstance(part, str) else _MISSING
         if sub is _MISSING:
             raise _error(key, f"unknown key '{part}' in [{where}]{_hint(key, settable_keys(data, mech))}")
@@ -242,7 +249,7 @@ def settable_keys(data: dict, mech=None) -> dict[str, object]:
         from .powertrain import turbodiesel_defaults
 
         for key, value in turbodiesel_defaults().items():
-            if out.get(f"input.{key}", 0) is None and (inp.get("turbo") == "iterative" or not key.startswith("ports.")):
+            if out.get(f"input.{key}", 0) is None and (inp.get("turbo") == "iterative" or not key.startswith(("ports.", "turbo_solver."))):
                 out[f"input.{key}"] = value
     if mech is not None:
         from transgen.parameters import mechanism_parameters

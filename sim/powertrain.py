@@ -21,8 +21,10 @@ package :mod:`transgen.sim.engine`.
 """
 from __future__ import annotations
 
+import inspect
 from dataclasses import dataclass, fields, replace
 from functools import lru_cache
+from types import SimpleNamespace
 from pathlib import Path
 
 import numpy as np
@@ -32,7 +34,7 @@ from transgen.errors import SimulationError
 from .causality import Block, Causality
 from .components import Component
 from .engine.diesel import EngineParams, SpeedGovernor, TurbochargedDiesel
-from .engine.gas import RPM
+from .engine.gas import RPM, Gas
 from .engine.map_file import DATA_DIR, CompressorMap, MapError, TurbineMap, parse_map
 from .engine.torque_converter import DEFAULT_TORQUE_CONVERTER, TorqueConverter, TorqueConverterError
 from .engine.turbocharger import BasicTurbo, IterativeTurbo, PortAreas, TurboShaft
@@ -48,6 +50,8 @@ __all__ = [
     "ENGINE_KEYS",
     "SHAFT_KEYS",
     "PORT_KEYS",
+    "GAS_KEYS",
+    "SOLVER_KEYS",
     "read_converter",
     "turbodiesel_defaults",
 ]
@@ -256,13 +260,22 @@ SHAFT_KEYS = frozenset(f.name for f in fields(TurboShaft))
 """Keys of ``[input] shaft = {...}``: turbo rotor inertia and damping (:class:`TurboShaft`)."""
 PORT_KEYS = frozenset(f.name for f in fields(PortAreas))
 """Keys of ``[input] ports = {...}``: duct areas [m^2] of the iterative algorithm (:class:`PortAreas`)."""
+GAS_KEYS = frozenset(f.name for f in fields(Gas))
+"""Keys of ``[input] air = {...}`` and ``exhaust = {...}``: the gases (:class:`Gas`, J/(kg*K))."""
+_SOLVER = {k: v.default for k, v in inspect.signature(IterativeTurbo).parameters.items()
+           if isinstance(v.default, (int, float)) and not isinstance(v.default, bool)}
+SOLVER_KEYS = frozenset(_SOLVER)
+"""Keys of ``[input] turbo_solver = {...}``: the iterative algorithm's mass-flow and temperature
+solves (:class:`IterativeTurbo`: ``xtol`` [kg/s], ``maxiter``, ``inner_tol``, ``inner_maxiter``)."""
 
 def turbodiesel_defaults() -> dict[str, object]:
     """``"engine.NAME"``, ``"shaft.NAME"``, ``"ports.NAME"`` -> the default value of every key of
     the turbodiesel's sub-tables (lists for tuples), the values a scenario gets without them."""
     out: dict[str, object] = {}
-    for table, keys, obj in (("engine", ENGINE_KEYS, EngineParams()), ("shaft", SHAFT_KEYS, TurboShaft()),
-                             ("ports", PORT_KEYS, PortAreas())):
+    defaults = EngineParams()
+    for table, keys, obj in (("engine", ENGINE_KEYS, defaults), ("shaft", SHAFT_KEYS, defaults.shaft),
+                             ("ports", PORT_KEYS, PortAreas()), ("air", GAS_KEYS, defaults.air),
+                             ("exhaust", GAS_KEYS, defaults.exhaust), ("turbo_solver", SOLVER_KEYS, SimpleNamespace(**_SOLVER))):
         for name in sorted(keys):
             value = getattr(obj, name)
             out[f"{table}.{name}"] = list(value) if isinstance(value, tuple) else value
@@ -299,11 +312,21 @@ def _parameters(r, table: dict, keys: tuple, defaults) -> dict:
 
 
 def _engine_params(r, inp: dict, keys: tuple) -> EngineParams:
-    """``EngineParams`` with the ``engine``, ``shaft`` tables of ``[input]`` over the defaults."""
-    ekeys, skeys = keys + ("engine",), keys + ("shaft",)
+    """``EngineParams`` with the ``engine``, ``shaft``, ``air`` and ``exhaust`` tables of ``[input]``
+    over the defaults."""
+    ekeys = keys + ("engine",)
     defaults = EngineParams()
     values = _parameters(r, r.subtable(inp, keys, "engine", ENGINE_KEYS), ekeys, defaults)
-    shaft = replace(defaults.shaft, **_parameters(r, r.subtable(inp, keys, "shaft", SHAFT_KEYS), skeys, defaults.shaft))
+
+    def part(name, allowed, default):
+        given = _parameters(r, r.subtable(inp, keys, name, allowed), keys + (name,), default)
+        return replace(default, **given) if given else default
+
+    shaft = part("shaft", SHAFT_KEYS, defaults.shaft)
+    for name in ("air", "exhaust"):
+        gas = values[name] = part(name, GAS_KEYS, getattr(defaults, name))
+        if gas.cp <= gas.R:
+            raise r.error(keys + (name,), f"{name}: cp ({gas.cp:g}) must exceed R ({gas.R:g}) J/(kg*K)")
     speeds, fuel = values.get("full_load_speed", defaults.full_load_speed), values.get("full_load_fuel", defaults.full_load_fuel)
     if len(speeds) != len(fuel):
         raise r.error(ekeys, f"full_load_speed and full_load_fuel must have as many entries ({len(speeds)} and {len(fuel)})")
@@ -317,8 +340,9 @@ def _map(text: str, path: str) -> CompressorMap | TurbineMap:
     return parse_map(text, path)
 
 
-def _device(r, inp: dict, keys: tuple, name: str, default: str, kind: type):
-    """The compressor or turbine of the map file ``[input] name`` (default: the shipped map)."""
+def _device(r, inp: dict, keys: tuple, name: str, default: str, kind: type, gas: Gas):
+    """The compressor or turbine of the map file ``[input] name`` (default: the shipped map),
+    working on ``gas``."""
     from .engine.compressor import Compressor
     from .engine.preprocessor import preprocess_compressor, preprocess_turbine
     from .engine.turbine import Turbine
@@ -331,8 +355,8 @@ def _device(r, inp: dict, keys: tuple, name: str, default: str, kind: type):
             raise MapError(f"{path} is a {'compressor' if isinstance(cmap, CompressorMap) else 'turbine'} map, "
                            f"not a {'compressor' if kind is CompressorMap else 'turbine'} map")
         if kind is CompressorMap:
-            return Compressor(preprocess_compressor(cmap))
-        return Turbine(preprocess_turbine(cmap))
+            return Compressor(preprocess_compressor(cmap), gas)
+        return Turbine(preprocess_turbine(cmap), gas)
     except MapError as exc:
         raise r.error(key, f"bad {name}: {exc}") from None
 
@@ -370,12 +394,15 @@ def turbodiesel_component(r, inp: dict, keys: tuple, mech, tr) -> TurbodieselSou
                                         "crank, flywheel and impeller inertia (J > 0 in the .mech file)")
     params = _engine_params(r, inp, keys)
     ports = r.subtable(inp, keys, "ports", PORT_KEYS)
-    if ports and turbo != "iterative":
-        raise r.error(keys + ("ports",), "port areas are used by the iterative turbo algorithm only (turbo = \"iterative\")")
-    devices = (_device(r, inp, keys, "compressor_map", "we_compressor.toml", CompressorMap),
-               _device(r, inp, keys, "turbine_map", "we_turbine.toml", TurbineMap))
+    solver = r.subtable(inp, keys, "turbo_solver", SOLVER_KEYS)
+    for name, given in (("ports", ports), ("turbo_solver", solver)):
+        if given and turbo != "iterative":
+            raise r.error(keys + (name,), f"{name} is used by the iterative turbo algorithm only (turbo = \"iterative\")")
+    devices = (_device(r, inp, keys, "compressor_map", "we_compressor.toml", CompressorMap, params.air),
+               _device(r, inp, keys, "turbine_map", "we_turbine.toml", TurbineMap, params.exhaust))
     if turbo == "iterative":
-        charger = IterativeTurbo(*devices, params.shaft, PortAreas(**_parameters(r, ports, keys + ("ports",), PortAreas())))
+        charger = IterativeTurbo(*devices, params.shaft, PortAreas(**_parameters(r, ports, keys + ("ports",), PortAreas())),
+                                 **_parameters(r, solver, keys + ("turbo_solver",), SimpleNamespace(**_SOLVER)))
     else:
         charger = BasicTurbo(*devices, params.shaft)
     engine = TurbochargedDiesel(params, turbo=charger, rack=fuel.value, governor=governor)

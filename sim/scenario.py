@@ -15,6 +15,11 @@ line and a caret, located at the key or list entry that is wrong (positions from
 error keeps tomllib's line and column. Everything is checked before a run: NaN and infinity
 anywhere, types, names (with suggestions), ``[output]`` signals, shift times. Parsing never
 evaluates code.
+
+:func:`load_scenario` takes ``overrides`` (dotted keys -> values, :mod:`.overrides`), set in
+the merged data before the build so that the same checks apply (errors ``--set KEY: error:``),
+and ``files`` (texts by absolute path, :mod:`.file_access`) to build a scenario without the
+disk; :func:`scenario_files` collects those texts and :func:`scenario_keys` lists the keys.
 """
 from __future__ import annotations
 
@@ -98,7 +103,9 @@ def load_scenario(path: str | Path, overrides: Mapping[str, object] | None = Non
 def scenario_files(path: str | Path, overrides: Mapping[str, object] | None = None) -> dict[str, str]:
     """Every file that loading the scenario reads (with ``overrides``), keyed as ``files`` of
     :func:`load_scenario` is: ``load_scenario(path, o, files=scenario_files(path, o))`` equals
-    ``load_scenario(path, o)`` without the disk."""
+    ``load_scenario(path, o)`` without the disk. The keys are absolute resolved paths, so on
+    another machine (or in another folder) name the scenario by its key,
+    ``str(scenario_path(path).resolve())``, not by a relative path."""
     access = FileAccess()
     _load(path, overrides, access)
     return dict(access.read)
@@ -258,6 +265,9 @@ def _build(data: dict, source: Source, path: Path, overrides=None, access: FileA
         template = _template(r, data, ("shifts", "template"))
         events = []
         event_list = shifts_t.get("events", [])
+        if not event_list and "template" in shifts_t:
+            raise r.error(("shifts", "template"), "a shift template shapes the shift events: give [shifts] events = "
+                                                  f"[{_EVENT}, ...] (or use [auto_shift] template)")
         if not isinstance(event_list, list):
             raise r.error(("shifts", "events"), f"events must be a list of {_EVENT}, not {shown(event_list)}")
         for k, ev in enumerate(event_list):

@@ -75,7 +75,12 @@ class Source:
         key = self.override_of(tuple(keys))
         if key is not None:
             return ScenarioError(f"--set {key}: error: {bounded(message)} (a value given with --set)")
-        source, line, col = self.locate(tuple(keys))
+        keys = tuple(keys)
+        inside = [k for path, k in self.overrides.items()
+                  if keys and (path[:len(keys)] == keys or len(path) > 1 and keys[:len(path) - 1] == path[:-1])]
+        if inside:  # a table of the file that holds a value given with --set, or a value beside one
+            message += f" (with --set {', '.join(inside)})"
+        source, line, col = self.locate(keys)
         return source.error_at(line, col, message)
 
     def error_at(self, line: int, col: int, message: str) -> ScenarioError:

@@ -94,12 +94,27 @@ def test_overrides_reach_every_table():
     assert s.data["elements"]["C4"]["apply"]["t"][2] == 5.5
 
 
+def test_an_entry_of_a_list_is_a_key():
+    s = load_scenario("ht740_improved", {"elements.C4.apply.t.2": 5.5, "input.torque_table.2.3": 1650})
+    assert s.data["elements"]["C4"]["apply"]["t"] == [0.0, 4.0, 5.5, 9.0, 9.02, 9.3]
+    assert s.data["input"]["torque_table"][2][3] == 1650
+    with pytest.raises(ScenarioError, match=r"^--set elements.C4.apply.t.9: error: 'elements.C4.apply.t' is a list of "
+                                            r"6 entries: give an index 0..5"):
+        load_scenario("ht740_improved", {"elements.C4.apply.t.9": 1.0})
+    with pytest.raises(ScenarioError, match=r"^--set elements.C4.apply.t.2: error: table times 't' must not decrease"):
+        load_scenario("ht740_improved", {"elements.C4.apply.t.2": 3.0})
+
+
 def test_a_key_absent_from_the_file_but_known_is_set():
     s = load_scenario("ht740_improved", {"driveline.grade_percent": 2.0})
     assert s.data["driveline"]["grade_percent"] == 2.0
     # a table the file lacks: its other required keys are asked for, naming the override
     with pytest.raises(ScenarioError, match=r"^--set auto_shift.upshift_rpm: error: .*order"):
         load_scenario("ht740_improved", {"auto_shift.upshift_rpm": [[1500]]})
+    # a shift template without shift events would change nothing: refused
+    with pytest.raises(ScenarioError, match=r"^--set shifts.template.ramp_time: error: a shift template shapes the "
+                                            r"shift events"):
+        load_scenario("ht740_improved", {"shifts.template.ramp_time": 0.4})
 
 
 @pytest.mark.parametrize("key, value, words", [
@@ -133,6 +148,15 @@ def test_bad_overrides_are_refused_naming_the_key(key, value, words):
     assert "m915" not in message and ".toml:" not in message  # not located in a file
 
 
+def test_an_error_about_a_file_value_beside_an_override_names_the_override():
+    with pytest.raises(ScenarioError, match=r"ht740_improved.toml:\d+:\d+: error: unknown key 't' for a ramp signal"
+                                            r".*\(with --set elements.C4.apply.type\)"):
+        load_scenario("ht740_improved", {"elements.C4.apply.type": "ramp"})
+    with pytest.raises(ScenarioError, match=r"^--set elements.C4.apply: error: ramp needs t1 > t0"):  # all of it from --set
+        load_scenario("ht740_improved", {"elements.C4.apply": {"type": "ramp", "t0": 4.0, "t1": 5.0, "v0": 0, "v1": 1}}
+                      | {"elements.C4.apply.t1": 3.0})
+
+
 def test_mechanism_parameters_change_the_matrices_and_the_result():
     base = load_scenario("ht740_improved", SHORT)
     heavy = load_scenario("ht740_improved", {**SHORT, "mech.L1.J": 2.5})
@@ -141,6 +165,11 @@ def test_mechanism_parameters_change_the_matrices_and_the_result():
     assert heavy.mechanism.link("L1").inertia == 2.5
     ratio = load_scenario("ht740_improved", {**SHORT, "mech.P3.Nr": 80})
     assert ratio.mechanism.planetaries[2].n_ring == 80
+    from transgen.statespace import state_space
+
+    for changed in (heavy, ratio):   # the mode matrices follow the parameter
+        m_a, m_b = (state_space(s.mechanism, coordinates=["L1", "L6"]).mode("M1") for s in (base, changed))
+        assert m_a.B.shape == m_b.B.shape and not np.allclose(m_a.B, m_b.B)
     a, b = _final(base), _final(ratio)
     assert abs(a - b) > 1e-3 * abs(a)   # another first-gear ratio, another output speed
     same = load_scenario("ht740_improved", {**SHORT, "mech.C4.static": 2900.0}).run()
@@ -220,8 +249,10 @@ TURBO_SHORT = {"simulation.t_end": 1.5}
 
 def test_turbodiesel_defaults_written_out_give_the_same_run_number_for_number():
     keys = scenario_keys("ht740_turbo_iterative")
-    explicit = {k: v for k, v in keys.items() if k.startswith(("input.engine.", "input.shaft.", "input.ports."))}
-    assert len(explicit) > 30 and keys["input.shaft.inertia"] == 2.0e-4 and keys["input.engine.V_im"] == 0.022
+    explicit = {k: v for k, v in keys.items()
+                if k.startswith(("input.engine.", "input.shaft.", "input.ports.", "input.air.", "input.exhaust.",
+                                 "input.turbo_solver."))}
+    assert len(explicit) > 40 and keys["input.shaft.inertia"] == 2.0e-4 and keys["input.engine.V_im"] == 0.022
     a = load_scenario("ht740_turbo_iterative", TURBO_SHORT).run()
     b = load_scenario("ht740_turbo_iterative", {**TURBO_SHORT, **explicit}).run()
     _same(a, b)
@@ -232,7 +263,8 @@ def test_turbodiesel_defaults_written_out_give_the_same_run_number_for_number():
 @pytest.mark.filterwarnings("ignore:.*operating point outside the data")  # low ambient pressure
 @pytest.mark.parametrize("key, value", [("input.engine.V_im", 0.044), ("input.shaft.inertia", 4e-4),
                                         ("input.shaft.c1", 1e-4), ("input.engine.p_amb", 90000.0),
-                                        ("input.ports.turbine_inlet", 0.003)])
+                                        ("input.ports.turbine_inlet", 0.003), ("input.air.cp", 1005.0),
+                                        ("input.exhaust.R", 290.0), ("input.turbo_solver.xtol", 1e-6)])
 def test_turbodiesel_parameters_change_the_turbocharger(key, value):
     a = load_scenario("ht740_turbo_iterative", TURBO_SHORT).run()
     b = load_scenario("ht740_turbo_iterative", {**TURBO_SHORT, key: value}).run()
@@ -240,7 +272,8 @@ def test_turbodiesel_parameters_change_the_turbocharger(key, value):
     assert not np.array_equal(a["omega_tc"], b["omega_tc"]) or not np.array_equal(a["p_im"], b["p_im"])
     engine = load_scenario("ht740_turbo_iterative", {key: value}).powertrain.components[0].engine
     table, name = key.split(".")[1:]
-    obj = {"engine": engine.params, "shaft": engine.turbo.shaft, "ports": getattr(engine.turbo, "ports", None)}[table]
+    obj = {"engine": engine.params, "shaft": engine.turbo.shaft, "ports": getattr(engine.turbo, "ports", None),
+           "air": engine.turbo.compressor.gas, "exhaust": engine.turbo.turbine.gas, "turbo_solver": engine.turbo}[table]
     assert getattr(obj, name) == value
 
 
@@ -270,7 +303,9 @@ def test_turbodiesel_map_files_are_read_relative_to_the_file_and_from_files(tmp_
     ("input.engine.c_vol", [1.0, 2.0], r"'c_vol' must have 3 entries"),
     ("input.engine.full_load_fuel", [1e-4, 2e-4], r"full_load_speed and full_load_fuel must have as many entries"),
     ("input.shaft.inertia", -1.0, r"'inertia' must be positive"),
-    ("input.ports.turbine_inlet", 0.003, r"port areas are used by the iterative turbo algorithm only"),
+    ("input.ports.turbine_inlet", 0.003, r"ports is used by the iterative turbo algorithm only"),
+    ("input.turbo_solver.maxiter", 10, r"turbo_solver is used by the iterative turbo algorithm only"),
+    ("input.air.cp", 280.0, r"air: cp \(280\) must exceed R \(287\)"),
     ("input.compressor_map", "no_such_map.toml", r"cannot read the map file"),
     ("input.turbine_map", "we_compressor", r"cannot read the map file"),
 ])
@@ -375,3 +410,28 @@ def test_scenario_copy_writes_all_files_or_none(tmp_path, monkeypatch):
     monkeypatch.setattr(export, "write_text", real)
     written = copy_scenario("ht740_turbo_iterative", tmp_path / "out")
     assert sorted(p.name for p in written) == ["ht740_turbo.toml", "ht740_turbo_iterative.toml", "m915_driveline.toml"]
+
+
+def test_gear_pair_radii_and_one_way_direction_are_parameters():
+    base = load_scenario("oneway_overrun")
+    bigger = load_scenario("oneway_overrun", {"mech.Gi1.r2": 0.09})
+    assert bigger.mechanism.gear_pairs[0].n2 == 0.09 and base.mechanism.gear_pairs[0].n2 == 0.08
+    a, b = base.run(), bigger.run()
+    assert a.success and b.success
+    assert abs(a["w_Lo"][-1] - b["w_Lo"][-1]) > 1e-3 * abs(a["w_Lo"][-1])   # another first-gear ratio
+    turned = load_scenario("oneway_overrun", {"mech.F1.free": "negative"})
+    assert turned.mechanism.element("F1").free == "negative"
+    with pytest.raises(ScenarioError, match=r"--set mech.Gi1.N1: error: gears Gi1 has no parameter 'N1'"):
+        load_scenario("oneway_overrun", {"mech.Gi1.N1": 20})
+    with pytest.raises(ScenarioError, match=r"free must be one of positive, negative"):
+        load_scenario("oneway_overrun", {"mech.F1.free": "both"})
+
+
+def test_a_worker_elsewhere_loads_the_scenario_by_its_key(tmp_path, monkeypatch):
+    from transgen.sim.scenario import scenario_path
+
+    key = str(scenario_path("ht740_improved").resolve())
+    files = scenario_files("ht740_improved", SHORT)
+    assert key in files
+    monkeypatch.chdir(tmp_path)
+    _same(load_scenario(key, SHORT, files=files).run(), load_scenario("ht740_improved", SHORT).run())
