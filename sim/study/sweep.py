@@ -60,17 +60,12 @@ def _clock(seconds: float) -> str:
 
 
 def scenario_path(scenario: str | Path) -> str:
-    """The path the workers load: a scenario file's resolved path, or a bundled scenario's (the
-    texts are keyed by it); anything else as given (loading it gives the error)."""
-    from transgen.sim.scenario import bundled_scenarios
+    """The key the workers load the scenario by: the resolved path of the file (or of the bundled
+    scenario) ``scenario`` names, which keys its text in :func:`transgen.sim.scenario_files`.
+    Raises ScenarioError (with the closest bundled name) when there is none."""
+    from transgen.sim.scenario import scenario_path as named_file
 
-    path = Path(scenario)
-    if path.is_file():
-        return str(path.resolve())
-    bundled = bundled_scenarios()
-    if path.stem in bundled and path.suffix in ("", ".toml"):
-        return str(bundled[path.stem].resolve())
-    return str(scenario)
+    return str(named_file(scenario).resolve())
 
 
 def design_variants(grid: Mapping[str, Sequence], samples: int | None = None, seed: int = 0) -> list[dict]:
