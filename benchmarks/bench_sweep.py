@@ -1,11 +1,14 @@
 """Throughput of a parameter study (transgen.sim.study): 64 HT-740 runs (ht740_improved, 20 s
 each; an 8 x 8 grid of vehicle mass and throttle) serially in this process, on 1 and 2 local
 worker processes and on a Dask cluster of 2 worker processes on 127.0.0.1 (started here, its start
-not timed; a cluster is started once and used for many sweeps).
+and the workers' import of the simulator not timed: a cluster is started once and used for many
+sweeps, as the pool's fork server imports the simulator once).
 
 Each sweep is timed end to end (validation, pool start, runs) and over its runs alone (from the
 moment the runs start to the last row); the rows of every engine are checked to be identical,
-number for number.
+number for number. The cost of an engine per task (sending the scenario texts and overrides,
+scheduling, returning the row) is measured with tasks that do nothing: the marginal time of 220
+against 20 of them, which a loaded machine disturbs far less than the runs.
 
 Goals (issue 11): on an idle 2-core machine 2 local workers at least 1.8x faster than 1; Dask adds
 at most 10 % per run over the local pool.
@@ -47,6 +50,31 @@ def timed(label: str, executor, design: dict) -> tuple[float, float, list]:
     return total, runs, cells
 
 
+def _noop(shared, task):
+    """A task that does nothing: what an executor costs per run (sending the scenario texts and
+    the overrides, scheduling, returning a row)."""
+    return task[0], {"success": True, "files": len(shared["files"])}
+
+
+def _preload() -> None:
+    import importlib
+
+    from transgen.sim.study.task import PRELOAD
+
+    for name in PRELOAD:
+        importlib.import_module(name)
+
+
+def task_overhead(executor, shared: dict, few: int = 20, many: int = 220) -> float:
+    """Marginal seconds per task of ``executor`` (start-up cancels out of the difference)."""
+    def timed_run(n: int) -> float:
+        start = time.perf_counter()
+        for _ in executor.run(_noop, shared, [(i, {"driveline.vehicle_mass": 20000 + i}) for i in range(n)]):
+            pass
+        return time.perf_counter() - start
+    return (timed_run(many) - timed_run(few)) / (many - few)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--runs", type=int, default=64)
@@ -61,6 +89,15 @@ def main() -> None:
     assert one[2] == serial[2] and two[2] == serial[2], "local workers gave different numbers"
     print(f"  speed-up of 2 workers over 1: {one[0] / two[0]:.2f}x end to end, {one[1] / two[1]:.2f}x over the runs "
           f"(goal >= 1.8x on an idle machine)")
+    from transgen.sim import scenario_files
+    from transgen.sim.study.sweep import scenario_path
+
+    path = scenario_path("ht740_improved")
+    shared = {"path": path, "files": scenario_files(path)}
+    per_run = two[1] / len(serial[2]) * 2  # seconds of one run on one of the 2 workers
+    pool_cost = task_overhead(LocalExecutor(2), shared)
+    print(f"  cost per task of the 2-worker pool: {pool_cost * 1e3:.2f} ms ({100 * pool_cost / per_run:.2f} % of a "
+          f"{per_run:.2f} s run)")
     if args.no_dask:
         return
     try:
@@ -70,10 +107,15 @@ def main() -> None:
         return
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
                                   dashboard_address=None) as cluster:
+        with distributed.Client(cluster) as client:  # as the pool's fork server: the simulator imported once
+            client.run(_preload)
         dask = timed("Dask, 2 workers", DaskExecutor(cluster.scheduler_address), design)
+        dask_cost = task_overhead(DaskExecutor(cluster.scheduler_address), shared)
     assert dask[2] == serial[2], "Dask gave different numbers"
     print(f"  Dask per run over the 2-worker pool: {100 * (dask[0] / two[0] - 1):+.1f} % end to end, "
           f"{100 * (dask[1] / two[1] - 1):+.1f} % over the runs (goal <= +10 %)")
+    print(f"  cost per task on Dask: {dask_cost * 1e3:.2f} ms, {1e3 * (dask_cost - pool_cost):+.2f} ms over the pool = "
+          f"{100 * (dask_cost - pool_cost) / per_run:+.2f} % of a run")
     print("  rows identical, number for number: serial = 1 worker = 2 workers = Dask")
 
 
