@@ -14,10 +14,19 @@ per shift (``shift1.torque_hole``, ...) and the turbocharger figures where an en
 """
 from __future__ import annotations
 
-from .design import full_grid, latin_hypercube, row_key
-from .executors import DaskExecutor, LocalExecutor, SerialExecutor, make_executor
-from .sweep import SweepProgress, sweep, validate_variants
-from .table import SweepTable, column_unit
-
 __all__ = ["sweep", "SweepTable", "SweepProgress", "SerialExecutor", "LocalExecutor", "DaskExecutor",
            "make_executor", "full_grid", "latin_hypercube", "row_key", "column_unit", "validate_variants"]
+
+# loaded on first use, so that the command line's parser (which adds `sweep`) imports no numeric library
+_WHERE = {"sweep": "sweep", "SweepProgress": "sweep", "validate_variants": "sweep", "SweepTable": "table",
+          "column_unit": "table", "SerialExecutor": "executors", "LocalExecutor": "executors",
+          "DaskExecutor": "executors", "make_executor": "executors", "full_grid": "design",
+          "latin_hypercube": "design", "row_key": "design"}
+
+
+def __getattr__(name: str):
+    if name in _WHERE:
+        from importlib import import_module
+
+        return getattr(import_module(f"{__name__}.{_WHERE[name]}"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
