@@ -90,7 +90,7 @@ def main() -> None:
     print(f"  speed-up of 2 workers over 1: {one[0] / two[0]:.2f}x end to end, {one[1] / two[1]:.2f}x over the runs "
           f"(goal >= 1.8x on an idle machine)")
     from transgen.sim import scenario_files
-    from transgen.sim.study.sweep import scenario_path
+    from transgen.sim.study.runner import scenario_path
 
     path = scenario_path("ht740_improved")
     shared = {"path": path, "files": scenario_files(path)}

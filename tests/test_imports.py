@@ -79,7 +79,7 @@ def test_the_study_package_sits_on_top_of_the_simulator():
     it (only the command line wires its command in)."""
     graph = import_graph()
     study = {n for n in graph if n == "transgen.sim.study" or n.startswith("transgen.sim.study.")}
-    assert "transgen.sim.study.sweep" in study
+    assert "transgen.sim.study.runner" in study
     importers = {a for a, b in graph.edges if b in study and a not in study}
     assert importers <= {"transgen.cli"}, sorted(importers)
     assert graph.has_edge("transgen.sim.study.task", "transgen.sim")

@@ -59,7 +59,7 @@ def test_latin_hypercube_hits_every_stratum_once_and_is_reproducible():
 
 
 def test_sampled_design_fixes_single_values_and_refuses_lists():
-    from transgen.sim.study.sweep import design_variants
+    from transgen.sim.study.runner import design_variants
 
     variants = design_variants({"simulation.t_end": [6.0], "driveline.vehicle_mass": (20000.0, 36000.0)}, 4, seed=2)
     assert [v["simulation.t_end"] for v in variants] == [6.0] * 4
@@ -167,7 +167,7 @@ def test_bad_keys_and_values_stop_before_any_run(tmp_path):
 
 
 def test_validation_loads_each_value_within_a_run_of_the_design():
-    from transgen.sim.study.sweep import scenario_path, validate_variants
+    from transgen.sim.study.runner import scenario_path, validate_variants
 
     path = scenario_path(SCENARIO)
     # t_start = 25 s is valid with t_end = 30 s, not with the file's t_end = 20 s

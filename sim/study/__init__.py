@@ -9,7 +9,7 @@ per shift (``shift1.torque_hole``, ...) and the turbocharger figures where an en
 * :mod:`.task` - one run: scenario texts + overrides -> row (what a worker executes);
 * :mod:`.executors` - serial, local process pool, Dask distributed;
 * :mod:`.table` - :class:`SweepTable`, CSV in and out, units of the columns;
-* :mod:`.sweep` - :func:`sweep`: validation, resume, progress, atomic results file;
+* :mod:`.runner` - :func:`sweep`: validation, resume, progress, atomic results file;
 * :mod:`.plots` - metrics over one parameter, heat maps over two.
 """
 from __future__ import annotations
@@ -18,7 +18,7 @@ __all__ = ["sweep", "SweepTable", "SweepProgress", "SerialExecutor", "LocalExecu
            "make_executor", "full_grid", "latin_hypercube", "row_key", "column_unit", "validate_variants"]
 
 # loaded on first use, so that the command line's parser (which adds `sweep`) imports no numeric library
-_WHERE = {"sweep": "sweep", "SweepProgress": "sweep", "validate_variants": "sweep", "SweepTable": "table",
+_WHERE = {"sweep": "runner", "SweepProgress": "runner", "validate_variants": "runner", "SweepTable": "table",
           "column_unit": "table", "SerialExecutor": "executors", "LocalExecutor": "executors",
           "DaskExecutor": "executors", "make_executor": "executors", "full_grid": "design",
           "latin_hypercube": "design", "row_key": "design"}

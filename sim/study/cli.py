@@ -135,7 +135,7 @@ def cmd_sweep(args) -> int:
     from transgen.errors import ScenarioError
 
     from .executors import make_executor
-    from .sweep import sweep
+    from .runner import sweep
 
     sampled = args.samples is not None
     grid: dict = {}
