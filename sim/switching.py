@@ -71,7 +71,8 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None) ->
         u_ext, *_ = model.external(t_sig, y_ext, w, dummy_layout)
         previous = locked
         try:
-            locked, directions = tr.decide(t_sig, w, u_ext, slip_tol(w), forced, previous or frozenset())
+            locked, directions = tr.decide(t_sig, w, u_ext, slip_tol(w), forced, previous or frozenset(),
+                                           None if previous is None else directions)
             mode = tr.mode(locked)
         except (SimulationError, ModeError) as exc:
             success, message = False, f"{exc} (mode {tr.mode_name(previous) if previous is not None else 'none'})"

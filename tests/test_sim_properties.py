@@ -323,3 +323,59 @@ def test_reproducer_brakes_and_a_oneway_clutch_in_a_loop_hold(tmp_path):
         assert np.all(r.signals["w_A"] == 0.0) and np.all(r.signals["w_B"] == 0.0)
 
     on_every_solver(tmp_path, LOOP, 0.2, AT_REST, "5.0", "[elements.KA]\napply = 1.0\n[elements.KB]\napply = 1.0\n", check)
+
+
+# ------------------------------------------------ redundant locks and elements that broke loose
+def on_every_solver_completes(tmp_path, mech: str, body: str) -> None:
+    """Run ``body`` (scenario TOML naming "two.mech") with ``mech`` on every solver: each completes."""
+    failures = []
+    for method in rm.SOLVERS:
+        r = scenario(tmp_path, body, mech=mech, method=method).run()
+        if not r.success:
+            failures.append(f"{method}: {r.message}")
+    assert not failures, "\n".join(failures)
+
+
+def test_reproducer_a_weak_redundant_lock_carries_nothing(tmp_path):
+    # at rest, 127 N*m on L1 slips C1 (100 N*m); B1 holds L2 and C2 locks the planetary chain, so
+    # B2 (applying from 1e-13) is redundant: the decision must try the reduction that leaves B2
+    # without torque, not only the one that drops C2 (was: "no consistent mode" at t = 0)
+    mech = ("link L1 J=0.01\nlink L2 J=3.5\nlink L3 J=0.01\nlink L4 J=5.3\nlink L5 J=9.4\n"
+            "clutch C1 L1 L2 static=100.0 dynamic=95.0\n"
+            "planetary P1 sun=L3 ring=L2 carrier=L5 Ns=39 Nr=76\n"
+            "planetary P2 sun=L4 ring=L3 carrier=housing Ns=55 Nr=132\n"
+            "clutch C2 L4 L5 static=10.0 dynamic=9.5\nbrake B1 L2 static=335.0 dynamic=335.0\n"
+            "brake B2 L4 static=242.0 dynamic=234.0\ninput L1\noutput L5\n")
+    body = ('mechanism = "two.mech"\n[simulation]\nt_end = 0.05\n[initial]\n'
+            'speeds = { L1 = 0.0, L2 = 0.0, L3 = 0.0, L4 = 0.0, L5 = 0.0 }\n'
+            '[input]\ntype = "torque"\ntorque = 127.5\n[driveline]\noutput_torque = 2.0\n'
+            '[elements.C1]\napply = 1.0\n[elements.C2]\napply = 0.7\n[elements.B1]\napply = 0.35\n'
+            '[elements.B2]\napply = { type = "ramp", t0 = 6e-5, t1 = 0.08, v0 = 1e-13, v1 = 0.7 }\n')
+    on_every_solver_completes(tmp_path, mech, body)
+
+
+def test_reproducer_a_brake_that_broke_loose_slides_on(tmp_path):
+    # a block of three links held by two brakes in turn (B2 on a sine apply, B1 on a table): when
+    # one reaches its limit while the other is redundant, the one that broke loose transmits its
+    # dynamic torque, and an element sliding at zero slip keeps sliding where it can (was: "no
+    # consistent mode" at 0.153 s, then "several consistent modes" at 0.190 s)
+    mech = ("link L1 J=10.0\nlink L2 J=10.0\nlink L3 J=1.02\nlink L4 J=0.95\nlink L5 J=5.72\n"
+            "planetary P1 sun=L1 ring=L4 carrier=L2 Ns=16 Nr=56\n"
+            "clutch C1 L2 L3 static=350.0 dynamic=254.0\nclutch C2 L3 L4 static=100.0 dynamic=90.6\n"
+            "clutch C3 L4 L5 static=100.0 dynamic=92.6\nbrake B1 L5 static=1.0 dynamic=0.9999\n"
+            "brake B2 L3 static=298.46 dynamic=157.67\ninput L1\noutput L5\n")
+    body = ('mechanism = "two.mech"\n[simulation]\nt_end = 0.3\n[initial]\n'
+            'speeds = { L1 = -96.4838273877075, L2 = -21.44085053060167, L3 = 0.0, L4 = 0.0, L5 = 0.0 }\n'
+            '[input]\ntype = "torque"\n'
+            'torque = { type = "sine", offset = 4.733609229295867, amplitude = 9.0, frequency = 16.324672416669426, '
+            'phase = -0.9225858689866051 }\n'
+            '[driveline]\noutput_torque = { type = "step", t = 0.2803067319590596, before = 0.4766185193486425, '
+            'after = -2.8805763138080893 }\n'
+            '[elements.C1]\napply = 0.0\n'
+            '[elements.C2]\napply = { type = "ramp", t0 = 0.03116363980850626, t1 = 0.041163738508506256, v0 = 0.0, '
+            'v1 = 1.0 }\n[elements.C3]\napply = 1.0\n'
+            '[elements.B1]\napply = { type = "table", t = [0.03505143812979426, 0.12352866100735033, '
+            '0.21652554893070494], value = [0.0, 3.2248313491085316e-44, 1.0] }\n'
+            '[elements.B2]\napply = { type = "sine", offset = 0.0, amplitude = 0.9604870616676854, '
+            'frequency = 27.035382886604058, phase = 2.32391138729834 }\n')
+    on_every_solver_completes(tmp_path, mech, body)
