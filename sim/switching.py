@@ -133,7 +133,8 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None) ->
             ww, u, derivs, p_in, diss, p_load, _ = evaluate(tt, y)
             return layout.derivative(mode.B @ u, derivs, p_in, diss, p_load)
 
-        event_funcs = [slip_event(lambda tt, y: evaluate(tt, y)[6], i, int(seg_dirs[i]), tol)
+        PC = tr.P @ mode.C
+        event_funcs = [slip_event(lambda tt, y: evaluate(tt, y)[6], i, int(seg_dirs[i]), tol, PC[i])
                        for i in slipping if seg_dirs[i] != 0]
         event_funcs += apply_events(tr, slipping, t_sig, t_stop)
         for row, i in enumerate(mode.locked_order):  # one row per locked element or group in parallel
