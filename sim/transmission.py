@@ -444,7 +444,10 @@ class Transmission:
         moving) — while the locks carry the rest of the load (three clutches on a block in a
         double swap: the two offgoing ones saturate in turn). An element that slid like this in
         the previous segment (``sliding``: the previous slip directions) is tested at its dynamic
-        capacity when it starts to slip, not its static one: it is not stuck.
+        capacity when it starts to slip, not its static one: it is not stuck. Where no
+        combination passes, a second pass lets unforced redundant groups slide like that too (a
+        motion that several weak elements hold only together); of several that then pass (one
+        motion, different splits) the first in declaration order is taken.
 
         Where several combinations pass and all but one hold a lock that carries only round-off
         torque (a torque passing through zero, a tiny apply), the one that needs no such lock is
@@ -469,32 +472,44 @@ class Transmission:
         base_dir = np.sign(slips).astype(int)
         consistent = []
         rejected = 0
-        for choice in itertools.product(*[z[3] for z in zero]):
-            wanted = frozenset(i for z, c in zip(zero, choice) if c == 0 for i in z[2])
-            found = refused = False
-            for locked in self._lock_sets(wanted, previous):
-                try:
-                    data = self.mode(locked)
-                except ModeError:
-                    refused = True
-                    continue
-                refused = False
-                passed = self._consistent(t, w, external_u, zero, choice, locked, data, forced, released,
-                                          base_dir, sliding)
-                if passed is None:
-                    break  # an unforced group that cannot slip: the lock choice decides it
-                if passed is not False:
-                    directions, idle = passed
-                    if not any(lk == locked and np.array_equal(d, directions) for lk, d, _ in consistent):
-                        consistent.append((locked, directions, idle))
-                    found = True
-                    break
-            rejected += refused and not found
+        for share in (False, True):
+            if share and consistent:
+                break
+            for choice in itertools.product(*[z[3] for z in zero]):
+                wanted = frozenset(i for z, c in zip(zero, choice) if c == 0 for i in z[2])
+                found = refused = False
+                for locked in self._lock_sets(wanted, previous):
+                    try:
+                        data = self.mode(locked)
+                    except ModeError:
+                        refused = True
+                        continue
+                    refused = False
+                    passed = self._consistent(t, w, external_u, zero, choice, locked, data, forced, released,
+                                              base_dir, sliding, share)
+                    if passed is None:
+                        break  # an unforced group that cannot slip: the lock choice decides it
+                    if passed is not False:
+                        directions, idle = passed
+                        if not any(lk == locked and np.array_equal(d, directions) for lk, d, _ in consistent):
+                            consistent.append((locked, directions, idle))
+                        found = True
+                        break
+                rejected += refused and not found and not share
+            if share and consistent:
+                # the same motion, the load shared: the first in the elements' declaration order
+                consistent = consistent[:1]
         if len(consistent) > 1:
             # locking and slipping both pass where a lock would hold nothing (a torque through zero):
             # the combination that needs no such lock is the motion
             needed = [c for c in consistent if not c[2]]
             consistent = needed if len(needed) == 1 else consistent
+        if len(consistent) > 1:
+            # the same, where several locks hold nothing: a combination whose extra locks over
+            # another's all hold only round-off torque describes that one's motion
+            fewer = [c for c in consistent
+                     if not any(o[0] < c[0] and c[0] - o[0] <= c[2] for o in consistent)]
+            consistent = fewer if len(fewer) == 1 else consistent
         if len(consistent) > 1 and sliding is not None:
             # an element sliding at zero slip keeps sliding (kinetic friction) where it can: it
             # sticks only where sliding on is inconsistent
@@ -512,18 +527,24 @@ class Transmission:
         options = "; ".join("+".join(self.elements[i].name for i in sorted(lk)) or "none" for lk, _, _ in consistent)
         raise SimulationError(f"t={t:.6g} s: several consistent modes for the elements at zero slip ({names}): {options}")
 
-    def _consistent(self, t, w, external_u, zero, choice, locked, data, forced, released, base_dir, sliding):
+    def _consistent(self, t, w, external_u, zero, choice, locked, data, forced, released, base_dir, sliding,
+                    share: bool = False):
         """:meth:`decide`'s test of one combination ``choice`` realised by the lock set ``locked``
         (mode ``data``): ``(directions, idle)`` when consistent, ``False`` when not, ``None`` when
-        an unforced group that the locks hold at zero kinematically would have to slip."""
+        an unforced group that the locks hold at zero kinematically would have to slip. ``idle``:
+        the locked elements whose row holds only round-off torque."""
         directions = base_dir.copy()
         implied = set()  # slipping groups whose slip the mode's locks hold at zero kinematically
         for (members, signs, _, _), c in zip(zero, choice):
             directions[list(members)] = c * np.asarray(signs)
             if c != 0 and not np.any(np.abs(self.P[members[0]] @ data.C) > 1e-12):
                 implied.add(members)
-        if any(not any(i in forced for i in m) for m in implied):
+        unforced = [m for m in implied if not any(i in forced for i in m)]
+        if unforced and not share:
             return None
+        if share and not unforced:
+            return False  # tested in the first pass
+        free = set(forced) | {i for m in unforced for i in m}  # sliding without the slip test
         u = external_u.copy()
         torques = self.slipping_torques(t, w, locked, directions)
         # elements leaving zero slip are tested at their static capacity, except those that have
@@ -538,13 +559,14 @@ class Transmission:
         if any(self.holding_margin(data, row, t, t_locked[row]) < 0.0 for row in range(len(data.locked_order))):
             return False
         for (members, _, _, _), c in zip(zero, choice):
-            if c != 0 and not any(i in forced for i in members) and not c * slip_acc[members[0]] > 0:
+            if c != 0 and not any(i in free for i in members) and not c * slip_acc[members[0]] > 0:
                 return False
         # a released element at zero slip moves off the way its slip accelerates
         for i in released:
             directions[i] = int(np.sign(slip_acc[i]))
         # a lock that holds only round-off torque is no lock the motion needs
-        idle = bool(len(t_locked)) and bool(np.any(np.abs(t_locked) <= 1e-9 * (1.0 + np.max(np.abs(u)))))
+        tiny = np.abs(t_locked) <= 1e-9 * (1.0 + np.max(np.abs(u)))
+        idle = frozenset(i for row in np.flatnonzero(tiny) for i in data.groups[row])
         return directions, idle
 
     def _lock_sets(self, locked: frozenset, previous: frozenset):
