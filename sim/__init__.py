@@ -1,1 +1,21 @@
-"""transgen.sim — the powertrain simulator (installed from the top-level ``sim/`` folder)."""
+"""transgen.sim — the powertrain simulator (installed from the top-level ``sim/`` folder).
+
+The scenario API is importable from here: :func:`load_scenario`, :func:`scenario_files`,
+:func:`scenario_keys` (:mod:`transgen.sim.scenario`) and :func:`parse_override`
+(:mod:`transgen.sim.overrides`). They are loaded on first use, so that ``import transgen.sim``
+stays cheap.
+"""
+from __future__ import annotations
+
+__all__ = ["load_scenario", "scenario_files", "scenario_keys", "parse_override", "Scenario"]
+
+_WHERE = {"load_scenario": "scenario", "scenario_files": "scenario", "scenario_keys": "scenario",
+          "Scenario": "scenario", "parse_override": "overrides"}
+
+
+def __getattr__(name: str):
+    if name in _WHERE:
+        from importlib import import_module
+
+        return getattr(import_module(f"{__name__}.{_WHERE[name]}"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -5,7 +5,7 @@ import json
 import sys
 from pathlib import Path
 
-__all__ = ["add_commands", "cmd_simulate", "cmd_scenario_new", "cmd_maps"]
+__all__ = ["add_commands", "cmd_simulate", "cmd_scenario_new", "cmd_scenario_keys", "cmd_scenario_copy", "cmd_maps"]
 
 
 def add_commands(sub) -> None:
@@ -27,14 +27,18 @@ def add_commands(sub) -> None:
                    help="clutch model of the compared run (default: as the first run); without --compare the "
                         "scenario is compared with itself, e.g. '--compare-model compliant' reruns the thesis' "
                         "comparison of Runde's and Haessig's models (3.2.2)")
+    _set_option(s)
     s.add_argument("--quiet", action="store_true", help="no progress on standard error")
     s.add_argument("--list", action="store_true", help="list the bundled scenarios")
     s.set_defaults(func=cmd_simulate)
 
-    s = sub.add_parser("scenario", help="write scenario files (scenario new: a launch through every forward gear)",
-                       description="Scenario files from a mechanism. 'transgen scenario new FILE' writes a commented "
+    s = sub.add_parser("scenario", help="scenario files: new (a launch from a .mech file), keys (the settable "
+                                        "keys), copy (a bundled scenario with its includes)",
+                       description="Scenario files. 'transgen scenario new FILE' writes a commented "
                                    "launch scenario: from rest through every forward gear with an automatic schedule "
-                                   "derived from the gear table, for a car or a truck.")
+                                   "derived from the gear table, for a car or a truck. 'transgen scenario keys "
+                                   "SCENARIO' lists the keys that --set can change, with their values. 'transgen "
+                                   "scenario copy NAME DIR' writes a bundled scenario and the files it includes.")
     group = s.add_subparsers(dest="scenario_command", metavar="COMMAND", required=True)
     n = group.add_parser("new", help="a launch scenario derived from a .mech file alone",
                          description="Derive a launch scenario from a mechanism: the forward gears and their ratios, "
@@ -49,6 +53,22 @@ def add_commands(sub) -> None:
     n.add_argument("--json", action="store_true",
                    help="print what was derived as JSON (with -o; without -o the JSON replaces the TOML)")
     n.set_defaults(func=cmd_scenario_new)
+    k = group.add_parser("keys", help="the settable keys of a scenario and their values",
+                         description="List every key of a scenario that 'transgen simulate --set KEY=VALUE' can "
+                                     "change, with its value (keys the file does not set are shown as '(default)'); "
+                                     "the mechanism's parameters are the keys mech.NAME.PARAM.")
+    k.add_argument("scenario", metavar="SCENARIO", help="scenario .toml file or bundled name")
+    _set_option(k)
+    k.add_argument("--json", action="store_true", help="the keys and values as JSON (null: not set, the default applies)")
+    k.set_defaults(func=cmd_scenario_keys)
+    c = group.add_parser("copy", help="write a bundled scenario and its include files into a folder",
+                         description="Write the scenario NAME (a bundled name or a scenario file) and every file it "
+                                     "includes into DIR, in the same layout, so that the copy runs as it is and can "
+                                     "be edited. Existing files are kept unless --force; all files are written or none.")
+    c.add_argument("name", metavar="NAME", help="bundled scenario name (see 'transgen simulate --list') or file")
+    c.add_argument("directory", metavar="DIR", help="folder to write into (made if missing)")
+    c.add_argument("--force", action="store_true", help="overwrite existing files")
+    c.set_defaults(func=cmd_scenario_copy)
 
     s = sub.add_parser("maps", help="pre-process a compressor or turbine map and summarise it (thesis 4.4)",
                        description="Run the map pre-processor on a compressor or turbine map file (or a bundled "
@@ -59,6 +79,19 @@ def add_commands(sub) -> None:
     s.add_argument("--format", default="png", help="plot formats, comma-separated: png,svg,pdf (default png)")
     s.add_argument("--json", action="store_true", help="machine-readable summary")
     s.set_defaults(func=cmd_maps)
+
+
+def _set_option(parser) -> None:
+    parser.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], dest="overrides",
+                        help="set a scenario value by its dotted key, e.g. driveline.vehicle_mass=20000 or "
+                             "mech.L1.J=0.3 (a TOML value; repeatable; 'transgen scenario keys SCENARIO' lists the keys)")
+
+
+def _overrides(texts: list[str]) -> dict[str, object]:
+    """The ``--set`` options as a key -> value mapping (the last of a repeated key wins)."""
+    from .overrides import parse_override
+
+    return dict(parse_override(t) for t in texts)
 
 
 def _plot_formats(spec: str) -> tuple[str, ...]:
@@ -99,7 +132,8 @@ def cmd_simulate(args) -> int:
         print(json.dumps(items, indent=2) if args.json else "\n".join(f"  {k:<24} {v}" for k, v in items.items()))
         return 0
     formats = _plot_formats(args.format)  # checked before anything runs or is written
-    scenario = _with_model(load_scenario(args.scenario), args.model)
+    overrides = _overrides(args.overrides)
+    scenario = _with_model(load_scenario(args.scenario, overrides), args.model)
     progress = _progress(scenario.options.t_end, args.quiet or args.json)
     if not args.quiet and not args.json:
         print(f"{scenario.title}: {scenario.mechanism.name}, {scenario.options.model} model, "
@@ -116,7 +150,8 @@ def cmd_simulate(args) -> int:
     other = other_q = None
     compare = args.compare or (args.scenario if args.compare_model else None)
     if compare:  # both runs before anything is written: the outputs are all or none
-        other_s = _with_model(load_scenario(compare), args.compare_model or args.model)
+        other_s = _with_model(load_scenario(compare, overrides if compare == args.scenario else None),
+                              args.compare_model or args.model)
         other = other_s.run()
         if not other.success:
             print(f"error: {compare}: {other.message}", file=sys.stderr)
@@ -269,6 +304,30 @@ def cmd_scenario_new(args) -> int:
               f"t_end {launch.t_end:g} s")
     else:
         sys.stdout.write(text)
+    return 0
+
+
+def cmd_scenario_keys(args) -> int:
+    """``transgen scenario keys``: the settable keys of a scenario with their values."""
+    from .overrides import toml_value
+    from .scenario import scenario_keys, scenario_path
+
+    keys = scenario_keys(args.scenario, _overrides(args.overrides))
+    if args.json:
+        print(json.dumps({"scenario": str(scenario_path(args.scenario)), "keys": keys}, indent=2))
+    else:
+        width = max(map(len, keys), default=0)
+        for key, value in keys.items():
+            print(f"{key:<{width}} = {'(default)' if value is None else toml_value(value)}")
+    return 0
+
+
+def cmd_scenario_copy(args) -> int:
+    """``transgen scenario copy``: a bundled scenario and its include files, written into a folder."""
+    from .scenario_copy import copy_scenario
+
+    for path in copy_scenario(args.name, args.directory, args.force):
+        print(f"wrote {path}")
     return 0
 
 

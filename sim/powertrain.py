@@ -21,7 +21,11 @@ package :mod:`transgen.sim.engine`.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+import inspect
+from dataclasses import dataclass, fields, replace
+from functools import lru_cache
+from types import SimpleNamespace
+from pathlib import Path
 
 import numpy as np
 
@@ -30,8 +34,10 @@ from transgen.errors import SimulationError
 from .causality import Block, Causality
 from .components import Component
 from .engine.diesel import EngineParams, SpeedGovernor, TurbochargedDiesel
-from .engine.gas import RPM
-from .engine.torque_converter import TorqueConverter
+from .engine.gas import RPM, Gas
+from .engine.map_file import DATA_DIR, CompressorMap, MapError, TurbineMap, parse_map
+from .engine.torque_converter import DEFAULT_TORQUE_CONVERTER, TorqueConverter, TorqueConverterError
+from .engine.turbocharger import BasicTurbo, IterativeTurbo, PortAreas, TurboShaft
 from .signals import Signal
 
 __all__ = [
@@ -40,6 +46,14 @@ __all__ = [
     "turbodiesel_component",
     "converter_component",
     "CRANK_MODELS",
+    "GOVERNOR_KEYS",
+    "ENGINE_KEYS",
+    "SHAFT_KEYS",
+    "PORT_KEYS",
+    "GAS_KEYS",
+    "SOLVER_KEYS",
+    "read_converter",
+    "turbodiesel_defaults",
 ]
 
 CRANK_MODELS = ("torque", "inertial")
@@ -237,13 +251,126 @@ class ConverterComponent(Component):
 # ----------------------------------------------------------------------------- scenario keys
 
 
+GOVERNOR_KEYS = frozenset({"idle_rpm", "gain"})
+"""Keys of ``[input] governor = {...}``: the idle governor (:class:`SpeedGovernor`)."""
+ENGINE_KEYS = frozenset(f.name for f in fields(EngineParams) if f.name not in ("air", "exhaust", "shaft"))
+"""Keys of ``[input] engine = {...}``: the fields of :class:`~transgen.sim.engine.EngineParams`
+(SI units, as documented there) that are numbers or lists of numbers."""
+SHAFT_KEYS = frozenset(f.name for f in fields(TurboShaft))
+"""Keys of ``[input] shaft = {...}``: turbo rotor inertia and damping (:class:`TurboShaft`)."""
+PORT_KEYS = frozenset(f.name for f in fields(PortAreas))
+"""Keys of ``[input] ports = {...}``: duct areas [m^2] of the iterative algorithm (:class:`PortAreas`)."""
+GAS_KEYS = frozenset(f.name for f in fields(Gas))
+"""Keys of ``[input] air = {...}`` and ``exhaust = {...}``: the gases (:class:`Gas`, J/(kg*K))."""
+_SOLVER = {k: v.default for k, v in inspect.signature(IterativeTurbo).parameters.items()
+           if isinstance(v.default, (int, float)) and not isinstance(v.default, bool)}
+SOLVER_KEYS = frozenset(_SOLVER)
+"""Keys of ``[input] turbo_solver = {...}``: the iterative algorithm's mass-flow and temperature
+solves (:class:`IterativeTurbo`: ``xtol`` [kg/s], ``maxiter``, ``inner_tol``, ``inner_maxiter``)."""
+
+def turbodiesel_defaults() -> dict[str, object]:
+    """``"engine.NAME"``, ``"shaft.NAME"``, ``"ports.NAME"`` -> the default value of every key of
+    the turbodiesel's sub-tables (lists for tuples), the values a scenario gets without them."""
+    out: dict[str, object] = {}
+    defaults = EngineParams()
+    for table, keys, obj in (("engine", ENGINE_KEYS, defaults), ("shaft", SHAFT_KEYS, defaults.shaft),
+                             ("ports", PORT_KEYS, PortAreas()), ("air", GAS_KEYS, defaults.air),
+                             ("exhaust", GAS_KEYS, defaults.exhaust), ("turbo_solver", SOLVER_KEYS, SimpleNamespace(**_SOLVER))):
+        for name in sorted(keys):
+            value = getattr(obj, name)
+            out[f"{table}.{name}"] = list(value) if isinstance(value, tuple) else value
+    return out
+
+
+_SIGNED = frozenset({"c_vol", "c_fric"})  # polynomial coefficients: any sign
+_NON_NEGATIVE = frozenset({"x_cv", "h_tot", "firing_speed", "full_load_fuel", "full_load_speed", "c1", "c2"})
+
+
+def _parameters(r, table: dict, keys: tuple, defaults) -> dict:
+    """The values of ``table`` (keys of the dataclass instance ``defaults``) with the type of each
+    default: whole numbers >= 1 for ints, lists of numbers (of the same length where the default
+    has a fixed length) for tuples, positive numbers for floats (>= 0 or any sign where the
+    parameter allows)."""
+    out = {}
+    for name in table:
+        default = getattr(defaults, name)
+        if isinstance(default, tuple):
+            fixed = name in _SIGNED
+            values = r.numbers(table, keys, name, len(default) if fixed else None)
+            if name not in _SIGNED and min(values) < 0:
+                raise r.error(keys + (name,), f"'{name}' must be numbers >= 0")
+            out[name] = tuple(values)
+        elif isinstance(default, int):
+            v = table[name]
+            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+                raise r.error(keys + (name,), f"'{name}' must be a whole number >= 1, not {v!r}")
+            out[name] = v
+        else:
+            out[name] = r.number(table, keys, name, minimum=0.0 if name in _NON_NEGATIVE else None,
+                                 positive=name not in _NON_NEGATIVE)
+    return out
+
+
+def _engine_params(r, inp: dict, keys: tuple) -> EngineParams:
+    """``EngineParams`` with the ``engine``, ``shaft``, ``air`` and ``exhaust`` tables of ``[input]``
+    over the defaults."""
+    ekeys = keys + ("engine",)
+    defaults = EngineParams()
+    values = _parameters(r, r.subtable(inp, keys, "engine", ENGINE_KEYS), ekeys, defaults)
+
+    def part(name, allowed, default):
+        given = _parameters(r, r.subtable(inp, keys, name, allowed), keys + (name,), default)
+        return replace(default, **given) if given else default
+
+    shaft = part("shaft", SHAFT_KEYS, defaults.shaft)
+    for name in ("air", "exhaust"):
+        gas = values[name] = part(name, GAS_KEYS, getattr(defaults, name))
+        if gas.cp <= gas.R:
+            raise r.error(keys + (name,), f"{name}: cp ({gas.cp:g}) must exceed R ({gas.R:g}) J/(kg*K)")
+    speeds, fuel = values.get("full_load_speed", defaults.full_load_speed), values.get("full_load_fuel", defaults.full_load_fuel)
+    if len(speeds) != len(fuel):
+        raise r.error(ekeys, f"full_load_speed and full_load_fuel must have as many entries ({len(speeds)} and {len(fuel)})")
+    if any(b <= a for a, b in zip(speeds, speeds[1:])):
+        raise r.error(ekeys + ("full_load_speed",), "full_load_speed must be increasing [rad/s]")
+    return replace(defaults, shaft=shaft, **values)
+
+
+@lru_cache(maxsize=32)
+def _map(text: str, path: str) -> CompressorMap | TurbineMap:
+    return parse_map(text, path)
+
+
+def _device(r, inp: dict, keys: tuple, name: str, default: str, kind: type, gas: Gas):
+    """The compressor or turbine of the map file ``[input] name`` (default: the shipped map),
+    working on ``gas``."""
+    from .engine.compressor import Compressor
+    from .engine.preprocessor import preprocess_compressor, preprocess_turbine
+    from .engine.turbine import Turbine
+
+    key = keys + (name,)
+    path = r.file_path(key, r.text(inp, keys, name)) if name in inp else DATA_DIR / default
+    try:
+        cmap = _map(r.read_text(key, path, "map file"), str(path))
+        if not isinstance(cmap, kind):
+            raise MapError(f"{path} is a {'compressor' if isinstance(cmap, CompressorMap) else 'turbine'} map, "
+                           f"not a {'compressor' if kind is CompressorMap else 'turbine'} map")
+        if kind is CompressorMap:
+            return Compressor(preprocess_compressor(cmap), gas)
+        return Turbine(preprocess_turbine(cmap), gas)
+    except MapError as exc:
+        raise r.error(key, f"bad {name}: {exc}") from None
+
+
 def turbodiesel_component(r, inp: dict, keys: tuple, mech, tr) -> TurbodieselSource:
     """The ``[input] type = "turbodiesel"`` component of a scenario.
 
     Keys: ``turbo = "basic" | "iterative"`` (turbocharger algorithm, thesis 4.4 / 4.5),
     ``fuel_signal`` (rack: fraction of the full-load fuel, a signal; default 1), optional
     ``governor = { idle_rpm = 600, gain = 20 }`` (idle governor), ``crank_model = "torque"``
-    (default) or ``"inertial"`` (refused: algebraic loop with the input link). The crank,
+    (default) or ``"inertial"`` (refused: algebraic loop with the input link); the tables
+    ``engine`` (:data:`ENGINE_KEYS`), ``shaft`` (:data:`SHAFT_KEYS`) and ``ports``
+    (:data:`PORT_KEYS`, iterative algorithm only) over the defaults of those classes;
+    ``compressor_map``, ``turbine_map`` (map files; default the shipped W&E maps). The crank,
     flywheel and impeller inertia is the mechanism's input link.
     """
     turbo = r.text(inp, keys, "turbo", "basic")
@@ -252,13 +379,10 @@ def turbodiesel_component(r, inp: dict, keys: tuple, mech, tr) -> TurbodieselSou
     fuel = r.signal(inp.get("fuel_signal", 1.0), keys + ("fuel_signal",))
     governor = None
     if "governor" in inp:
-        gov = inp["governor"]
         gkeys = keys + ("governor",)
-        if not isinstance(gov, dict):
+        if not isinstance(inp["governor"], dict):
             raise r.error(gkeys, "governor is a table like { idle_rpm = 600, gain = 20 }")
-        for k in gov:
-            if k not in ("idle_rpm", "gain"):
-                raise r.error(gkeys + (k,), f"unknown key '{k}' in governor (known: gain, idle_rpm)")
+        gov = r.subtable(inp, keys, "governor", GOVERNOR_KEYS)
         governor = SpeedGovernor(r.number(gov, gkeys, "idle_rpm", 600.0, positive=True) * RPM,
                                  r.number(gov, gkeys, "gain", 20.0, positive=True))
     crank_model = r.text(inp, keys, "crank_model", "torque")
@@ -268,8 +392,32 @@ def turbodiesel_component(r, inp: dict, keys: tuple, mech, tr) -> TurbodieselSou
     if tr.inertia[tr.link_index[mech.input]] <= 0:
         raise r.error(keys + ("type",), f"the turbodiesel drives the input link {mech.input}, which must carry the "
                                         "crank, flywheel and impeller inertia (J > 0 in the .mech file)")
-    engine = TurbochargedDiesel(EngineParams(), turbo=turbo, rack=fuel.value, governor=governor)
+    params = _engine_params(r, inp, keys)
+    ports = r.subtable(inp, keys, "ports", PORT_KEYS)
+    solver = r.subtable(inp, keys, "turbo_solver", SOLVER_KEYS)
+    for name, given in (("ports", ports), ("turbo_solver", solver)):
+        if given and turbo != "iterative":
+            raise r.error(keys + (name,), f"{name} is used by the iterative turbo algorithm only (turbo = \"iterative\")")
+    devices = (_device(r, inp, keys, "compressor_map", "we_compressor.toml", CompressorMap, params.air),
+               _device(r, inp, keys, "turbine_map", "we_turbine.toml", TurbineMap, params.exhaust))
+    if turbo == "iterative":
+        charger = IterativeTurbo(*devices, params.shaft, PortAreas(**_parameters(r, ports, keys + ("ports",), PortAreas())),
+                                 **_parameters(r, solver, keys + ("turbo_solver",), SimpleNamespace(**_SOLVER)))
+    else:
+        charger = BasicTurbo(*devices, params.shaft)
+    engine = TurbochargedDiesel(params, turbo=charger, rack=fuel.value, governor=governor)
     return TurbodieselSource(engine, tr.link_index[mech.input], fuel, crank_model)
+
+
+def read_converter(r, table: dict, keys: tuple, name: str) -> TorqueConverter:
+    """The torque converter of the file named by ``table[name]`` (relative to the file that names
+    it; default the bundled heavy-truck converter), read through the scenario's file access."""
+    ref = r.text(table, keys, name, "") or None
+    path = r.file_path(keys + (name,), ref) if ref else DEFAULT_TORQUE_CONVERTER
+    try:
+        return TorqueConverter.parse(r.read_text(keys + (name,), path, "torque converter"), str(path))
+    except (TorqueConverterError, ValueError) as exc:
+        raise r.error(keys + (name,), f"cannot load the torque converter: {exc}") from None
 
 
 def converter_component(r, conv: dict, keys: tuple, mech, tr) -> ConverterComponent:
@@ -295,10 +443,6 @@ def converter_component(r, conv: dict, keys: tuple, mech, tr) -> ConverterCompon
         names[key] = tname
     if names["pump"] == names["turbine"]:
         raise r.error(keys + ("turbine",), "the pump and the turbine must be different links")
-    file = r.text(conv, keys, "file", "")
-    try:
-        converter = TorqueConverter.load(r.source.path.parent / file) if file else TorqueConverter.load()
-    except (OSError, ValueError) as exc:
-        raise r.error(keys + ("file",), f"cannot load the torque converter: {exc}") from None
+    converter = read_converter(r, conv, keys, "file")
     return ConverterComponent(converter, tr.link_index[names["pump"]], tr.link_index[names["turbine"]],
                               names["pump_torque"], names["turbine_torque"])

@@ -15,11 +15,17 @@ line and a caret, located at the key or list entry that is wrong (positions from
 error keeps tomllib's line and column. Everything is checked before a run: NaN and infinity
 anywhere, types, names (with suggestions), ``[output]`` signals, shift times. Parsing never
 evaluates code.
+
+:func:`load_scenario` takes ``overrides`` (dotted keys -> values, :mod:`.overrides`), set in
+the merged data before the build so that the same checks apply (errors ``--set KEY: error:``),
+and ``files`` (texts by absolute path, :mod:`.file_access`) to build a scenario without the
+disk; :func:`scenario_files` collects those texts and :func:`scenario_keys` lists the keys.
 """
 from __future__ import annotations
 
 import difflib
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -27,22 +33,22 @@ import numpy as np
 
 from transgen.errors import MechError, ModeError, ScenarioError
 from transgen.kinematics import constraint_matrix, numeric_rank
-from transgen.language import load_mechanism
+from transgen.language import load_mechanism, parse_mechanism
 from transgen.model import Mechanism
 
 from .components import Driveline, EngineMap, EngineOnLink, EngineWithConverter, InputTorque, LinkLoad
+from . import scenario_schema as S
 from .schedule import AutoShift, ShiftEvent, ShiftTemplate, shift_trajectories
 from .signals import Constant
 from .simulate import Powertrain, SolverOptions
-from .scenario_file import MAX_STEPS, Reader, Source, as_float, bounded, is_file, read_source, shown
+from .file_access import FileAccess
+from .scenario_file import MAX_STEPS, Reader, Source, as_float, bounded, read_source, shown
 from .transmission import Transmission
 
-__all__ = ["Scenario", "load_scenario", "parse_scenario", "bundled_scenarios", "output_signals", "RPM"]
+__all__ = ["Scenario", "load_scenario", "scenario_files", "scenario_keys", "scenario_path", "parse_scenario", "bundled_scenarios", "output_signals", "RPM"]
 
 RPM = 2 * math.pi / 60
 
-_TOP_KEYS = {"mechanism", "include", "title", "description", "simulation", "compliant", "initial", "input", "load",
-             "driveline", "elements", "shifts", "auto_shift", "output", "report", "converter"}
 
 
 @dataclass
@@ -81,44 +87,105 @@ def bundled_scenarios() -> dict[str, Path]:
 # --------------------------------------------------------------------------------- building
 
 
-def load_scenario(path: str | Path) -> Scenario:
-    """Read a scenario file (or the name of a bundled scenario) into a runnable :class:`Scenario`."""
-    path = Path(path)
-    if not is_file(path) and path.stem in bundled_scenarios() and path.suffix in ("", ".toml"):
-        path = bundled_scenarios()[path.stem]
-    if not is_file(path):
-        close = difflib.get_close_matches(path.stem, list(bundled_scenarios()), n=1)
-        hint = f"; did you mean '{close[0]}'?" if close else f" (bundled: {', '.join(bundled_scenarios())})"
+def load_scenario(path: str | Path, overrides: Mapping[str, object] | None = None,
+                  files: Mapping[str, str] | None = None) -> Scenario:
+    """Read a scenario file (or the name of a bundled scenario) into a runnable :class:`Scenario`.
+
+    ``overrides`` maps dotted keys to values (``{"driveline.vehicle_mass": 20000}``, see
+    :mod:`transgen.sim.overrides`): each is set in the merged file data before the scenario is
+    built, so every check applies to it. ``files`` maps absolute resolved paths to file texts:
+    every file the scenario reads (the TOML file and its includes, the ``.mech`` file, converter
+    tables, compressor and turbine maps) is taken from it instead of the disk when it is there
+    (see :func:`scenario_files`)."""
+    return _load(path, overrides, FileAccess(files))
+
+
+def scenario_files(path: str | Path, overrides: Mapping[str, object] | None = None) -> dict[str, str]:
+    """Every file that loading the scenario reads (with ``overrides``), keyed as ``files`` of
+    :func:`load_scenario` is: ``load_scenario(path, o, files=scenario_files(path, o))`` equals
+    ``load_scenario(path, o)`` without the disk. The keys are absolute resolved paths, so on
+    another machine (or in another folder) name the scenario by its key,
+    ``str(scenario_path(path).resolve())``, not by a relative path."""
+    access = FileAccess()
+    _load(path, overrides, access)
+    return dict(access.read)
+
+
+def scenario_keys(path: str | Path, overrides: Mapping[str, object] | None = None,
+                  files: Mapping[str, str] | None = None) -> dict[str, object]:
+    """Every settable dotted key of a scenario -> its current value (None where the file does not
+    set it and the default applies); the mechanism's parameters as ``mech.NAME.PARAM``."""
+    from .overrides import settable_keys
+
+    scenario = load_scenario(path, overrides, files)
+    return settable_keys(scenario.data, scenario.mechanism)
+
+
+def scenario_path(path: str | Path, access: FileAccess | None = None) -> Path:
+    """The scenario file ``path`` names: the file, or the bundled scenario of that name."""
+    path, access = Path(path), access or FileAccess()
+    bundled = bundled_scenarios()
+    if not access.is_file(path) and path.stem in bundled and path.suffix in ("", ".toml"):
+        path = bundled[path.stem]
+    if not access.is_file(path):
+        close = difflib.get_close_matches(path.stem, list(bundled), n=1)
+        hint = f"; did you mean '{close[0]}'?" if close else f" (bundled: {', '.join(bundled)})"
         raise ScenarioError(f"{path}:1:1: error: no such scenario file{hint}")
-    return _build(*read_source(path), path)
+    return path
 
 
-def parse_scenario(text: str, path: str | Path = "scenario.toml") -> Scenario:
+def _load(path: str | Path, overrides, access: FileAccess) -> Scenario:
+    path = scenario_path(path, access)
+    return _build(*read_source(path, None, (), access), path, overrides, access)
+
+
+def parse_scenario(text: str, path: str | Path = "scenario.toml",
+                   overrides: Mapping[str, object] | None = None) -> Scenario:
     """A :class:`Scenario` from the TOML text of a scenario file; ``path`` names it in messages,
     and includes and the mechanism are looked for relative to its folder."""
     path = Path(path)
-    return _build(*read_source(path, text), path)
+    access = FileAccess()
+    return _build(*read_source(path, text, (), access), path, overrides, access)
 
 
-def _build(data: dict, source: Source, path: Path) -> Scenario:
-    r = Reader(source)
+def _mechanism(r: Reader, path: Path, ref: str) -> Mechanism:
+    """The mechanism ``ref`` names: a file relative to the scenario, or to the current folder, or
+    a bundled name (as :func:`~transgen.language.load_mechanism` finds it), read through the
+    scenario's file access."""
+    from transgen.library import bundled_path
+
+    for candidate in (path.parent / ref, Path(ref), bundled_path(Path(ref).name)):
+        if candidate is not None and r.access.is_file(candidate):
+            try:
+                text = r.access.read_text(candidate)
+            except (OSError, UnicodeDecodeError):
+                break  # load_mechanism says why
+            return parse_mechanism(text, str(candidate))
+    return load_mechanism(ref)
+
+
+def _build(data: dict, source: Source, path: Path, overrides=None, access: FileAccess | None = None) -> Scenario:
+    from .overrides import apply_overrides, check_keys, mech_overrides
+
+    apply_overrides(data, source, overrides)
+    r = Reader(source, access)
     r.table({"": data}, ("",), None)
     for k in data:
-        if k not in _TOP_KEYS:
-            close = difflib.get_close_matches(k, sorted(_TOP_KEYS), n=1)
+        if k not in S.TOP_KEYS:
+            close = difflib.get_close_matches(k, sorted(S.TOP_KEYS), n=1)
             raise r.error((k,), f"unknown key '{k}'" + (f"; did you mean '{close[0]}'?" if close else ""))
     if "mechanism" not in data:
         raise r.error(("mechanism",), "missing 'mechanism = \"FILE.mech\"' (a path relative to the scenario, or a bundled name)")
     mech_ref = r.text(data, (), "mechanism")
-    mech_path = path.parent / mech_ref
     try:
-        mech = load_mechanism(mech_path if is_file(mech_path) else mech_ref)
+        mech = _mechanism(r, path, mech_ref)
     except (MechError, OSError) as exc:
         raise r.error(("mechanism",), f"mechanism '{mech_ref}' has errors:\n{exc}") from None
+    mech = mech_overrides(mech, overrides)
+    check_keys(overrides, data, mech)
 
-    sim_t = r.table(data, ("simulation",), {"t_start", "t_end", "model", "method", "rtol", "atol", "max_step",
-                                             "output_dt", "slip_tol", "energy_tol", "coordinates", "modes"})
-    comp_t = r.table(data, ("compliant",), {"stiffness", "damping"})
+    sim_t = r.table(data, ("simulation",), S.SIMULATION_KEYS)
+    comp_t = r.table(data, ("compliant",), S.COMPLIANT_KEYS)
     model = r.text(sim_t, ("simulation",), "model", "switching")
     if model not in ("switching", "compliant"):
         raise r.error(("simulation", "model"), f"model must be 'switching' or 'compliant', not {shown(model)}")
@@ -153,13 +220,13 @@ def _build(data: dict, source: Source, path: Path) -> Scenario:
     element_extra: dict[str, dict] = {}
     for name, spec in elements_t.items():
         keys = ("elements", name)
-        spec = r.table(data, keys, {"apply", "friction", "gain", "energizing"})
+        spec = r.table(data, keys, S.ELEMENT_KEYS)
         extra: dict = {}
         if "apply" in spec:
             extra["apply"] = r.signal(spec["apply"], keys + ("apply",))
         if "friction" in spec:
             fkeys = keys + ("friction",)
-            f = r.table(data, fkeys, {"slip", "factor"})
+            f = r.table(data, fkeys, S.FRICTION_KEYS)
             slip = r.numbers(f, fkeys, "slip")
             factor = r.numbers(f, fkeys, "factor", len(slip))
             if slip[0] < 0 or any(b <= a for a, b in zip(slip, slip[1:])):
@@ -177,7 +244,7 @@ def _build(data: dict, source: Source, path: Path) -> Scenario:
             extra["energizing"] = 1 if direction == "positive" else -1
         element_extra[name] = extra
 
-    init_t = r.table(data, ("initial",), {"gear", "locked", "speeds", "speeds_rpm"})
+    init_t = r.table(data, ("initial",), S.INITIAL_KEYS)
     if "gear" in init_t:
         init_gear = _gear(r, init_t["gear"], ("initial", "gear"), gears)
         init_locked = list(gears[init_gear])
@@ -191,20 +258,23 @@ def _build(data: dict, source: Source, path: Path) -> Scenario:
 
     # shift events (template) or automatic schedule -> apply signals
     shifts_report = []
-    shifts_t = r.table(data, ("shifts",), {"template", "events"})
+    shifts_t = r.table(data, ("shifts",), S.SHIFTS_KEYS)
     if shifts_t:
         if "gear" not in init_t:
             raise r.error(("shifts",), "shift events need [initial] gear = ... (the gear they start from)")
         template = _template(r, data, ("shifts", "template"))
         events = []
         event_list = shifts_t.get("events", [])
+        if not event_list and "template" in shifts_t:
+            raise r.error(("shifts", "template"), "a shift template shapes the shift events: give [shifts] events = "
+                                                  f"[{_EVENT}, ...] (or use [auto_shift] template)")
         if not isinstance(event_list, list):
             raise r.error(("shifts", "events"), f"events must be a list of {_EVENT}, not {shown(event_list)}")
         for k, ev in enumerate(event_list):
             keys = ("shifts", "events", k)
             if not isinstance(ev, dict) or not {"t", "from", "to"} <= set(ev):
                 raise r.error(keys, f"each shift event is {_EVENT}, not {shown(ev)}")
-            ev = r.table(data, keys, {"t", "from", "to", "template"})
+            ev = r.table(data, keys, S.EVENT_KEYS)
             source, target = (_gear(r, ev[x], keys + (x,), gears) for x in ("from", "to"))
             t = r.number(ev, keys, "t")
             if not options.t_start <= t < options.t_end:
@@ -238,8 +308,7 @@ def _build(data: dict, source: Source, path: Path) -> Scenario:
     w0 = _initial_speeds(r, mech, tr, init_t, init_locked)
     components = _components(r, data, mech, tr)
     controllers = []
-    auto_t = r.table(data, ("auto_shift",), {"order", "throttle", "upshift_rpm", "downshift_rpm", "template",
-                                             "min_interval", "throttle_signal"})
+    auto_t = r.table(data, ("auto_shift",), S.AUTO_SHIFT_KEYS)
     if auto_t:
         keys = ("auto_shift",)
         order = r.names(auto_t, keys, "order")
@@ -259,7 +328,7 @@ def _build(data: dict, source: Source, path: Path) -> Scenario:
                                          template, min_interval, gear=init_gear if "gear" in init_t else order[0]))
         except ValueError as exc:
             raise r.error(keys, str(exc)) from None
-    out_t = r.table(data, ("output",), {"signals", "dt"})
+    out_t = r.table(data, ("output",), S.OUTPUT_KEYS)
     outputs = r.names(out_t, ("output",), "signals")
     pt = Powertrain(tr, components, w0, controllers)
     from .assembly import check_scenario_causality
@@ -361,9 +430,7 @@ def _initial_speeds(r: Reader, mech: Mechanism, tr: Transmission, init_t: dict, 
 def _components(r: Reader, data: dict, mech: Mechanism, tr: Transmission) -> list:
     comps = []
     li = tr.link_index
-    inp = r.table(data, ("input",), {"type", "torque", "speed_rpm", "throttle", "torque_table", "throttle_signal",
-                                      "converter", "J_engine", "engine_speed_rpm", "idle_rpm", "engine", "turbo",
-                                      "fuel_signal", "governor", "crank_model"})
+    inp = r.table(data, ("input",), S.INPUT_KEYS)
     keys = ("input",)
     kind = r.text(inp, keys, "type", "torque")
     if kind == "torque":
@@ -380,13 +447,9 @@ def _components(r: Reader, data: dict, mech: Mechanism, tr: Transmission) -> lis
         if kind == "engine_map":
             comps.append(EngineOnLink(engine, thr_signal, li[mech.input]))
         else:
-            from .engine.torque_converter import TorqueConverter
+            from .powertrain import read_converter
 
-            conv_ref = r.text(inp, keys, "converter", "") or None
-            try:
-                converter = TorqueConverter.load(r.source.path.parent / conv_ref) if conv_ref else TorqueConverter.load()
-            except (OSError, ValueError) as exc:
-                raise r.error(keys + ("converter",), f"cannot load the torque converter: {exc}") from None
+            converter = read_converter(r, inp, keys, "converter")
             comps.append(EngineWithConverter(engine, thr_signal, converter,
                                              r.number(inp, keys, "J_engine", positive=True), li[mech.input],
                                              omega_start=r.number(inp, keys, "engine_speed_rpm", 700.0) * RPM,
@@ -405,7 +468,7 @@ def _components(r: Reader, data: dict, mech: Mechanism, tr: Transmission) -> lis
         keys = ("load", k)
         if not isinstance(spec, dict):
             raise r.error(keys, f"each [[load]] is a table, not {shown(spec)}")
-        spec = r.table(data, keys, {"torque", "signal", "c0", "c1", "c2"})
+        spec = r.table(data, keys, S.LOAD_KEYS)
         name = r.text(spec, keys, "torque")
         if name not in {t.name for t in mech.loads}:
             raise r.error(keys, f"[[load]] {k + 1}: torque {name!r} is not a 'torque NAME LINK' of the mechanism "
@@ -414,15 +477,13 @@ def _components(r: Reader, data: dict, mech: Mechanism, tr: Transmission) -> lis
         comps.append(LinkLoad(name, li[link], r.signal(spec.get("signal", 0.0), keys + ("signal",)),
                               r.number(spec, keys, "c0", 0.0), r.number(spec, keys, "c1", 0.0), r.number(spec, keys, "c2", 0.0)))
 
-    conv = r.table(data, ("converter",), {"pump", "turbine", "pump_torque", "turbine_torque", "file"})
+    conv = r.table(data, ("converter",), S.CONVERTER_KEYS)
     if conv:
         from .powertrain import converter_component
 
         comps.append(converter_component(r, conv, ("converter",), mech, tr))
 
-    dl = r.table(data, ("driveline",), {"output_inertia", "stiffness", "damping", "final_drive", "wheel_radius",
-                                         "vehicle_mass", "rolling_resistance", "cd_a", "air_density", "grade",
-                                         "grade_percent", "output_torque"})
+    dl = r.table(data, ("driveline",), S.DRIVELINE_KEYS)
     keys = ("driveline",)
     if "stiffness" in dl:
         grade = r.number(dl, keys, "grade", 0.0)

@@ -19,6 +19,8 @@ from pathlib import Path
 
 from transgen.errors import Diagnostic, ScenarioError
 
+from .file_access import FileAccess
+from .scenario_schema import SIGNAL_KEYS
 from .signals import Constant, Periodic, Pulse, Ramp, Signal, Sine, Step, Table
 from .tomlpos import key_positions
 
@@ -37,6 +39,18 @@ class Source:
         self.lines = text.splitlines()
         self.positions = key_positions(text)
         self.includes: list[Source] = []
+        self.overrides: dict[tuple, str] = {}  # key path set with --set -> its dotted key
+        self.created: set[tuple] = set()  # tables that only --set made
+
+    def override_of(self, keys: tuple) -> str | None:
+        """The dotted key of the ``--set`` override that an error at ``keys`` is about: one that
+        set ``keys`` or a value holding it, or one inside a table that only overrides made."""
+        keys = tuple(keys)
+        for path, key in self.overrides.items():
+            if keys[:len(path)] == path or any(keys[:d] in self.created and path[:d] == keys[:d]
+                                               for d in range(1, len(keys) + 1)):
+                return key
+        return None
 
     def _chain(self) -> list[Source]:
         """Sources in the order of precedence: this file, then its includes, last one first."""
@@ -58,7 +72,15 @@ class Source:
         return (best, *best.positions[keys[:depth]])
 
     def error(self, keys, message: str) -> ScenarioError:
-        source, line, col = self.locate(tuple(keys))
+        key = self.override_of(tuple(keys))
+        if key is not None:
+            return ScenarioError(f"--set {key}: error: {bounded(message)} (a value given with --set)")
+        keys = tuple(keys)
+        inside = [k for path, k in self.overrides.items()
+                  if keys and (path[:len(keys)] == keys or len(path) > 1 and keys[:len(path) - 1] == path[:-1])]
+        if inside:  # a table of the file that holds a value given with --set, or a value beside one
+            message += f" (with --set {', '.join(inside)})"
+        source, line, col = self.locate(keys)
         return source.error_at(line, col, message)
 
     def error_at(self, line: int, col: int, message: str) -> ScenarioError:
@@ -95,11 +117,14 @@ def non_finite(node, path: tuple = ()):
     return None
 
 
-def read_source(path: Path, text: str | None = None, seen: tuple[Path, ...] = ()) -> tuple[dict, Source]:
-    """The data of a scenario file merged over its includes, and its source (with the includes')."""
+def read_source(path: Path, text: str | None = None, seen: tuple[Path, ...] = (),
+                access: FileAccess | None = None) -> tuple[dict, Source]:
+    """The data of a scenario file merged over its includes, and its source (with the includes');
+    files are read through ``access`` (default: the disk)."""
+    access = access or FileAccess()
     if text is None:
         try:
-            text = path.read_text(encoding="utf-8")
+            text = access.read_text(path)
         except (OSError, UnicodeDecodeError) as exc:
             raise ScenarioError(f"{path}:1:1: error: cannot read scenario file ({exc})") from None
     try:
@@ -125,15 +150,15 @@ def read_source(path: Path, text: str | None = None, seen: tuple[Path, ...] = ()
     merged: dict = {}
     for k, inc in enumerate(includes):
         inc_path = path.parent / inc
-        if not is_file(inc_path):
+        if not access.is_file(inc_path):
             raise source.error(("include", k), f"included file '{inc}' not found (looked in {path.parent})")
         inc_path = inc_path.resolve()
         chain = seen + (path.resolve(),)
         if inc_path in chain:
             raise source.error(("include", k), f"include cycle: {' -> '.join(str(p) for p in chain + (inc_path,))}")
-        inc_data, inc_source = read_source(inc_path, None, chain)
+        inc_data, inc_source = read_source(inc_path, None, chain, access)
         mech = inc_data.get("mechanism")
-        if isinstance(mech, str) and is_file(inc_path.parent / mech):
+        if isinstance(mech, str) and access.is_file(inc_path.parent / mech):
             inc_data["mechanism"] = str((inc_path.parent / mech).resolve())
         source.includes.append(inc_source)
         merge(merged, inc_data)
@@ -160,12 +185,27 @@ def merge(base: dict, extra: dict) -> None:
 class Reader:
     """Typed access to the scenario data with located errors."""
 
-    def __init__(self, source: Source):
+    def __init__(self, source: Source, access: FileAccess | None = None):
         self.source = source
+        self.access = access or FileAccess()
         self.window: tuple[float, float] | None = None  # the simulated interval, once known
 
     def error(self, keys, message):
         return self.source.error(keys, message)
+
+    def file_path(self, keys, name: str) -> Path:
+        """The path of a file named by the value at ``keys``: relative to the file that gives the
+        value, or to the current folder for a value given with ``--set``."""
+        if self.source.override_of(tuple(keys)) is not None:
+            return Path(name)
+        return self.source.locate(tuple(keys))[0].path.parent / name
+
+    def read_text(self, keys, path: Path, what: str) -> str:
+        """The text of the file ``path`` named at ``keys`` (through :attr:`access`), errors located."""
+        try:
+            return self.access.read_text(path)
+        except (OSError, UnicodeDecodeError) as exc:
+            raise self.error(keys, f"cannot read the {what} '{path}' ({exc})") from None
 
     def table(self, data, keys, allowed: set[str] | None = None) -> dict:
         node = data
@@ -174,6 +214,14 @@ class Reader:
                 node = node[k]
             else:
                 node = node.get(k, {}) if isinstance(node, dict) else {}
+        return self.checked(node, keys, allowed)
+
+    def subtable(self, table: dict, keys, name: str, allowed: set[str]) -> dict:
+        """The table ``name`` of ``table`` (which is at ``keys``), empty when absent."""
+        return self.checked(table.get(name, {}), tuple(keys) + (name,), allowed)
+
+    def checked(self, node, keys, allowed: set[str] | None) -> dict:
+        """``node`` (at ``keys``) if it is a table of ``allowed`` keys only (any keys: None)."""
         if not isinstance(node, dict):
             raise self.error(keys, f"[{'.'.join(map(str, keys))}] must be a table, not {shown(node)}")
         if allowed is not None:
@@ -238,9 +286,9 @@ class Reader:
             raise self.error(keys, "a signal is a finite number or a table like "
                                    "{ type = \"ramp\", t0 = 1, t1 = 2, v0 = 0, v1 = 1 }, not " + shown(spec))
         kind = spec.get("type")
-        if not isinstance(kind, str) or kind not in _SIGNAL_KEYS:
-            raise self.error(keys, f"signal type must be one of {', '.join(_SIGNAL_KEYS)}, not {shown(kind)}")
-        known = _SIGNAL_KEYS[kind]
+        if not isinstance(kind, str) or kind not in SIGNAL_KEYS:
+            raise self.error(keys, f"signal type must be one of {', '.join(SIGNAL_KEYS)}, not {shown(kind)}")
+        known = SIGNAL_KEYS[kind]
         for k in spec:
             if k != "type" and k not in known:
                 close = difflib.get_close_matches(k, sorted(known), n=1)
@@ -307,12 +355,6 @@ MAX_BREAKPOINTS = 100_000
 
 MAX_STEPS = 10_000_000
 """Most output samples (``output_dt``) and smallest steps (``max_step``) in the simulated interval."""
-
-_SIGNAL_KEYS = {"constant": {"value"}, "step": {"t", "before", "after"}, "ramp": {"t0", "t1", "v0", "v1"},
-                "table": {"t", "value"}, "sine": {"offset", "amplitude", "frequency", "phase"},
-                "pulse": {"t0", "width", "period", "low", "high"}, "square": {"period", "duty", "t0", "low", "high"},
-                "periodic": {"t", "value", "period"}}
-
 
 def as_float(v) -> float | None:
     """``v`` as a finite float, or None if it is not a finite number (bools are not numbers)."""

@@ -290,7 +290,7 @@ def test_inertial_engine_on_the_inertial_input_link_is_refused(tmp_path):
     ('[converter]\nfile = "missing.toml"\n', "cannot load the torque converter"),
     ('[input]\nturbo = "fancy"\n', "turbo must be 'basic' or 'iterative'"),
     ('[input]\ncrank_model = "rigid"\n', "crank_model must be"),
-    ('[input]\ngovernor = { idle = 600 }\n', "unknown key 'idle' in governor"),
+    ('[input]\ngovernor = { idle = 600 }\n', r"unknown key 'idle' in \[input.governor\]; did you mean 'idle_rpm'"),
 ])
 def test_scenario_errors_of_the_turbo_keys_are_located(tmp_path, extra, words):
     path = tmp_path / "bad.toml"

@@ -382,9 +382,11 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _located(message: str) -> bool:
-    """Whether ``message`` already starts ``FILE:LINE:COL: error:`` (or ``FILE:LINE: error:``)."""
+    """Whether ``message`` already starts ``FILE:LINE:COL: error:`` (or ``FILE:LINE: error:``, or
+    ``--set KEY: error:`` for a value given on the command line)."""
     first = message.split("\n", 1)[0]
-    return ": error: " in first and first.split(": error: ", 1)[0].rsplit(":", 1)[-1].isdigit()
+    where = first.split(": error: ", 1)[0]
+    return ": error: " in first and (where.rsplit(":", 1)[-1].isdigit() or where.startswith("--set "))
 
 
 if __name__ == "__main__":  # pragma: no cover

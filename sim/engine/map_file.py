@@ -70,6 +70,7 @@ __all__ = [
     "CompressorMap",
     "TurbineMap",
     "load_map",
+    "parse_map",
     "save_map",
 ]
 
@@ -246,6 +247,13 @@ def load_map(path: str | Path) -> CompressorMap | TurbineMap:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise MapError(f"{path}:1:1: error: cannot read map file ({exc})") from None
+    return parse_map(text, path)
+
+
+def parse_map(text: str, path: str | Path = "<map>") -> CompressorMap | TurbineMap:
+    """A compressor or turbine map from the text of a map file; ``path`` names it in messages
+    (and its stem is the default name). Raises :class:`MapError` as :func:`load_map` does."""
+    path = Path(path)
     try:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

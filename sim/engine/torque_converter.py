@@ -120,6 +120,12 @@ class TorqueConverter:
         path = Path(path)
         return _load(str(path))
 
+    @classmethod
+    def parse(cls, text: str, path: str | Path = "<converter>") -> "TorqueConverter":
+        """A converter table from its TOML text; ``path`` names it in messages (and its stem is
+        the default name)."""
+        return _parse(text, str(path))
+
     def torque_ratio_at(self, speed_ratio: float) -> float:
         """Drive torque ratio TR [-] at a speed ratio (clamped to [0, 1])."""
         return interp1(speed_ratio, self._sr, self._tr)
@@ -157,8 +163,13 @@ class TorqueConverter:
 
 @lru_cache(maxsize=None)
 def _load(path: str) -> TorqueConverter:
+    return _parse(Path(path).read_text(encoding="utf-8"), path)
+
+
+@lru_cache(maxsize=None)
+def _parse(text: str, path: str) -> TorqueConverter:
     try:
-        doc = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+        doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise TorqueConverterError(f"{path}: error: not valid TOML: {exc}") from None
     if doc.get("format") != "transgen-torque-converter" or doc.get("version") != 1:

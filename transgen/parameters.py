@@ -1,0 +1,114 @@
+"""The named parameters of a mechanism: ``NAME.PARAM`` for every parameter of its statements.
+
+A link's inertia is ``L1.J``, a planetary's tooth counts ``P2.Ns`` and ``P2.Nr``, a gear pair's
+``G1.N1`` (or ``G1.r1`` when it is given by radii), a clutch's or brake's capacities ``C4.static``
+and ``C4.dynamic``; the parameter names are those of the ``.mech`` language (its table of
+statement parameters). :func:`with_parameter` gives a new :class:`~transgen.model.Mechanism` with
+one parameter changed, checked as a file's value is (type and range) and then the whole mechanism
+as loading checks it (e.g. ``Nr > Ns``, ``dynamic <= static``).
+"""
+from __future__ import annotations
+
+import difflib
+from dataclasses import replace
+
+from .errors import MechError
+from .language import _PARAMS, format_mechanism, parse_mechanism, read_number
+from .model import GearPair, Mechanism
+
+__all__ = ["mechanism_parameters", "with_parameter", "ParameterError"]
+
+# .mech parameter -> field of the model object, per statement keyword (the names are _PARAMS')
+_FIELDS = {"J": "inertia", "Ns": "n_sun", "Nr": "n_ring", "pinions": "pinions", "N1": "n1", "N2": "n2", "r1": "n1",
+           "r2": "n2", "mesh": "mesh", "static": "static", "dynamic": "dynamic", "type": "brake_type", "free": "free"}
+
+
+class ParameterError(ValueError):
+    """A mechanism parameter that does not exist or a value it cannot take (message without a location)."""
+
+
+def _statements(m: Mechanism):
+    """``(name, keyword, object)`` of every statement with parameters."""
+    for link in m.links:
+        yield link.name, "link", link
+    for p in m.planetaries:
+        yield p.name, "planetary", p
+    for g in m.gear_pairs:
+        yield g.name, "gears", g
+    for e in m.elements:
+        yield e.name, e.kind, e
+
+
+def _params(keyword: str, obj) -> dict:
+    """The settable parameters of a statement: its keyword's numbers and words (not link names),
+    a gear pair's sizes as it gives them (teeth or radii)."""
+    allowed = {k: v for k, v in _PARAMS[keyword].items() if v != "name"}
+    if isinstance(obj, GearPair):
+        drop = ("r1", "r2") if obj.by == "teeth" else ("N1", "N2")
+        allowed = {k: v for k, v in allowed.items() if k not in drop}
+    return allowed
+
+
+def mechanism_parameters(m: Mechanism) -> dict[str, object]:
+    """``"NAME.PARAM"`` -> current value of every parameter of ``m`` (SI units)."""
+    out = {}
+    for name, keyword, obj in _statements(m):
+        for key in _params(keyword, obj):
+            out[f"{name}.{key}"] = getattr(obj, _FIELDS[key])
+    return out
+
+
+def with_parameter(m: Mechanism, name: str, key: str, value) -> Mechanism:
+    """``m`` with parameter ``key`` of the statement ``name`` set to ``value``.
+
+    Raises
+    ------
+    ParameterError
+        For an unknown statement or parameter (with the closest known one), a value of the wrong
+        type or out of range, or a mechanism that the change makes invalid.
+    """
+    found = {n: (kw, obj) for n, kw, obj in _statements(m)}
+    if name not in found:
+        close = _closest(name, found)
+        raise ParameterError(f"no link, planetary, gear pair or shift element '{name}' in the mechanism"
+                             + (f"; did you mean '{close[0]}'?" if close else f" (names: {', '.join(found)})"))
+    keyword, obj = found[name]
+    allowed = _params(keyword, obj)
+    if key not in allowed:
+        close = _closest(key, allowed)
+        raise ParameterError(f"{keyword} {name} has no parameter '{key}'" + (f"; did you mean '{close[0]}'?" if close else "")
+                             + f" (parameters: {', '.join(allowed) or 'none'})")
+    kind = allowed[key]
+    if isinstance(kind, tuple):  # a word
+        word = str(value) if isinstance(value, (str, int)) and not isinstance(value, bool) else None
+        if word not in kind:
+            raise ParameterError(f"{key} must be one of {', '.join(kind)}, not {value!r}")
+        new = int(word) if key == "pinions" else word
+    else:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ParameterError(f"{key} must be a number, not {value!r}")
+        number = read_number(repr(value) if isinstance(value, float) else str(value), key, kind)
+        if isinstance(number, str):
+            raise ParameterError(number)
+        new = float(number) if isinstance(getattr(obj, _FIELDS[key]), float) else number
+    changed = _replace(m, obj, replace(obj, **{_FIELDS[key]: new}))
+    try:
+        parse_mechanism(format_mechanism(changed), m.source)
+    except MechError as exc:
+        raise ParameterError("; ".join(d.message for d in exc.diagnostics)) from None
+    return changed
+
+
+def _closest(name: str, known) -> list[str]:
+    """The known name closest to ``name`` (case aside first), as a list of at most one."""
+    same_case = [k for k in known if k.lower() == name.lower()]
+    return same_case[:1] or difflib.get_close_matches(name, list(known), n=1, cutoff=0.5)
+
+
+def _replace(m: Mechanism, old, new) -> Mechanism:
+    """``m`` with the statement object ``old`` replaced by ``new``."""
+    for field in ("links", "planetaries", "gear_pairs", "elements"):
+        items = getattr(m, field)
+        if any(x is old for x in items):
+            return replace(m, **{field: tuple(new if x is old else x for x in items)})
+    raise AssertionError("statement not in the mechanism")
