@@ -1,8 +1,6 @@
 """The result of a simulation: time, named signals, mode history, events, energy balance."""
 from __future__ import annotations
 
-import csv
-import io
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -56,22 +54,14 @@ class Result:
     def __getitem__(self, name: str) -> np.ndarray:
         return self.signals[name]
 
-    def csv_text(self, names: list[str] | None = None) -> str:
-        """CSV with a header ``time [s], name [unit], ...``."""
-        names = list(self.signals) if names is None else names
-        buf = io.StringIO()
-        writer = csv.writer(buf, lineterminator="\n")
-        writer.writerow(["time [s]"] + [f"{n} [{self.units.get(n, '')}]" for n in names])
-        columns = [self.time] + [self.signals[n] for n in names]
-        for row in zip(*columns):
-            writer.writerow([f"{v:.9g}" if isinstance(v, (float, np.floating)) else v for v in row])
-        return buf.getvalue()
+    def save(self, path, names: list[str] | None = None, unique_times: bool = False) -> None:
+        """Write the signals ``names`` (default all) to ``path``, atomically, as CSV, MATLAB
+        ``.mat``, NumPy ``.npz`` or JSON by its suffix (:func:`transgen.sim.result_files.write_result`:
+        columns ``time``, ``mode`` name, signals with units; ``unique_times`` keeps the row after
+        each event only)."""
+        from .result_files import write_result
 
-    def to_csv(self, path, names: list[str] | None = None) -> None:
-        """Write the signals as CSV, atomically."""
-        from transgen.export import write_text
-
-        write_text(path, self.csv_text(names))
+        write_result(self, path, names, unique_times)
 
     def summary(self) -> dict:
         """JSON-ready summary: success, message, modes, events, energy balance, run statistics."""
