@@ -174,7 +174,7 @@ MATRICES = ("A", "B", "C_speeds", "D_torques", "Cy", "Dy")
 
 MATRICES_SCHEMA = "transgen.matrices/1"
 
-MATRICES_UNITS = {"A": "1/s", "B": "1/(kg*m^2)", "C_speeds": "1", "D_torques": "1", "Cy": "1", "Dy": "1",
+MATRICES_UNITS = {"dof": "1", "A": "1/s", "B": "1/(kg*m^2)", "C_speeds": "1", "D_torques": "1", "Cy": "1", "Dy": "1",
                   "states": "rad/s", "inputs": "N*m", "speed_outputs": "rad/s", "torque_outputs": "N*m"}
 """Units of the matrices (``B`` maps torques to accelerations) and of the named signals; the
 outputs ``y = [w; t]`` are rad/s, then N*m."""
