@@ -141,7 +141,9 @@ def cmd_simulate(args) -> int:
 
     with output_set():
         if args.output:
-            result.save(args.output, scenario.outputs or None, args.unique_times)
+            from .result_files import write_result
+
+            write_result(result, args.output, scenario.outputs or None, args.unique_times)
             written.append(args.output)
         if args.plot and len(result.time):
             from .plots import plot_all

@@ -36,7 +36,8 @@ class Result:
     """A simulation result (SI units; see ``units``).
 
     ``signals`` holds one array per named signal over ``time`` (at a mode change the time
-    appears twice, once for each side). ``success`` is False when the run stopped early;
+    appears twice, once for each side; :mod:`transgen.sim.result_files` writes files with one row
+    per time on request). ``success`` is False when the run stopped early;
     ``message`` says why (time, mode, reason).
     """
 
@@ -53,15 +54,6 @@ class Result:
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.signals[name]
-
-    def save(self, path, names: list[str] | None = None, unique_times: bool = False) -> None:
-        """Write the signals ``names`` (default all) to ``path``, atomically, as CSV, MATLAB
-        ``.mat``, NumPy ``.npz`` or JSON by its suffix (:func:`transgen.sim.result_files.write_result`:
-        columns ``time``, ``mode`` name, signals with units; ``unique_times`` keeps the row after
-        each event only)."""
-        from .result_files import write_result
-
-        write_result(self, path, names, unique_times)
 
     def summary(self) -> dict:
         """JSON-ready summary: success, message, modes, events, energy balance, run statistics."""

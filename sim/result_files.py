@@ -23,10 +23,12 @@ from __future__ import annotations
 import csv
 import io
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .result import Result
+if TYPE_CHECKING:
+    from .result import Result
 
 __all__ = ["RESULT_FORMATS", "SIGNALS_SCHEMA", "result_format", "result_columns", "write_result"]
 

@@ -13,7 +13,7 @@ import scipy.io
 from transgen.cli import main
 from transgen.describe import modes_report
 from transgen.language import load_mechanism
-from transgen.sim.result_files import result_columns
+from transgen.sim.result_files import result_columns, write_result
 from transgen.sim.scenario import Scenario, load_scenario
 
 NAME = "simple2_upshift"
@@ -150,7 +150,7 @@ def test_a_failing_mat_write_leaves_nothing(tmp_path, monkeypatch):
 
 def test_save_in_the_python_api_with_chosen_signals(run, tmp_path):
     _, result = run
-    result.save(tmp_path / "r.csv", ["w_Li", "mode", "T_out"], unique_times=True)
+    write_result(result, tmp_path / "r.csv", ["w_Li", "mode", "T_out"], unique_times=True)
     header, rows = _csv(tmp_path / "r.csv")
     assert header == ["time [s]", "mode", "w_Li [rad/s]", "T_out [N*m]"]
     assert len(rows) == len(np.unique(result.time))
