@@ -113,6 +113,8 @@ def cmd_simulate(args) -> int:
         from .result_files import result_format
 
         result_format(args.output)
+    elif args.unique_times:
+        raise ValueError("--unique-times applies to the result file: name one with -o FILE")
     scenario = _with_model(load_scenario(args.scenario), args.model)
     progress = _progress(scenario.options.t_end, args.quiet or args.json)
     if not args.quiet and not args.json:

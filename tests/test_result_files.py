@@ -154,3 +154,19 @@ def test_save_in_the_python_api_with_chosen_signals(run, tmp_path):
     header, rows = _csv(tmp_path / "r.csv")
     assert header == ["time [s]", "mode", "w_Li [rad/s]", "T_out [N*m]"]
     assert len(rows) == len(np.unique(result.time))
+
+
+def test_unique_times_without_a_result_file_is_refused(capsys):
+    assert main(["simulate", NAME, "--quiet", "--unique-times"]) == 2
+    assert capsys.readouterr().err.startswith("error: --unique-times applies to the result file")
+
+
+@pytest.mark.parametrize("name", sorted(__import__("transgen.sim.scenario", fromlist=["x"]).bundled_scenarios()))
+def test_every_signal_of_the_bundled_scenarios_is_a_matlab_name(name):
+    """In the .mat file the columns are variables by their own names (R.w_L1), none renamed."""
+    import re
+
+    from transgen.sim.scenario import output_signals
+
+    names = output_signals(load_scenario(name).powertrain)
+    assert all(re.fullmatch(r"[A-Za-z][A-Za-z0-9_]{0,62}", n) for n in ["time", "mode", *names]), names

@@ -17,8 +17,8 @@ import numpy as np
 
 from .statespace import StateSpaceSet
 
-__all__ = ["atomic_path", "output_set", "write_text", "write_json", "write_state_space", "state_space_latex", "matlab_name",
-           "FORMATS"]
+__all__ = ["atomic_path", "output_set", "write_text", "write_json", "write_state_space", "state_space_latex",
+           "matlab_name", "FORMATS"]
 
 FORMATS = ("json", "npz", "mat", "latex")
 
