@@ -1,9 +1,10 @@
 """Simulator commands of the ``transgen`` command line: ``simulate``, ``scenario`` and ``maps``."""
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
+
+from transgen.schemas import print_document
 
 __all__ = ["add_commands", "cmd_simulate", "cmd_scenario_new", "cmd_scenario_keys", "cmd_scenario_copy", "cmd_maps"]
 
@@ -14,7 +15,10 @@ def add_commands(sub) -> None:
                        description="Simulate a scenario file (TOML) or a bundled scenario by name "
                                    "(see 'transgen simulate --list').")
     s.add_argument("scenario", metavar="SCENARIO", nargs="?", help="scenario .toml file or bundled name")
-    s.add_argument("-o", "--output", help="write the signals as CSV")
+    s.add_argument("-o", "--output", metavar="FILE",
+                   help="write the signals (time, mode name, signals with units) to FILE: .csv, .mat, .npz or .json")
+    s.add_argument("--unique-times", action="store_true",
+                   help="in -o FILE, one row per time: at an event only the row after it (for pandas, interp1)")
     s.add_argument("--plot", metavar="DIR", help="write the plots into DIR")
     s.add_argument("--format", default="png", help="plot formats, comma-separated: png,svg,pdf (default png)")
     s.add_argument("--report", action="store_true", help="print the shift-quality report")
@@ -81,6 +85,9 @@ def add_commands(sub) -> None:
     s.set_defaults(func=cmd_maps)
 
 
+SIMULATE_SCHEMA = "transgen.simulate/1"
+
+
 def _set_option(parser) -> None:
     parser.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], dest="overrides",
                         help="set a scenario value by its dotted key, e.g. driveline.vehicle_mass=20000 or "
@@ -122,16 +129,25 @@ def _progress(t_end: float, quiet: bool):
 def cmd_simulate(args) -> int:
     from transgen.errors import ScenarioError
 
-    from .report import report_dict, report_text, shift_report
+    from .report import report_dict, report_text, shift_report, simulate_units
     from .scenario import bundled_scenarios, load_scenario
 
     if args.list or not args.scenario:
         if not args.list:
             raise ScenarioError("name a scenario file (or use --list to see the bundled ones)")
         items = {name: str(path) for name, path in bundled_scenarios().items()}
-        print(json.dumps(items, indent=2) if args.json else "\n".join(f"  {k:<24} {v}" for k, v in items.items()))
+        if args.json:
+            print_document("transgen.scenarios/1", {"scenarios": items}, {})
+        else:
+            print("\n".join(f"  {k:<24} {v}" for k, v in items.items()))
         return 0
     formats = _plot_formats(args.format)  # checked before anything runs or is written
+    if args.output:
+        from .result_files import result_format
+
+        result_format(args.output)
+    elif args.unique_times:
+        raise ValueError("--unique-times applies to the result file: name one with -o FILE")
     overrides = _overrides(args.overrides)
     scenario = _with_model(load_scenario(args.scenario, overrides), args.model)
     progress = _progress(scenario.options.t_end, args.quiet or args.json)
@@ -144,7 +160,7 @@ def cmd_simulate(args) -> int:
     if not result.success:  # nothing is written for a failed run
         print(f"error: {result.message}", file=sys.stderr)
         if args.json:
-            print(json.dumps(result.summary(), indent=2, default=float))
+            print_document(SIMULATE_SCHEMA, result.summary(), simulate_units("omega_tc" in result.signals))
         return 1
     qualities = shift_report(result, scenario.shifts or None) if len(result.time) else []
     other = other_q = None
@@ -162,7 +178,9 @@ def cmd_simulate(args) -> int:
 
     with output_set():
         if args.output:
-            result.to_csv(args.output, scenario.outputs or None)
+            from .result_files import write_result
+
+            write_result(result, args.output, scenario.outputs or None, args.unique_times)
             written.append(args.output)
         if args.plot and len(result.time):
             from .plots import plot_all
@@ -185,7 +203,7 @@ def cmd_simulate(args) -> int:
 
                 summary["compare"]["turbo"] = turbo_report(result, other, engine=_engine_of(scenario)).to_dict()
         summary["written"] = written
-        print(json.dumps(summary, indent=2, default=float))
+        print_document(SIMULATE_SCHEMA, summary, simulate_units("omega_tc" in result.signals))
     else:
         print("completed")
         st = result.stats
@@ -279,6 +297,7 @@ def cmd_scenario_new(args) -> int:
 
     from transgen.export import write_text
     from transgen.language import load_mechanism
+    from transgen.schemas import dumps
 
     from .launch import derive_launch, launch_scenario
 
@@ -298,7 +317,7 @@ def cmd_scenario_new(args) -> int:
     if args.json:
         summary = launch.to_dict()
         summary["written"] = [args.output] if args.output else []
-        print(json.dumps(summary, indent=2))
+        print(dumps(summary))
     elif args.output:
         print(f"wrote {args.output}: {mech.name}, {args.vehicle}, gears {' '.join(launch.order)}, "
               f"t_end {launch.t_end:g} s")
@@ -314,7 +333,8 @@ def cmd_scenario_keys(args) -> int:
 
     keys = scenario_keys(args.scenario, _overrides(args.overrides))
     if args.json:
-        print(json.dumps({"scenario": str(scenario_path(args.scenario)), "keys": keys}, indent=2))
+        # values in the units the scenario file takes them in (README, "Scenario files")
+        print_document("transgen.scenario-keys/1", {"scenario": str(scenario_path(args.scenario)), "keys": keys}, {})
     else:
         width = max(map(len, keys), default=0)
         for key, value in keys.items():
@@ -333,7 +353,7 @@ def cmd_scenario_copy(args) -> int:
 
 def cmd_maps(args) -> int:
     """``transgen maps``: pre-process a map, print (or JSON) its summary, optionally plot it."""
-    from .engine.map_summary import load_named_map, map_summary, map_summary_text
+    from .engine.map_summary import MAP_UNITS, load_named_map, map_summary, map_summary_text
     from .engine.plots import plot_map_file
 
     formats = _plot_formats(args.format)
@@ -347,7 +367,7 @@ def cmd_maps(args) -> int:
             written = [str(p) for p in plot_map_file(m, Path(args.plot), formats=formats)]
     if args.json:
         summary["written"] = written
-        print(json.dumps(summary, indent=2))
+        print_document("transgen.maps/1", summary, MAP_UNITS)
     else:
         print(map_summary_text(summary))
         for w in written:

@@ -88,6 +88,7 @@ def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
             return layout.derivative(np.concatenate([mode.B @ u, np.where(seg_stuck, slips, 0.0)]), derivs, p_in, diss, p_load)
 
         event_funcs = []
+        PC = tr.P @ mode.C
         for i, e in enumerate(tr.elements):
             if seg_stuck[i]:
                 def unstick(tt, y, i=i, e=e):
@@ -95,7 +96,7 @@ def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
                 unstick.terminal, unstick.direction, unstick.info = True, -1, ("unstick", i)
                 event_funcs.append(unstick)
             elif seg_dirs[i] != 0:
-                event_funcs.append(slip_event(lambda tt, y: evaluate(tt, y)[6], i, int(seg_dirs[i]), tol))
+                event_funcs.append(slip_event(lambda tt, y: evaluate(tt, y)[6], i, int(seg_dirs[i]), tol, PC[i]))
         event_funcs += apply_events(tr, np.flatnonzero(~seg_stuck), t, t_stop)
         try:
             sol = recorder.integrate(rhs, t, t_stop, y0, event_funcs, layout.energy.start,

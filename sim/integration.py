@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.integrate import solve_ivp
+from scipy.optimize import brentq
 
 from transgen.errors import SimulationError, StateOutOfDomain
 
@@ -203,20 +204,81 @@ def left_of(t: float) -> float:
     return math.nextafter(t, -math.inf) if math.isfinite(t) else t
 
 
-def slip_event(slips_of, i: int, moving: int, tol: float):
+def slip_event(slips_of, i: int, moving: int, tol: float, row: np.ndarray | None = None):
     """Terminal event of element ``i`` slipping in direction ``moving`` (+1/-1): its slip
     (``slips_of(t, y)[i]`` [rad/s]) comes back through zero. It fires at ``moving * slip =
     -tol/1000``, a little past zero but well inside the mode decision's slip tolerance ``tol``, so
     that the decision finds the element at zero slip, and a slip that starts at zero or within
     round-off of it on the wrong side (an element whose slip accelerates against the direction it
-    was given) is caught at once instead of running away without a crossing."""
+    was given) is caught at once instead of running away without a crossing.
+
+    ``row``: the slip as a linear function of the first states (``slip = row @ y[:len(row)]``),
+    which lets :func:`integrate` look for a crossing inside a step (:func:`missed_crossing`)."""
     half = 1e-3 * tol
 
     def event(tt, y):
         return moving * slips_of(tt, y)[i] + half
 
     event.terminal, event.direction, event.info = True, -1, ("slip", i)
+    event.linear = None if row is None else (moving * np.asarray(row, dtype=float), half)
     return event
+
+
+#: Points inside each integrator step at which :func:`missed_crossing` evaluates the slips.
+CROSSING_SCAN = 16
+
+
+def missed_crossing(sol, events: list):
+    """The first crossing of a slip event (:func:`slip_event` with a ``row``) *inside* an
+    integrator step, which ``solve_ivp`` cannot see: it looks for sign changes between step ends
+    only, so a slip that dips through zero and back within one step (a one-way clutch grazing its
+    locking direction under an alternating load) would be stepped over. The dense output of each
+    step is scanned at :data:`CROSSING_SCAN` interior points (a linear function of the state:
+    cheap) and the first dip below zero is located by root finding. Returns ``(t, index)`` of the
+    crossing and the event's index, or None."""
+    linear = [(k, f.linear) for k, f in enumerate(events) if getattr(f, "linear", None) is not None]
+    if not linear or len(sol.t) < 2:
+        return None
+    steps = np.asarray(sol.t)
+    frac = np.arange(1, CROSSING_SCAN + 1) / (CROSSING_SCAN + 1)
+    ts = (steps[:-1, None] + np.diff(steps)[:, None] * frac[None, :]).ravel()
+    ys = sol.sol(ts)
+    rows = np.array([r for _, (r, _) in linear])
+    values = rows @ ys[: rows.shape[1]] + np.array([h for _, (_, h) in linear])[:, None]
+    below = values < 0.0
+    if not below.any():
+        return None
+    first = np.argmax(below, axis=1)  # first sample below zero of each event (0 where none)
+    best = None
+    for j in np.flatnonzero(below.any(axis=1)):
+        m = int(first[j])
+        t_hi = ts[m]
+        t_lo = ts[m - 1] if m > 0 else float(steps[0])
+        if best is None or t_hi < best[1]:
+            best = (j, t_hi, t_lo)
+    j, t_hi, t_lo = best
+    row, half = linear[j][1]
+
+    def value(tt):
+        return float(row @ sol.sol(tt)[: len(row)] + half)
+
+    if value(t_lo) <= 0.0:
+        return None  # below zero from the step's start: the event itself has seen it
+    return brentq(value, t_lo, t_hi, xtol=1e-14, rtol=4 * np.finfo(float).eps), linear[j][0]
+
+
+def cut_at(sol, t_cut: float, event_index: int, n_events: int):
+    """``sol`` ended at ``t_cut`` by the terminal event ``event_index`` (as if ``solve_ivp`` had
+    found it): status 1, the state there from the dense output; the dense output is kept (it is
+    valid up to ``t_cut``)."""
+    y_cut = sol.sol(t_cut)
+    keep = sol.t < t_cut
+    sol.t = np.append(sol.t[keep], t_cut)
+    sol.y = np.column_stack([sol.y[:, keep], y_cut])
+    sol.t_events = [np.array([t_cut]) if k == event_index else np.zeros(0) for k in range(n_events)]
+    sol.y_events = [y_cut[None, :] if k == event_index else np.zeros((0, len(y_cut))) for k in range(n_events)]
+    sol.status = 1
+    return sol
 
 
 def apply_events(tr: Transmission, indices, t0: float, t_stop: float = math.inf) -> list:
@@ -287,8 +349,9 @@ class Recorder:
     def add(self, seg: Segment) -> None:
         ts = output_times(seg.t0, seg.t1, self.options.output_dt)
         # the dense output at all samples at once; the segment's end sampled with the signals' values
-        # before any jump there (:func:`left_of`), the next segment's start gives those after it
-        at = np.minimum(ts, left_of(seg.t1))
+        # before any jump there (:func:`left_of`), the next segment's start gives those after it; the
+        # start with the values the segment was decided and integrated with (:func:`signal_time`)
+        at = np.maximum(np.minimum(ts, left_of(seg.t1)), signal_time(self.pt, seg.t0))
         block = self.sampler(self.pt, seg, at, seg.sol(ts))
         self.segments.append(seg)
         self.blocks.append(block)
@@ -438,6 +501,9 @@ def integrate(rhs, t0: float, t1: float, y0: np.ndarray, options: SolverOptions,
         raise SimulationError(f"t={sol.t[-1]:.6g} s: integrator failed: {sol.message}{why}")
     if not np.all(np.isfinite(sol.y[:, -1])) and outside:
         raise outside[-1]
+    missed = missed_crossing(sol, events)
+    if missed is not None:
+        sol = cut_at(sol, missed[0], missed[1], len(events))
     return sol
 
 

@@ -62,6 +62,13 @@ SHIFT_FACTOR = 1.5
 RAMP_END_RANGE = (0.3, 0.9)
 """Inertia-phase apply levels the generator chooses from (fractions of full apply)."""
 SCHEMA = "transgen.scenario-new/1"
+LAUNCH_UNITS = {"ratio": "1", "torque_factors": "1", "output_inertia": "kg*m^2", "static": "N*m", "dynamic": "N*m",
+                "factor": "1", "required_static": "N*m", "engine_torque_scale": "1", "input_torque_max": "N*m",
+                "final_drive": "1", "fill_time": "s", "fill_level": "1", "ramp_time": "s", "ramp_end": "1",
+                "hold_time": "s", "final_time": "s", "offgoing_delay": "s", "offgoing_level": "1", "offgoing_ramp": "s",
+                "upshift_rpm": "rpm", "downshift_rpm": "rpm", "min_interval": "s", "estimated_shift_times": "s",
+                "t_end": "s"}
+"""Units of the numeric fields of ``transgen scenario new --json`` (shift lines: output speed, rev/min)."""
 MAX_LAUNCH_TIME = 300.0
 """Longest launch [s] the estimate allows before it calls the top gear unreachable."""
 
@@ -196,10 +203,11 @@ class Launch:
         return next(g for g in self.gears if g.name == name)
 
     def to_dict(self) -> dict:
-        from transgen import __version__
+        """The ``transgen.scenario-new/1`` JSON document of ``transgen scenario new --json``."""
+        from transgen.schemas import json_document
 
-        return {
-            "schema": SCHEMA, "transgen_version": __version__, "mechanism": self.mechanism.name,
+        return json_document(SCHEMA, {
+            "mechanism": self.mechanism.name,
             "vehicle": self.vehicle.name,
             "forward_gears": [{"name": g.name, "ratio": g.ratio, "engaged": list(g.engaged),
                                "torque_factors": dict(g.torque_factors), "output_inertia": g.inertia}
@@ -217,7 +225,7 @@ class Launch:
             "upshift_rpm": [list(r) for r in self.upshift_rpm], "downshift_rpm": [list(r) for r in self.downshift_rpm],
             "min_interval": self.min_interval, "estimated_shift_times": list(self.shift_times),
             "t_end": self.t_end, "warnings": list(self.warnings),
-        }
+        }, LAUNCH_UNITS)
 
 
 # ---------------------------------------------------------------------------------- derivation

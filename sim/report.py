@@ -21,6 +21,7 @@ __all__ = [
     "Shift",
     "ShiftQuality",
     "shift_report",
+    "simulate_units",
     "infer_shifts",
     "energy_balance",
     "report_text",
@@ -147,6 +148,23 @@ def report_text(result: Result, qualities: list[ShiftQuality] | None = None) -> 
     if modes:
         stats.append(f"  {'modes':<24}" + ", ".join(modes))
     return "\n".join(head + body + bal + stats) + "\n"
+
+
+def simulate_units(turbo: bool = False) -> dict[str, str]:
+    """Units of the numeric fields of ``transgen simulate --json`` (the summary, the report and,
+    for a turbocharged run, the turbocharger figures)."""
+    from .shift_quality import SHIFT_UNITS
+
+    units = {"t": "s", "t0": "s", "t1": "s", "t_start": "s", "t_end": "s", "work_in": "J", "stored_change": "J",
+             "dissipated": "J", "work_to_load": "J", "residual": "J", "relative_residual": "1", "tolerance": "J",
+             "tolerance_relative": "1", "wall_time": "s", "rhs_evaluations": "1", "events": "1", "segments": "1",
+             "onset_fraction": "1", "ratio_tol": "1", "bindup_fraction": "1", "flare_fraction": "1", "ramp_tol": "1",
+             "overlap_fraction": "1", "energy_tol": "1"} | SHIFT_UNITS
+    if turbo:
+        from .engine.turbo_report import TURBO_UNITS
+
+        units |= TURBO_UNITS
+    return units
 
 
 def report_dict(result: Result, qualities: list[ShiftQuality] | None = None) -> dict:

@@ -1,8 +1,6 @@
 """The result of a simulation: time, named signals, mode history, events, energy balance."""
 from __future__ import annotations
 
-import csv
-import io
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -38,7 +36,8 @@ class Result:
     """A simulation result (SI units; see ``units``).
 
     ``signals`` holds one array per named signal over ``time`` (at a mode change the time
-    appears twice, once for each side). ``success`` is False when the run stopped early;
+    appears twice, once for each side; :mod:`transgen.sim.result_files` writes files with one row
+    per time on request). ``success`` is False when the run stopped early;
     ``message`` says why (time, mode, reason).
     """
 
@@ -55,23 +54,6 @@ class Result:
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.signals[name]
-
-    def csv_text(self, names: list[str] | None = None) -> str:
-        """CSV with a header ``time [s], name [unit], ...``."""
-        names = list(self.signals) if names is None else names
-        buf = io.StringIO()
-        writer = csv.writer(buf, lineterminator="\n")
-        writer.writerow(["time [s]"] + [f"{n} [{self.units.get(n, '')}]" for n in names])
-        columns = [self.time] + [self.signals[n] for n in names]
-        for row in zip(*columns):
-            writer.writerow([f"{v:.9g}" if isinstance(v, (float, np.floating)) else v for v in row])
-        return buf.getvalue()
-
-    def to_csv(self, path, names: list[str] | None = None) -> None:
-        """Write the signals as CSV, atomically."""
-        from transgen.export import write_text
-
-        write_text(path, self.csv_text(names))
 
     def summary(self) -> dict:
         """JSON-ready summary: success, message, modes, events, energy balance, run statistics."""

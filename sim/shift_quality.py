@@ -91,6 +91,7 @@ __all__ = [
     "shift_report",
     "jsonable",
     "RPM_PER_RAD_S",
+    "SHIFT_UNITS",
 ]
 
 RPM_PER_RAD_S = 60.0 / (2.0 * math.pi)
@@ -177,6 +178,22 @@ class ShiftQuality:
     def to_dict(self) -> dict:
         """JSON-ready (floats, NaN/inf as None)."""
         return jsonable(asdict(self))
+
+
+_S = ("t_start torque_phase_start torque_phase_end torque_phase_duration inertia_phase_start inertia_phase_end "
+      "inertia_phase_duration shift_end shift_duration dissipation_end offgoing_unlock oncoming_lock "
+      "output_torque_min_time output_torque_max_time bindup_duration flare_time oncoming_ramp_end "
+      "speed_phase_overrun both_dissipating_duration forced_duration offgoing_drag_after_lock pre_window_s "
+      "overlap_min_s").split()
+_NM = "output_torque_before output_torque_min torque_hole output_torque_max bindup_torque offgoing_torque_before " \
+      "offgoing_torque_at_unlock".split()
+SHIFT_UNITS = ({k: "s" for k in _S} | {k: "N*m" for k in _NM}
+               | {"ratio_before": "1", "ratio_after": "1", "torque_hole_pct": "%", "output_torque_overshoot_pct": "%",
+                  "flare_max": "rad/s", "flare_max_rpm": "rpm", "oncoming_apply_final": "1",
+                  "offgoing_energy_share": "%", "offgoing_energy_after_lock": "J", "energy": "J",
+                  "peak_power": "W", "energy_total": "J"})
+"""Units of the numeric fields of :class:`ShiftQuality` (``energy`` and ``peak_power``: per
+element) and of the report's time thresholds."""
 
 
 def jsonable(x):

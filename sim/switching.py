@@ -71,7 +71,8 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None) ->
         u_ext, *_ = model.external(t_sig, y_ext, w, dummy_layout)
         previous = locked
         try:
-            locked, directions = tr.decide(t_sig, w, u_ext, slip_tol(w), forced, previous or frozenset())
+            locked, directions = tr.decide(t_sig, w, u_ext, slip_tol(w), forced, previous or frozenset(),
+                                           None if previous is None else directions)
             mode = tr.mode(locked)
         except (SimulationError, ModeError) as exc:
             success, message = False, f"{exc} (mode {tr.mode_name(previous) if previous is not None else 'none'})"
@@ -132,7 +133,8 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None) ->
             ww, u, derivs, p_in, diss, p_load, _ = evaluate(tt, y)
             return layout.derivative(mode.B @ u, derivs, p_in, diss, p_load)
 
-        event_funcs = [slip_event(lambda tt, y: evaluate(tt, y)[6], i, int(seg_dirs[i]), tol)
+        PC = tr.P @ mode.C
+        event_funcs = [slip_event(lambda tt, y: evaluate(tt, y)[6], i, int(seg_dirs[i]), tol, PC[i])
                        for i in slipping if seg_dirs[i] != 0]
         event_funcs += apply_events(tr, slipping, t_sig, t_stop)
         for row, i in enumerate(mode.locked_order):  # one row per locked element or group in parallel

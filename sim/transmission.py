@@ -410,7 +410,8 @@ class Transmission:
 
     # ------------------------------------------------------ mode consistency
     def decide(self, t: float, w: np.ndarray, external_u: np.ndarray, slip_tol: float,
-               forced: dict[int, int] | None = None, previous: frozenset = frozenset()) -> tuple[frozenset, np.ndarray]:
+               forced: dict[int, int] | None = None, previous: frozenset = frozenset(),
+               sliding: np.ndarray | None = None) -> tuple[frozenset, np.ndarray]:
         """The consistent mode at time ``t`` and speeds ``w``: which elements at zero slip lock,
         and which way the others slip (complementarity, Pfeiffer & Glocker).
 
@@ -438,12 +439,21 @@ class Transmission:
         needed). Groups in parallel on the same two links are handled by :attr:`groups` instead.
 
         An element forced to slip (below) whose slip the chosen locks hold at zero through the
-        gearing cannot slip: it is left without torque in that mode (its load has passed to the
-        elements that lock the same motion).
+        gearing cannot slip: it stays at zero slip at its limit, sliding — transmitting its
+        dynamic torque in the forced direction (a clutch pack that has broken loose without
+        moving) — while the locks carry the rest of the load (three clutches on a block in a
+        double swap: the two offgoing ones saturate in turn). An element that slid like this in
+        the previous segment (``sliding``: the previous slip directions) is tested at its dynamic
+        capacity when it starts to slip, not its static one: it is not stuck. Where no
+        combination passes, a second pass lets unforced redundant groups slide like that too (a
+        motion that several weak elements hold only together); of several that then pass (one
+        motion, different splits) the first in declaration order is taken.
 
         Where several combinations pass and all but one hold a lock that carries only round-off
         torque (a torque passing through zero, a tiny apply), the one that needs no such lock is
-        taken: locking and slipping then describe the same motion.
+        taken: locking and slipping then describe the same motion. Where several pass because an
+        element sliding at zero slip could also stick (its torque between its dynamic and static
+        capacity), the one where it slides on is taken.
 
         ``forced`` maps elements whose unlocking condition has just been met (their row's torque
         reached its holding limit: :meth:`unlock_directions`) to the direction they start to slip
@@ -462,55 +472,51 @@ class Transmission:
         base_dir = np.sign(slips).astype(int)
         consistent = []
         rejected = 0
-        for choice in itertools.product(*[z[3] for z in zero]):
-            locked = frozenset(i for z, c in zip(zero, choice) if c == 0 for i in z[2])
-            try:
-                data = self.mode(locked)
-            except ModeError:
-                locked = self._without_implied(locked, previous)
-                try:
-                    data = self.mode(locked)
-                except ModeError:
-                    rejected += 1
-                    continue
-            directions = base_dir.copy()
-            implied = set()  # slipping groups whose slip the mode's locks hold at zero kinematically
-            for (members, signs, _, _), c in zip(zero, choice):
-                directions[list(members)] = c * np.asarray(signs)
-                if c != 0 and not np.any(np.abs(self.P[members[0]] @ data.C) > 1e-12):
-                    implied.add(members)
-                    directions[list(members)] = 0  # it cannot slip: no torque, the locks carry it
-            if any(not any(i in forced for i in m) for m in implied):
-                continue  # an unforced group that cannot slip is the lock choice, decided there
-            u = external_u.copy()
-            torques = self.slipping_torques(t, w, locked, directions)
-            starting = [i for z, c in zip(zero, choice) if c != 0 and z[0] not in implied for i in z[0]]
-            if starting:  # elements leaving zero slip are tested at their static capacity
-                torques[starting] = self.slipping_torques(t, w, locked, directions, "static")[starting]
-            u[self.element_input] += torques
-            alpha = data.C @ (data.B @ u)
-            slip_acc = self.P @ alpha
-            t_locked = data.D @ u
-            ok = True
-            for row in range(len(data.locked_order)):
-                if self.holding_margin(data, row, t, t_locked[row]) < 0.0:
-                    ok = False
-            for (members, _, _, _), c in zip(zero, choice):
-                if c != 0 and not any(i in forced for i in members) and not c * slip_acc[members[0]] > 0:
-                    ok = False
-            if ok:
-                # a released element at zero slip moves off the way its slip accelerates
-                for i in released:
-                    directions[i] = int(np.sign(slip_acc[i]))
-                if not any(lk == locked and np.array_equal(d, directions) for lk, d, _ in consistent):
-                    # a lock that holds only round-off torque is no lock the motion needs
-                    idle = bool(len(t_locked)) and bool(np.any(np.abs(t_locked) <= 1e-9 * (1.0 + np.max(np.abs(u)))))
-                    consistent.append((locked, directions, idle))
+        for share in (False, True):
+            if share and consistent:
+                break
+            for choice in itertools.product(*[z[3] for z in zero]):
+                wanted = frozenset(i for z, c in zip(zero, choice) if c == 0 for i in z[2])
+                found = refused = False
+                for locked in self._lock_sets(wanted, previous):
+                    try:
+                        data = self.mode(locked)
+                    except ModeError:
+                        refused = True
+                        continue
+                    refused = False
+                    passed = self._consistent(t, w, external_u, zero, choice, locked, data, forced, released,
+                                              base_dir, sliding, share)
+                    if passed is None:
+                        break  # an unforced group that cannot slip: the lock choice decides it
+                    if passed is not False:
+                        directions, idle = passed
+                        if not any(lk == locked and np.array_equal(d, directions) for lk, d, _ in consistent):
+                            consistent.append((locked, directions, idle))
+                        found = True
+                        break
+                rejected += refused and not found and not share
+            if share and consistent:
+                # the same motion, the load shared: the first in the elements' declaration order
+                consistent = consistent[:1]
         if len(consistent) > 1:
             # locking and slipping both pass where a lock would hold nothing (a torque through zero):
             # the combination that needs no such lock is the motion
             needed = [c for c in consistent if not c[2]]
             consistent = needed if len(needed) == 1 else consistent
+        if len(consistent) > 1:
+            # the same, where several locks hold nothing: a combination whose extra locks over
+            # another's all hold only round-off torque describes that one's motion
+            fewer = [c for c in consistent
+                     if not any(o[0] < c[0] and c[0] - o[0] <= c[2] for o in consistent)]
+            consistent = fewer if len(fewer) == 1 else consistent
+        if len(consistent) > 1 and sliding is not None:
+            # an element sliding at zero slip keeps sliding (kinetic friction) where it can: it
+            # sticks only where sliding on is inconsistent
+            on = [c for c in consistent
+                  if all(c[1][i] == sliding[i] for i in range(len(sliding)) if i not in previous and sliding[i] != 0
+                         and abs(slips[i]) <= slip_tol and i not in forced)]
+            consistent = on if len(on) == 1 else consistent
         if len(consistent) == 1:
             return consistent[0][:2]
         names = ", ".join(self.elements[i].name for z in zero for i in z[0]) or "none"
@@ -521,13 +527,70 @@ class Transmission:
         options = "; ".join("+".join(self.elements[i].name for i in sorted(lk)) or "none" for lk, _, _ in consistent)
         raise SimulationError(f"t={t:.6g} s: several consistent modes for the elements at zero slip ({names}): {options}")
 
-    def _without_implied(self, locked: frozenset, previous: frozenset) -> frozenset:
+    def _consistent(self, t, w, external_u, zero, choice, locked, data, forced, released, base_dir, sliding,
+                    share: bool = False):
+        """:meth:`decide`'s test of one combination ``choice`` realised by the lock set ``locked``
+        (mode ``data``): ``(directions, idle)`` when consistent, ``False`` when not, ``None`` when
+        an unforced group that the locks hold at zero kinematically would have to slip. ``idle``:
+        the locked elements whose row holds only round-off torque."""
+        directions = base_dir.copy()
+        implied = set()  # slipping groups whose slip the mode's locks hold at zero kinematically
+        for (members, signs, _, _), c in zip(zero, choice):
+            directions[list(members)] = c * np.asarray(signs)
+            if c != 0 and not np.any(np.abs(self.P[members[0]] @ data.C) > 1e-12):
+                implied.add(members)
+        unforced = [m for m in implied if not any(i in forced for i in m)]
+        if unforced and not share:
+            return None
+        if share and not unforced:
+            return False  # tested in the first pass
+        free = set(forced) | {i for m in unforced for i in m}  # sliding without the slip test
+        u = external_u.copy()
+        torques = self.slipping_torques(t, w, locked, directions)
+        # elements leaving zero slip are tested at their static capacity, except those that have
+        # broken loose already: forced ones (their static limit was just exceeded) and sliding ones
+        starting = [i for z, c in zip(zero, choice) if c != 0 and z[0] not in implied for i in z[0]
+                    if i not in forced and (sliding is None or sliding[i] != directions[i])]
+        if starting:
+            torques[starting] = self.slipping_torques(t, w, locked, directions, "static")[starting]
+        u[self.element_input] += torques
+        slip_acc = self.P @ (data.C @ (data.B @ u))
+        t_locked = data.D @ u
+        if any(self.holding_margin(data, row, t, t_locked[row]) < 0.0 for row in range(len(data.locked_order))):
+            return False
+        for (members, _, _, _), c in zip(zero, choice):
+            if c != 0 and not any(i in free for i in members) and not c * slip_acc[members[0]] > 0:
+                return False
+        # a released element at zero slip moves off the way its slip accelerates
+        for i in released:
+            directions[i] = int(np.sign(slip_acc[i]))
+        # a lock that holds only round-off torque is no lock the motion needs
+        tiny = np.abs(t_locked) <= 1e-9 * (1.0 + np.max(np.abs(u)))
+        idle = frozenset(i for row in np.flatnonzero(tiny) for i in data.groups[row])
+        return directions, idle
+
+    def _lock_sets(self, locked: frozenset, previous: frozenset):
+        """The lock sets that realise the lock choice ``locked``: itself, and where its torques are
+        not unique (a lock the others imply through the gearing), each reduction without the
+        implied groups (:meth:`_without_implied`) — the newcomers dropped first, then each group
+        dropped first in turn — so that the load finds the elements that can carry it (a weak
+        element left without torque while a strong one holds)."""
+        yield locked
+        seen = {locked}
+        groups = [m for m, _ in self.groups if any(i in locked for i in m)]
+        for first in [None] + groups:
+            reduced = self._without_implied(locked, previous, first)
+            if reduced not in seen:
+                seen.add(reduced)
+                yield reduced
+
+    def _without_implied(self, locked: frozenset, previous: frozenset, first: tuple | None = None) -> frozenset:
         """``locked`` without the groups whose lock the other locked elements already imply
         kinematically (their slip row lies in the span of the gear constraints and the other
-        locks), the newcomers (not in ``previous``) dropped first."""
+        locks): the group ``first`` tried first, then the newcomers (not in ``previous``)."""
         current = set(locked)
         groups = [m for m, _ in self.groups if any(i in locked for i in m)]
-        groups.sort(key=lambda m: any(i in previous for i in m))
+        groups.sort(key=lambda m: (m != first, any(i in previous for i in m)))
         for members in groups:
             rest = sorted(current - set(members))
             a = constraint_matrix(self.graph, [self.elements[i].name for i in rest])

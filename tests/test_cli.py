@@ -46,13 +46,14 @@ def test_matrices_json_and_mat_round_trip(capsys, tmp_path):
     data = _json(capsys, ["matrices", "ht740", "--coords", "L1,L6"])
     assert {"mechanism", "coordinates", "inputs", "modes"} <= set(data)
     m5 = data["modes"][4]
-    assert {"name", "locked", "dof", "states", "B", "C", "D", "speed_outputs", "torque_outputs"} <= set(m5)
+    assert {"name", "locked", "dof", "states", "A", "B", "C_speeds", "D_torques", "Cy", "Dy", "speed_outputs",
+            "torque_outputs"} <= set(m5)
     assert np.asarray(m5["B"]).shape == (2, len(data["inputs"]))
     out = tmp_path / "ht740.mat"
     assert main(["matrices", "ht740", "--coords", "L1,L6", "-o", str(out)]) == 0
     mat = scipy.io.loadmat(out)
     assert np.allclose(mat["M5"]["B"][0, 0], m5["B"])
-    assert np.allclose(mat["M1"]["C"][0, 0], data["modes"][0]["C"])
+    assert np.allclose(mat["M1"]["C_speeds"][0, 0], data["modes"][0]["C_speeds"])
     for fmt, suffix in (("npz", ".npz"), ("latex", ".tex")):
         path = tmp_path / f"m{suffix}"
         assert main(["matrices", "simple2", "--format", fmt, "-o", str(path)]) == 0 and path.stat().st_size > 0

@@ -172,23 +172,13 @@ def test_a_line_crossed_within_min_interval_shifts_when_the_interval_ends():
 
 # ------------------------------------------------------------------ launches of every gearbox
 
-# Runs that stop on known simulator limitations: the message each gives.
-_RAVIGNEAUX = ("3-OD double swap out of direct drive: as both offgoing clutches release, no combination of "
-               "the three clutches at zero slip passes the sticking test (each lock too weak, each slip braked "
-               "back at its static capacity): no consistent mode for the elements at zero slip "
-               "(CL_small_sun, CL_large_sun, CL_carrier)")
-KNOWN_FAILURES = {("hsw_ravigneaux4", "car"): "t=14.05 s, " + _RAVIGNEAUX,
-                  ("hsw_ravigneaux4", "truck"): _RAVIGNEAUX}
-
-
 def _with_gear_table(name):
     """At least two forward gears (positive ratio) in the gear table."""
     return sum(1 for r in gear_ratios(load_mechanism(name)).values() if r is not None and r > 0) >= 2
 
 
 LAUNCH_CASES = [
-    pytest.param(name, vehicle, marks=[pytest.mark.xfail(reason=KNOWN_FAILURES[(name, vehicle)], strict=False)]
-                 if (name, vehicle) in KNOWN_FAILURES else [])
+    (name, vehicle)
     for name in bundled_mechanisms() if _with_gear_table(name) for vehicle in ("car", "truck")
 ]
 

@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 
 from transgen.errors import ScenarioError, SimulationError
+from transgen.schemas import validate
 from transgen.sim.study import (LocalExecutor, SerialExecutor, SweepTable, full_grid, latin_hypercube, row_key,
                                 sweep)
 from transgen.sim.study.cli import parse_grid
@@ -232,25 +233,11 @@ def test_cli_sweep_resumes_after_a_kill(tmp_path):
     assert summary["resumed"] == len(finished) and summary["design"]["kind"] == "grid"
     numeric = {c for r in summary["rows"] for c, v in r.items() if isinstance(v, (int, float)) and not isinstance(v, bool)}
     assert numeric <= set(summary["units"]), sorted(numeric - set(summary["units"]))
-    _validate_if_schemas_shipped(summary)
+    validate(summary)
     table = SweepTable.from_csv(out)
     assert len(table) == 6 and len({r["key"] for r in table.rows}) == 6
     before = {r["key"]: r["wall_time"] for r in finished.rows}
     assert all(r["wall_time"] == before[r["key"]] for r in table.rows if r["key"] in before)
-
-
-def _validate_if_schemas_shipped(document: dict) -> None:
-    """Validate against transgen/schemas/sweep.json where the schema package and jsonschema are
-    there (the JSON Schemas of every command live in transgen.schemas)."""
-    try:
-        from transgen.schemas import validate
-        import jsonschema  # noqa: F401
-    except ImportError:
-        schema = json.loads((Path(__file__).resolve().parents[1] / "transgen/schemas/sweep.json").read_text())
-        assert schema["properties"]["schema"]["const"] == document["schema"]
-        assert set(schema["required"]) <= set(document)
-        return
-    validate(document)
 
 
 def test_cli_bad_key_is_an_error_before_any_run(tmp_path):

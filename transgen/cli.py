@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import json
 import os
 import sys
 import warnings
@@ -16,6 +15,7 @@ from pathlib import Path
 
 from . import __version__
 from .errors import MechValidationError, ModeError, SimulationError, TransgenError
+from .schemas import print_document
 
 __all__ = ["main", "load_checked"]
 
@@ -32,10 +32,6 @@ def load_checked(path: str):
     return mech
 
 
-def _print_json(data) -> None:
-    print(json.dumps(data, indent=2))
-
-
 def _fmt_ratio(r) -> str:
     return "-" if r is None else f"{r:.4f}"
 
@@ -46,9 +42,9 @@ def _fmt_ratio(r) -> str:
 def cmd_check(args) -> int:
     mech = load_checked(args.file)
     if args.json:
-        from .describe import mechanism_to_dict
+        from .describe import MECHANISM_UNITS, mechanism_to_dict
 
-        _print_json(mechanism_to_dict(mech))
+        print_document("transgen.check/1", mechanism_to_dict(mech), MECHANISM_UNITS)
         return 0
     from .kinematics import gear_table
 
@@ -72,7 +68,7 @@ def cmd_ratios(args) -> int:
     mech = load_checked(args.file)
     table = gear_table(mech, all_combinations=not args.gears_only)
     if args.json:
-        _print_json(table.to_dict())
+        print_document("transgen.ratios/1", table.to_dict(), table.UNITS)
         return 0
     print(f"{mech.name}: input {mech.input}, output {mech.output} (ratio = input speed / output speed)")
     print()
@@ -116,12 +112,12 @@ def cmd_graph(args) -> int:
 
 
 def cmd_modes(args) -> int:
-    from .describe import modes_report
+    from .describe import MODES_UNITS, modes_report
 
     mech = load_checked(args.file)
     report = modes_report(mech, "all" if args.all else "auto")
     if args.json:
-        _print_json(report)
+        print_document("transgen.modes/1", report, MODES_UNITS)
         return 0
     print(f"{mech.name}: {len(report['modes'])} modes ({report['selection']})")
     print(f"  {'mode':<5} {'locked':<18} {'DOF':>3}  {'kind':<8} label / problem")
@@ -155,7 +151,7 @@ def cmd_matrices(args) -> int:
     from .export import write_state_space
     from .graph import build_graph, link_nodes
     from .modes import mode_models, valid_coordinate_sets
-    from .statespace import state_space
+    from .statespace import matrices_document, state_space
 
     mech = load_checked(args.file)
     which = {"auto": "auto", "all": "all", "declared": "declared", "default": "default"}[args.modes]
@@ -166,7 +162,8 @@ def cmd_matrices(args) -> int:
     if args.list_coordinates:
         sets = valid_coordinate_sets(models, link_nodes(build_graph(mech)))
         if args.json:
-            _print_json({"mechanism": mech.name, "valid_coordinates": [list(s) for s in sets]})
+            print_document("transgen.coordinates/1",
+                        {"mechanism": mech.name, "valid_coordinates": [list(s) for s in sets]}, {})
         else:
             print(f"{len(sets)} valid sets of generalized coordinates:")
             for s in sets:
@@ -182,7 +179,9 @@ def cmd_matrices(args) -> int:
     if args.output is None:
         if args.format not in (None, "json"):
             raise ModeError("-o OUT is needed for npz, mat and latex output")
-        _print_json(ss.to_dict())
+        from .schemas import dumps
+
+        print(dumps(matrices_document(ss)))
         return 0
     write_state_space(ss, args.output, args.format)
     print(f"wrote {args.output}: {len(ss.modes)} modes, coordinates {', '.join(ss.coordinates)}")
@@ -210,7 +209,7 @@ def cmd_std(args) -> int:
         if not args.json:
             print(f"wrote {args.output}: {len(std.modes)} modes, {len(std.internal)} transitions")
     if args.json:
-        _print_json(std.to_dict())
+        print_document("transgen.std/1", std.to_dict(), {})
     elif not args.output:
         for t in std.internal:
             print(f"  {t.source} -> {t.target}: {t.event} {t.element}: {t.condition}")
@@ -231,7 +230,7 @@ def cmd_list(args) -> int:
         items.append({"name": name, "title": mech.name, "path": str(path),
                       "gears": [g.name for g in mech.gears if g.kind == "gear"]})
     if args.json:
-        _print_json(items)
+        print_document("transgen.list/1", {"mechanisms": items}, {})
     else:
         for it in items:
             print(f"  {it['name']:<24} {it['title']}  (gears {' '.join(it['gears'])})")

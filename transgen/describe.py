@@ -14,6 +14,15 @@ def _capacity(x: float):
     return None if x == float("inf") else x
 
 
+MECHANISM_UNITS = {"J": "kg*m^2", "static": "N*m", "dynamic": "N*m", "Ns": "1", "Nr": "1",
+                   "n1": "1 (by = teeth) or m (by = radius)", "n2": "1 (by = teeth) or m (by = radius)",
+                   "ratio": "1"}
+"""Units of the numeric fields of :func:`mechanism_to_dict` (``static`` None: no limit)."""
+
+MODES_UNITS = {"dof": "1", "kinematic_dof": "1", "combinations": "1", "of": "1", "max_engaged": "1"}
+"""Units of the numeric fields of :func:`modes_report` (counts)."""
+
+
 def mechanism_to_dict(m: Mechanism) -> dict:
     """The parsed model as JSON-ready data (``transgen check --json``)."""
     return {

@@ -17,7 +17,8 @@ import numpy as np
 
 from .statespace import StateSpaceSet
 
-__all__ = ["atomic_path", "output_set", "write_text", "write_json", "write_state_space", "state_space_latex", "FORMATS"]
+__all__ = ["atomic_path", "output_set", "write_text", "write_json", "write_state_space", "state_space_latex",
+           "matlab_name", "FORMATS"]
 
 FORMATS = ("json", "npz", "mat", "latex")
 
@@ -94,8 +95,9 @@ def write_json(path: str | Path, data) -> None:
     write_text(path, json.dumps(data, indent=2) + "\n")
 
 
-def _mat_name(name: str) -> str:
-    """A valid MATLAB identifier for a mode name."""
+def matlab_name(name: str) -> str:
+    """A valid MATLAB identifier for ``name`` (a mode or signal name): characters other than
+    letters, digits and ``_`` become ``_``, and a name not starting with a letter gets ``m_``."""
     out = "".join(ch if ch.isalnum() or ch == "_" else "_" for ch in name)
     return out if out[:1].isalpha() else f"m_{out}"
 
@@ -107,16 +109,26 @@ def _float(x) -> np.ndarray:
 def write_state_space(ss: StateSpaceSet, path: str | Path, fmt: str | None = None) -> None:
     """Write a :class:`StateSpaceSet` as ``json``, ``npz``, ``mat`` or ``latex`` (by suffix).
 
-    * ``json``: ``{"mechanism", "coordinates", "inputs", "modes": [{"name", "locked", "dof",
-      "states", "B", "C", "D", "speed_outputs", "torque_outputs"}]}``;
-    * ``npz``: arrays ``<mode>_B``, ``<mode>_C``, ``<mode>_D`` and JSON metadata in ``meta``;
-    * ``mat``: a MATLAB struct per mode (``M1.B``, ``M1.C``, ``M1.D``, ``M1.states``, ...) and the
-      cell arrays ``inputs``, ``coordinates``, ``modes`` — ``scipy.io.loadmat`` reads it back;
-    * ``latex``: one ``align`` block per mode, ``\\dot x = B u``, ``w = C x``, ``t = D u``.
+    Every mode has the matrices ``A``, ``B``, ``C_speeds``, ``D_torques`` and the stacked
+    ``Cy = [C_speeds; 0]``, ``Dy = [0; D_torques]`` (outputs ``y = [w; t]``, see
+    :mod:`transgen.statespace`), with the names of its ``states``, ``inputs`` and ``outputs``:
+
+    * ``json``: a ``transgen.matrices/1`` document (:func:`~transgen.statespace.matrices_document`):
+      ``{"mechanism", "coordinates", "inputs", "modes": [{"name", "locked", "dof", "states",
+      "inputs", "outputs", "A", "B", "C_speeds", "D_torques", "Cy", "Dy", ...}], "skipped"}``;
+    * ``npz``: arrays ``<mode>_A``, ``<mode>_B``, ... ``<mode>_Dy`` and the JSON document without
+      the matrices in ``meta``;
+    * ``mat``: a MATLAB struct per mode (``M1.A``, ..., ``M1.Cy``, ``M1.Dy``, ``M1.states``,
+      ``M1.inputs``, ``M1.outputs``, ...) and the cell arrays ``inputs``, ``coordinates``,
+      ``modes``: ``ss(M1.A, M1.B, M1.Cy, M1.Dy)`` in MATLAB/Octave; ``scipy.io.loadmat`` reads it;
+    * ``latex``: one ``align*`` block per mode, ``\\dot x = B u``, ``w = C_speeds x``,
+      ``t = D_torques u`` (``array`` environments: any number of columns).
 
     Symbolic matrices are written as expressions in JSON and LaTeX; ``npz`` and ``mat`` need
     numbers and refuse symbolic input.
     """
+    from .statespace import MATRICES, matrices_document
+
     path = Path(path)
     fmt = fmt or {".json": "json", ".npz": "npz", ".mat": "mat", ".tex": "latex"}.get(path.suffix.lower())
     if fmt not in FORMATS:
@@ -124,35 +136,34 @@ def write_state_space(ss: StateSpaceSet, path: str | Path, fmt: str | None = Non
     if ss.symbolic and fmt in ("npz", "mat"):
         raise ValueError(f"{fmt} holds numbers only: write symbolic matrices as json or latex")
     if fmt == "json":
-        write_json(path, ss.to_dict())
+        write_json(path, matrices_document(ss))
     elif fmt == "latex":
         write_text(path, state_space_latex(ss))
     elif fmt == "npz":
-        arrays = {}
-        for m in ss.modes:
-            key = _mat_name(m.name)
-            arrays.update({f"{key}_B": _float(m.B), f"{key}_C": _float(m.C), f"{key}_D": _float(m.D)})
-        meta = {k: v for k, v in ss.to_dict().items() if k != "modes"}
-        meta["modes"] = [{k: v for k, v in d.items() if k not in ("B", "C", "D")} for d in ss.to_dict()["modes"]]
+        arrays = {f"{matlab_name(m.name)}_{k}": _float(getattr(m, k)) for m in ss.modes for k in MATRICES}
+        meta = matrices_document(ss)
+        meta["modes"] = [{k: v for k, v in d.items() if k not in MATRICES} for d in meta["modes"]]
         with atomic_path(path) as tmp:
             with open(tmp, "wb") as f:
                 np.savez(f, meta=np.array(json.dumps(meta)), **arrays)
     else:
         import scipy.io
 
+        from . import __version__
+
+        def cells(names):
+            return np.array(list(names), dtype=object)
+
         data = {
-            "mechanism": ss.mechanism,
-            "coordinates": np.array(ss.coordinates, dtype=object),
-            "inputs": np.array(ss.inputs, dtype=object),
-            "modes": np.array([m.name for m in ss.modes], dtype=object),
+            "mechanism": ss.mechanism, "transgen_version": __version__,
+            "coordinates": cells(ss.coordinates), "inputs": cells(ss.inputs), "modes": cells(m.name for m in ss.modes),
         }
         for m in ss.modes:
-            data[_mat_name(m.name)] = {
+            data[matlab_name(m.name)] = {
                 "name": m.name, "label": m.label, "kind": m.kind, "dof": m.dof,
-                "locked": np.array(m.locked, dtype=object), "states": np.array(m.states, dtype=object),
-                "A": np.zeros((m.dof, m.dof)), "B": _float(m.B), "C": _float(m.C), "D": _float(m.D),
-                "speed_outputs": np.array(m.speed_outputs, dtype=object),
-                "torque_outputs": np.array(m.torque_outputs, dtype=object),
+                "locked": cells(m.locked), "states": cells(m.states), "inputs": cells(m.inputs),
+                "outputs": cells(m.outputs), **{k: _float(getattr(m, k)) for k in MATRICES},
+                "speed_outputs": cells(m.speed_outputs), "torque_outputs": cells(m.torque_outputs),
             }
         with atomic_path(path) as tmp:
             scipy.io.savemat(str(tmp), data, oned_as="column")
@@ -162,16 +173,22 @@ def _latex_matrix(x, symbolic: bool) -> str:
     if symbolic:
         import sympy
 
-        return sympy.latex(x, mat_delim="(", mat_str="matrix")
+        return sympy.latex(x, mat_delim="(", mat_str="array")  # \left(\begin{array}{cc...}
     a = _float(x)
     if a.size == 0:
         return r"\emptyset"
-    rows = [" & ".join(f"{v:.6g}" for v in row) for row in a]
-    return r"\begin{pmatrix}" + r" \\ ".join(rows) + r"\end{pmatrix}"
+    return _array([[f"{v:.6g}" for v in row] for row in a])
+
+
+def _array(rows: list[list[str]]) -> str:
+    """A parenthesised ``array``: unlike ``pmatrix`` (amsmath's ``MaxMatrixCols``, 10) it takes
+    any number of columns, e.g. the inputs of a mechanism with many shift elements."""
+    spec = "c" * max(map(len, rows), default=1)
+    return rf"\left(\begin{{array}}{{{spec}}}" + r" \\ ".join(" & ".join(r) for r in rows) + r"\end{array}\right)"
 
 
 def _vec(names) -> str:
-    return r"\begin{pmatrix}" + r" \\ ".join(_tex_name(n) for n in names) + r"\end{pmatrix}"
+    return _array([[_tex_name(n)] for n in names])
 
 
 def _tex_name(name: str) -> str:

@@ -259,6 +259,9 @@ class GearTable:
         forward = [r.ratio for r in self.gears if r.kind == "gear" and r.ratio is not None and r.ratio > 0]
         return max(forward) / min(forward) if len(forward) >= 2 else None
 
+    UNITS = {"ratio": "1", "step": "1", "spread": "1", "dof": "1", "published": "1"}
+    """Units of the numeric fields of :meth:`to_dict` (ratios: input speed / output speed)."""
+
     def to_dict(self) -> dict:
         """The JSON form of ``transgen ratios --json``."""
         m = self.mechanism

@@ -10,6 +10,11 @@ For a mode with generalized coordinates ``q_gc`` (link speeds; the states ``x``)
 * ``D_torques = G_clutches`` (eq. 3.15): locked element torques ``t = D_torques u`` (one row per
   constraint: elements in parallel share a row, ``t_<A>+<B>``, see ``locked_groups``).
 
+For control tools the two output equations are stacked into one, ``y = Cy x + Dy u`` with
+``y = [w; t]`` (the link speeds, then the locked torques; names in ``outputs``):
+``Cy = [C_speeds; 0]`` and ``Dy = [0; D_torques]``, so that MATLAB/Octave ``ss(A, B, Cy, Dy)``
+and ``scipy.signal.StateSpace(A, B, Cy, Dy)`` take them as they are.
+
 Inputs ``u`` are the same for every mode (:func:`transgen.equations.input_names`).
 """
 from __future__ import annotations
@@ -31,7 +36,7 @@ from .modes import (
     mode_models,
 )
 
-__all__ = ["ModeStateSpace", "SkippedMode", "StateSpaceSet", "state_space"]
+__all__ = ["ModeStateSpace", "SkippedMode", "StateSpaceSet", "state_space", "matrices_document", "MATRICES"]
 
 
 @dataclass(frozen=True)
@@ -56,20 +61,55 @@ class ModeStateSpace:
 
     @property
     def A(self) -> np.ndarray:
-        """Always zero for a linear inertial field (eq. 3.6)."""
-        return np.zeros((self.dof, self.dof))
+        """Always zero for a linear inertial field (eq. 3.6): ``n_states x n_states``."""
+        if isinstance(self.B, np.ndarray):
+            return np.zeros((self.dof, self.dof))
+        import sympy
+
+        return sympy.zeros(self.dof, self.dof)
+
+    @property
+    def C_speeds(self):
+        """Link speeds from the states, ``w = C_speeds x``: ``n_links x n_states`` (``C``)."""
+        return self.C
+
+    @property
+    def D_torques(self):
+        """Locked torques from the inputs, ``t = D_torques u``: ``n_locked x n_inputs`` (``D``)."""
+        return self.D
+
+    @property
+    def outputs(self) -> tuple[str, ...]:
+        """Names of the stacked outputs ``y = [w; t]``: ``w_<link>`` [rad/s], then ``t_<element>`` [N*m]."""
+        return tuple(f"w_{s}" for s in self.speed_outputs) + tuple(self.torque_outputs)
+
+    @property
+    def Cy(self):
+        """``[C_speeds; 0]``: ``n_outputs x n_states`` (sympy when the matrices are symbolic)."""
+        return self._stack(self.C, (len(self.torque_outputs), self.dof), below=True)
+
+    @property
+    def Dy(self):
+        """``[0; D_torques]``: ``n_outputs x n_inputs`` (sympy when the matrices are symbolic)."""
+        return self._stack(self.D, (len(self.speed_outputs), len(self.inputs)), below=False)
+
+    def _stack(self, block, zero_shape: tuple[int, int], below: bool):
+        """``block`` with a zero block of ``zero_shape`` below (or above) it."""
+        if isinstance(block, np.ndarray):
+            parts = [np.asarray(block, dtype=float), np.zeros(zero_shape)]
+            return np.vstack(parts if below else parts[::-1])
+        import sympy
+
+        parts = [block, sympy.zeros(*zero_shape)]
+        return sympy.Matrix.vstack(*(parts if below else parts[::-1]))
 
     def to_control(self):
-        """A ``control.StateSpace`` (python-control, optional) with outputs [speeds; torques]."""
+        """A ``control.StateSpace`` (python-control, optional) with outputs ``y = [w; t]``."""
         import control  # optional dependency
 
-        B = np.asarray(self.B, dtype=float)
-        C = np.asarray(self.C, dtype=float)
-        D = np.asarray(self.D, dtype=float)
-        Cy = np.vstack([C, np.zeros((D.shape[0], self.dof))])
-        Dy = np.vstack([np.zeros((C.shape[0], len(self.inputs))), D])
-        return control.ss(self.A, B, Cy, Dy, inputs=list(self.inputs), states=list(self.states),
-                          outputs=[f"w_{s}" for s in self.speed_outputs] + list(self.torque_outputs))
+        return control.ss(self.A, np.asarray(self.B, dtype=float), np.asarray(self.Cy, dtype=float),
+                          np.asarray(self.Dy, dtype=float), inputs=list(self.inputs), states=list(self.states),
+                          outputs=list(self.outputs))
 
 
 @dataclass(frozen=True)
@@ -104,7 +144,8 @@ class StateSpaceSet:
         raise KeyError(name)
 
     def to_dict(self) -> dict:
-        """JSON form: matrices as nested lists of numbers (or of expression strings)."""
+        """JSON form (a ``transgen.matrices/1`` document without its head, see
+        :func:`matrices_document`): matrices as nested lists of numbers (or of expression strings)."""
 
         def mat(x):
             if self.symbolic:
@@ -118,13 +159,32 @@ class StateSpaceSet:
             "symbolic": self.symbolic,
             "modes": [
                 {"name": m.name, "label": m.label, "locked": list(m.locked), "kind": m.kind, "dof": m.dof,
-                 "states": list(m.states), "B": mat(m.B), "C": mat(m.C), "D": mat(m.D),
+                 "states": list(m.states), "inputs": list(m.inputs), "outputs": list(m.outputs),
+                 **{k: mat(getattr(m, k)) for k in MATRICES},
                  "speed_outputs": list(m.speed_outputs), "torque_outputs": list(m.torque_outputs),
                  "locked_groups": [list(grp) for grp in m.locked_groups]}
                 for m in self.modes
             ],
             "skipped": [m.to_dict() for m in self.skipped],
         }
+
+
+MATRICES = ("A", "B", "C_speeds", "D_torques", "Cy", "Dy")
+"""The matrices of a mode in every export, in this order."""
+
+MATRICES_SCHEMA = "transgen.matrices/1"
+
+MATRICES_UNITS = {"dof": "1", "A": "1/s", "B": "1/(kg*m^2)", "C_speeds": "1", "D_torques": "1", "Cy": "1", "Dy": "1",
+                  "states": "rad/s", "inputs": "N*m", "speed_outputs": "rad/s", "torque_outputs": "N*m"}
+"""Units of the matrices (``B`` maps torques to accelerations) and of the named signals; the
+outputs ``y = [w; t]`` are rad/s, then N*m."""
+
+
+def matrices_document(ss: StateSpaceSet) -> dict:
+    """``ss`` as a ``transgen.matrices/1`` JSON document (``transgen matrices``, ``-o x.json``)."""
+    from .schemas import json_document
+
+    return json_document(MATRICES_SCHEMA, ss.to_dict(), MATRICES_UNITS)
 
 
 def _numeric_C(G_accel: np.ndarray, rows: list[int]) -> np.ndarray:

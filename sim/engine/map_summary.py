@@ -51,6 +51,13 @@ def _range(values) -> list[float]:
     return [float(np.min(v)), float(np.max(v))]
 
 
+MAP_UNITS = {"T_ref": "K", "p_ref": "Pa", "speed_rpm": "rpm", "points": "1", "mass_flow": "kg/s",
+             "pressure_ratio": "1", "efficiency": "1", "expansion_ratio": "1", "chi": "1", "step": "1",
+             "pr_stall": "1", "pr_surge": "1"}
+"""Units of the numeric fields of :func:`map_summary` (mass flows and speeds corrected to the
+reference state)."""
+
+
 def map_summary(path: Path, m: CompressorMap | TurbineMap) -> dict:
     """JSON-ready summary of a map and of its pre-processed causal tables."""
     out = {"file": str(path), "name": m.name, "reference": {"T_ref": m.T_ref, "p_ref": m.p_ref},

@@ -18,7 +18,13 @@ from .diesel import TurbochargedDiesel
 from .gas import RPM
 from .turbocharger import BasicTurbo, IterativeTurbo, PortAreas, TurboSolveError
 
-__all__ = ["TurboReport", "turbo_report", "algorithm_difference", "unique_times"]
+__all__ = ["TurboReport", "turbo_report", "algorithm_difference", "unique_times", "TURBO_UNITS"]
+
+TURBO_UNITS = {"fuel_step": "s", "window_end": "s", "boost_start": "1", "boost_peak": "1", "time_to_90_boost": "s",
+               "peak_turbo_speed_krpm": "krpm", "peak_turbo_speed_time": "s", "chi_min": "1", "chi_max": "1",
+               "compressor_flow_max": "kg/s", "flow_lo": "kg/s", "flow_hi": "kg/s", "d_turbo_krpm": "krpm",
+               "d_turbo_percent": "%", "d_chi": "1"}
+"""Units of the numeric fields of :meth:`TurboReport.to_dict` (boost: compressor pressure ratio)."""
 
 def unique_times(t: np.ndarray, *ys: np.ndarray):
     """Drop the repeated times at mode changes (keep the later sample)."""

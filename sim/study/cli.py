@@ -6,7 +6,6 @@ or, with ``--samples N``, ``--grid KEY=LO:HI`` (a Latin-hypercube range) or ``--
 """
 from __future__ import annotations
 
-import json
 import re
 import sys
 import time
@@ -131,7 +130,6 @@ def _progress_printer(enabled: bool):
 
 
 def cmd_sweep(args) -> int:
-    from transgen import __version__
     from transgen.errors import ScenarioError
 
     from .executors import make_executor
@@ -180,10 +178,9 @@ def cmd_sweep(args) -> int:
     rows = table.rows
     failed = table.failed
     if args.json:
+        from transgen.schemas import print_document
+
         summary = {
-            "schema": "transgen.sweep/1",
-            "transgen_version": __version__,
-            "units": sweep_units(table),
             "scenario": args.scenario,
             "design": {"kind": "latin_hypercube" if sampled else "grid", "parameters": grid,
                        "samples": args.samples, "seed": args.seed if sampled else None},
@@ -200,7 +197,7 @@ def cmd_sweep(args) -> int:
             "failures": [{"key": r["key"], "message": r.get("message", "")} for r in failed],
             "rows": table.rows,
         }
-        print(json.dumps(summary, indent=2, default=str, allow_nan=False))
+        print_document("transgen.sweep/1", summary, sweep_units(table))
     else:
         print(f"{len(rows)} runs: {len(rows) - len(failed)} succeeded, {len(failed)} failed, {elapsed:.1f} s "
               f"({executor!r})")
