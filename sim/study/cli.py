@@ -199,7 +199,9 @@ def cmd_sweep(args) -> int:
         }
         print_document("transgen.sweep/1", summary, sweep_units(table))
     else:
-        print(f"{len(rows)} runs: {len(rows) - len(failed)} succeeded, {len(failed)} failed, {elapsed:.1f} s "
+        resumed = last[-1].resumed if last else 0
+        print(f"{len(rows)} runs: {len(rows) - len(failed)} succeeded, {len(failed)} failed"
+              f"{f' ({resumed} finished before, kept from {args.output})' if resumed else ''}, {elapsed:.1f} s "
               f"({executor!r})")
         for r in failed[:10]:
             print(f"  failed {r['key']}: {' '.join(f'{p}={r.get(p)}' for p in table.parameters)}: "
