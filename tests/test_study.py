@@ -297,3 +297,26 @@ def test_readme_sweep_commands_parse_and_name_known_keys():
         for text in args.grid:
             key, _ = parse_grid(text, sampled=args.samples is not None)
             assert key in known, (line, key)
+
+
+def test_a_dask_cluster_without_transgen_is_refused_before_any_task():
+    from transgen.sim.study.executors import ClusterError, _check_environment
+
+    class NoTransgen:  # the scheduler of a cluster started from another Python
+        def run_on_scheduler(self, fn, *args):
+            return fn("surely-not-an-installed-distribution-name")
+
+        def run(self, fn, *args):
+            raise AssertionError("the workers are not asked once the scheduler failed")
+
+    class OtherVersion:
+        def run_on_scheduler(self, fn, *args):
+            return fn(*args)
+
+        def run(self, fn, *args):
+            return {"tcp://127.0.0.1:1": "0.0.0-other"}
+
+    with pytest.raises(ClusterError, match="has no transgen.*python -m dask"):
+        _check_environment(NoTransgen(), "tcp://here")
+    with pytest.raises(ClusterError, match=r"runs another transgen \(tcp://127.0.0.1:1: 0.0.0-other\)"):
+        _check_environment(OtherVersion(), "tcp://here")

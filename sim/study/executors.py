@@ -19,7 +19,9 @@ from __future__ import annotations
 import os
 from collections.abc import Callable, Iterable, Iterator
 
-__all__ = ["SerialExecutor", "LocalExecutor", "DaskExecutor", "make_executor", "DISTRIBUTED_MISSING"]
+from transgen.errors import TransgenError
+
+__all__ = ["SerialExecutor", "LocalExecutor", "DaskExecutor", "ClusterError", "make_executor", "DISTRIBUTED_MISSING"]
 
 DISTRIBUTED_MISSING = ("the Dask executor needs dask.distributed, which is not installed: "
                        "pip install 'transgen[distributed]'")
@@ -91,13 +93,26 @@ class DaskExecutor:
 
     def run(self, fn: Callable, shared, tasks: Iterable) -> Iterator:
         distributed = _distributed()
-        client = self.client if self.client is not None else distributed.Client(self.address, timeout="20s")
+        if self.client is not None:
+            client = self.client
+        else:
+            try:
+                client = distributed.Client(self.address, timeout="20s")
+            except (OSError, TimeoutError) as exc:
+                raise ClusterError(f"cannot reach the Dask scheduler at {self.address}: {exc}") from None
         try:
+            _check_environment(client, self.address or repr(client))
             [shared_future] = client.scatter([shared], broadcast=True, hash=False)
             futures = [client.submit(fn, shared_future, task, pure=False) for task in tasks]
             try:
                 for future in distributed.as_completed(futures):
-                    yield future.result()
+                    try:
+                        row = future.result()
+                    except Exception as exc:  # the task function itself never raises: the cluster failed
+                        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+                        raise ClusterError(f"the Dask cluster at {self.address or client!r} failed to run a task: "
+                                           f"{first}") from None
+                    yield row
             finally:
                 client.cancel(futures)
         finally:
@@ -106,6 +121,31 @@ class DaskExecutor:
 
     def __repr__(self) -> str:
         return f"DaskExecutor({self.address or self.client!r})"
+
+
+class ClusterError(TransgenError, RuntimeError):
+    """A Dask cluster that cannot run the sweep (unreachable, or without the same transgen)."""
+
+
+def _check_environment(client, where: str) -> None:
+    """The scheduler and every worker have this transgen installed (the scheduler unpickles the
+    task graph, the workers run the simulator): otherwise a :class:`ClusterError` saying how to
+    start them, before any task is sent."""
+    from importlib.metadata import version
+
+    from transgen import __version__
+
+    hint = (f"start 'python -m dask scheduler' and 'python -m dask worker ...' with a Python that has "
+            f"transgen {__version__} installed")
+    try:
+        found = {"scheduler": client.run_on_scheduler(version, "transgen")}
+        found.update(client.run(version, "transgen"))
+    except Exception as exc:
+        raise ClusterError(f"the Dask cluster at {where} has no transgen: {type(exc).__name__}: {exc}; {hint}") from None
+    wrong = {k: v for k, v in found.items() if v != __version__}
+    if wrong:
+        raise ClusterError(f"the Dask cluster at {where} runs another transgen ("
+                           f"{', '.join(f'{k}: {v}' for k, v in sorted(wrong.items()))}); {hint}")
 
 
 def _one_blas_thread() -> None:
