@@ -16,7 +16,6 @@ import time as _time
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from transgen.errors import SimulationError, StateOutOfDomain
 
@@ -407,6 +406,8 @@ def integrate(rhs, t0: float, t1: float, y0: np.ndarray, options: SolverOptions,
     are quadratures, the energy integrals); the implicit methods then get a finite-difference
     Jacobian over those columns, the others being zero, instead of differencing every state.
     """
+    from scipy.integrate import solve_ivp  # here, not at import: reading a scenario needs no scipy
+
     outside: list[StateOutOfDomain] = []
 
     def guarded(t, y):

@@ -59,8 +59,6 @@ from dataclasses import dataclass, field
 from typing import ClassVar, Mapping
 
 import numpy as np
-from scipy.integrate import solve_ivp
-from scipy.optimize import root
 
 from transgen.errors import SimulationError, StateOutOfDomain
 
@@ -402,6 +400,9 @@ class TurbochargedDiesel:
 
         p_amb = self.params.p_amb
         z0 = np.asarray(guess if guess is not None else (p_amb * 1.1, p_amb * 1.2, 6000.0))
+        from scipy.integrate import solve_ivp  # here, not at import: reading a scenario needs no scipy
+        from scipy.optimize import root
+
         z0 = z0 / scale
         sol = None
         ok = lambda s: s is not None and np.max(np.abs(f(s.x))) < 1e-6  # noqa: E731

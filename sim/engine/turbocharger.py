@@ -40,7 +40,6 @@ import math
 from dataclasses import dataclass
 from typing import ClassVar, Mapping
 
-from scipy.optimize import brentq
 
 from transgen.errors import SimulationError
 
@@ -409,6 +408,8 @@ class IterativeTurbo(BasicTurbo):
         m, slope = self._secant(lambda m: residual(m, 1), lambda: last["settled"], m_warm, basic.m_dot,
                                 0.999 * m_star, slope, min(8, self.maxiter))
         if m is None:  # the fast path left its bounds or stalled: bracket and Brent
+            from scipy.optimize import brentq  # rarely needed: not at import (start-up time)
+
             a, b = self._bracket(residual, m_warm, 0.999 * m_star, basic.m_dot, where)
             m, info = brentq(residual, a, b, xtol=self.xtol, maxiter=self.maxiter,
                              full_output=True, disp=False)
