@@ -4,6 +4,11 @@ than the compliant model at equal accuracy, energy residual < 0.1 %). Prints fig
 nothing.
 
     python benchmarks/bench_simulate.py [scenario] [--quick]   (--quick: three switching settings, k = 1e10 only)
+    python benchmarks/bench_simulate.py --realtime [--repeats N]
+
+``--realtime``: the real-time factor (simulated time / wall time, in-process, after one warm-up
+run, median and best of N) of the bundled scenarios with their own settings; issue 11 goals:
+``ht740_improved`` >= 150x, ``ht740_turbo`` >= 50x, ``ht740_turbo_iterative`` >= 30x.
 
 Accuracy is measured against a reference run of the mode-switching model (DOP853, rtol 1e-11):
 the largest difference of the lock/unlock event times and of the output-shaft speed (on a
@@ -104,6 +109,31 @@ def main(name: str = "ht740_improved", quick: bool = False) -> None:
     print(f"goal 100x real time: {'met' if 'switching' in chosen and t_sim / chosen['switching'][1] >= 100 else 'not met'}")
 
 
+REALTIME_GOALS = {"ht740_improved": 150.0, "ht740_turbo": 50.0, "ht740_turbo_iterative": 30.0}
+
+
+def realtime(repeats: int = 5) -> None:
+    """Real-time factors of the bundled scenarios as they are (scenario loading not timed)."""
+    print(f"real-time factor = simulated time / wall time, in-process, median and best of {repeats}")
+    print(f"  {'scenario':<24} {'t_sim [s]':>9} {'median [s]':>10} {'x real':>7} {'best x':>7} {'RHS':>7} {'goal':>6}")
+    for name, goal in REALTIME_GOALS.items():
+        s = load_scenario(name)
+        s.run()  # warm-up: map tables, lazily built caches, imports
+        t_sim = s.options.t_end - s.options.t_start
+        walls = []
+        for _ in range(repeats):
+            s = load_scenario(name)
+            t = time.perf_counter()
+            r = s.run()
+            walls.append(time.perf_counter() - t)
+        med = float(np.median(walls))
+        print(f"  {name:<24} {t_sim:>9g} {med:>10.3f} {t_sim / med:>7.1f} {t_sim / min(walls):>7.1f} "
+              f"{r.stats['rhs_evaluations']:>7} {goal:>5g}x" + ("" if r.success else f"  FAILED: {r.message}"), flush=True)
+
+
 if __name__ == "__main__":
     args = [a for a in sys.argv[1:] if not a.startswith("--")]
-    main(*args, quick="--quick" in sys.argv)
+    if "--realtime" in sys.argv:
+        realtime(int(args[0]) if args and "--repeats" in sys.argv else 5)
+    else:
+        main(*args, quick="--quick" in sys.argv)
