@@ -408,6 +408,8 @@ def integrate(rhs, t0: float, t1: float, y0: np.ndarray, options: SolverOptions,
     """
     from scipy.integrate import solve_ivp  # here, not at import: reading a scenario needs no scipy
 
+    from .ode_solvers import SOLVERS
+
     outside: list[StateOutOfDomain] = []
 
     def guarded(t, y):
@@ -428,7 +430,8 @@ def integrate(rhs, t0: float, t1: float, y0: np.ndarray, options: SolverOptions,
         # the Jacobian is taken at accepted states: a state outside the domain there stops the run
         extra["jac"] = _partial_jacobian(rhs, len(y0), n_dynamic)
     try:
-        sol = solve_ivp(guarded, (t0, t1), y0, method=options.method, rtol=options.rtol, atol=options.atol,
+        sol = solve_ivp(guarded, (t0, t1), y0, method=SOLVERS.get(options.method, options.method),
+                        rtol=options.rtol, atol=options.atol,
                         max_step=max_step, events=events, dense_output=True, **extra)
     except ValueError as exc:  # a solver's linear algebra refusing the NaN of a rejected trial state
         if outside:
