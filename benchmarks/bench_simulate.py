@@ -4,6 +4,11 @@ than the compliant model at equal accuracy, energy residual < 0.1 %). Prints fig
 nothing.
 
     python benchmarks/bench_simulate.py [scenario] [--quick]   (--quick: three switching settings, k = 1e10 only)
+    python benchmarks/bench_simulate.py --realtime [--repeats N]
+
+``--realtime``: the real-time factor (simulated time / wall time, in-process, after one warm-up
+run, median and best of N) of the bundled scenarios with their own settings; issue 11 goals:
+``ht740_improved`` >= 150x, ``ht740_turbo`` >= 50x, ``ht740_turbo_iterative`` >= 30x.
 
 Accuracy is measured against a reference run of the mode-switching model (DOP853, rtol 1e-11):
 the largest difference of the lock/unlock event times and of the output-shaft speed (on a
@@ -104,6 +109,36 @@ def main(name: str = "ht740_improved", quick: bool = False) -> None:
     print(f"goal 100x real time: {'met' if 'switching' in chosen and t_sim / chosen['switching'][1] >= 100 else 'not met'}")
 
 
+REALTIME_GOALS = {"ht740_improved": 150.0, "ht740_turbo": 50.0, "ht740_turbo_iterative": 30.0}
+
+
+def realtime(repeats: int = 5) -> None:
+    """Real-time factors of the bundled scenarios as they are (scenario loading not timed). On a
+    machine shared with other work the wall time varies with the load; the process's CPU time
+    (``time.process_time``, one thread: the BLAS is limited to one) varies much less."""
+    print(f"real-time factor = simulated time / time of the run, in-process, median of {repeats} "
+          f"(wall and CPU time)")
+    print(f"  {'scenario':<24} {'t_sim [s]':>9} {'wall [s]':>9} {'x real':>7} {'CPU [s]':>8} {'x CPU':>7} "
+          f"{'RHS':>7} {'goal':>6}")
+    for name, goal in REALTIME_GOALS.items():
+        s = load_scenario(name)
+        s.run()  # warm-up: map tables, lazily built caches, imports
+        t_sim = s.options.t_end - s.options.t_start
+        walls, cpus = [], []
+        for _ in range(repeats):
+            s = load_scenario(name)
+            t, c = time.perf_counter(), time.process_time()
+            r = s.run()
+            walls.append(time.perf_counter() - t)
+            cpus.append(time.process_time() - c)
+        wall, cpu = float(np.median(walls)), float(np.median(cpus))
+        print(f"  {name:<24} {t_sim:>9g} {wall:>9.3f} {t_sim / wall:>7.1f} {cpu:>8.3f} {t_sim / cpu:>7.1f} "
+              f"{r.stats['rhs_evaluations']:>7} {goal:>5g}x" + ("" if r.success else f"  FAILED: {r.message}"), flush=True)
+
+
 if __name__ == "__main__":
     args = [a for a in sys.argv[1:] if not a.startswith("--")]
-    main(*args, quick="--quick" in sys.argv)
+    if "--realtime" in sys.argv:
+        realtime(int(args[0]) if args and "--repeats" in sys.argv else 5)
+    else:
+        main(*args, quick="--quick" in sys.argv)

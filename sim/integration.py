@@ -16,8 +16,6 @@ import time as _time
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.integrate import solve_ivp
-from scipy.optimize import brentq
 
 from transgen.errors import SimulationError, StateOutOfDomain
 
@@ -264,6 +262,8 @@ def missed_crossing(sol, events: list):
 
     if value(t_lo) <= 0.0:
         return None  # below zero from the step's start: the event itself has seen it
+    from scipy.optimize import brentq  # here, not at import: reading a scenario needs no scipy
+
     return brentq(value, t_lo, t_hi, xtol=1e-14, rtol=4 * np.finfo(float).eps), linear[j][0]
 
 
@@ -470,6 +470,10 @@ def integrate(rhs, t0: float, t1: float, y0: np.ndarray, options: SolverOptions,
     are quadratures, the energy integrals); the implicit methods then get a finite-difference
     Jacobian over those columns, the others being zero, instead of differencing every state.
     """
+    from scipy.integrate import solve_ivp  # here, not at import: reading a scenario needs no scipy
+
+    from .ode_solvers import SOLVERS
+
     outside: list[StateOutOfDomain] = []
 
     def guarded(t, y):
@@ -490,7 +494,8 @@ def integrate(rhs, t0: float, t1: float, y0: np.ndarray, options: SolverOptions,
         # the Jacobian is taken at accepted states: a state outside the domain there stops the run
         extra["jac"] = _partial_jacobian(rhs, len(y0), n_dynamic)
     try:
-        sol = solve_ivp(guarded, (t0, t1), y0, method=options.method, rtol=options.rtol, atol=options.atol,
+        sol = solve_ivp(guarded, (t0, t1), y0, method=SOLVERS.get(options.method, options.method),
+                        rtol=options.rtol, atol=options.atol,
                         max_step=max_step, events=events, dense_output=True, **extra)
     except ValueError as exc:  # a solver's linear algebra refusing the NaN of a rejected trial state
         if outside:

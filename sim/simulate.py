@@ -6,6 +6,7 @@ built on the shared integration core :mod:`.integration`.
 """
 from __future__ import annotations
 
+from ..blas import one_blas_thread
 from .compliant import simulate_compliant
 from .integration import Powertrain, SolverOptions
 from .result import Result
@@ -16,13 +17,15 @@ __all__ = ["SolverOptions", "Powertrain", "simulate"]
 _MODELS = {"switching": simulate_switching, "compliant": simulate_compliant}
 
 
+@one_blas_thread("scipy.linalg")
 def simulate(pt: Powertrain, options: SolverOptions = SolverOptions(), progress=None) -> Result:
     """Simulate ``pt`` from ``options.t_start`` to ``options.t_end`` with the clutch model
     ``options.model``.
 
     ``progress``: optional callable ``progress(t)`` called after every integration segment.
     Returns a :class:`Result`; on failure ``success`` is False and ``message`` says when, in which
-    mode and why (the samples up to the failure are kept).
+    mode and why (the samples up to the failure are kept). The run's small dense linear algebra
+    uses one BLAS thread (:mod:`transgen.blas`).
     """
     try:
         run = _MODELS[options.model]

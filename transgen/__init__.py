@@ -17,13 +17,41 @@ from .errors import (
     SimulationError,
     TransgenError,
 )
-from .graph import build_graph
-from .kinematics import analyze, gear_ratios, gear_table
-from .language import format_mechanism, load_mechanism, parse_mechanism
-from .library import bundled_mechanisms
-from .model import HOUSING, Mechanism
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # the names below are loaded on first use (see __getattr__)
+    from .graph import build_graph
+    from .kinematics import analyze, gear_ratios, gear_table
+    from .language import format_mechanism, load_mechanism, parse_mechanism
+    from .library import bundled_mechanisms
+    from .model import HOUSING, Mechanism
 
 __version__ = "0.1.0"
+
+# Loaded on first access, not at import: networkx, numpy and lark take most of the start-up time
+# of the command line, and ``transgen --help`` or the simulator's commands need none of them here.
+_LAZY = {
+    "build_graph": "graph",
+    "analyze": "kinematics", "gear_ratios": "kinematics", "gear_table": "kinematics",
+    "format_mechanism": "language", "load_mechanism": "language", "parse_mechanism": "language",
+    "bundled_mechanisms": "library",
+    "HOUSING": "model", "Mechanism": "model",
+}
+
+
+def __getattr__(name: str):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    import importlib
+
+    value = getattr(importlib.import_module(f".{module}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))
 
 __all__ = [
     "Diagnostic",

@@ -40,7 +40,6 @@ from dataclasses import dataclass
 
 import networkx as nx
 import numpy as np
-import scipy.linalg
 
 from .errors import ModeError
 from .graph import coefficient, element_nodes, link_nodes, transformer_ports
@@ -442,6 +441,8 @@ def _independent(a: np.ndarray, rank: int) -> list[int]:
     """Indices of ``rank`` linearly independent columns of ``a`` (QR with column pivoting)."""
     if rank == 0:
         return []
+    import scipy.linalg  # only the symbolic back-end comes here; its import costs start-up time
+
     _, _, piv = scipy.linalg.qr(a, mode="economic", pivoting=True)
     return sorted(int(j) for j in piv[:rank])
 

@@ -30,6 +30,7 @@ from lark import Lark, Token, Tree
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
 
 from .errors import Diagnostic, MechSyntaxError, MechValidationError
+from .grammar_cache import cached_lark
 from .model import (
     HOUSING,
     ExternalTorque,
@@ -61,7 +62,7 @@ def grammar_text() -> str:
 
 @functools.lru_cache(maxsize=1)
 def _parser() -> Lark:
-    return Lark(grammar_text(), parser="lalr", propagate_positions=True, maybe_placeholders=False)
+    return cached_lark(grammar_text(), parser="lalr", propagate_positions=True, maybe_placeholders=False)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 import networkx as nx
 import numpy as np
 
+from .blas import one_blas_thread
 from .equations import (LockingGroup, ModeEquations, assemble, complete_locked, diagnose_singular, locked_constraints,
                         solve)
 from .errors import ModeError
@@ -190,10 +191,12 @@ def mode_model(mech: Mechanism, mode: Mode, graph: nx.DiGraph | None = None,
     return ModeModel(mode, combo.kind, dof, combo.dof, eq, problem, symbolic_eq, groups)
 
 
+@one_blas_thread()
 def mode_models(mech: Mechanism, which: str = "auto", symbolic: bool | str = False,
                 progress=None) -> list[ModeModel]:
     """:func:`mode_model` of every mode of :func:`select_modes`; ``progress(i, n, mode)``, if
-    given, is called before each of the ``n`` modes (symbolic solves take seconds each)."""
+    given, is called before each of the ``n`` modes (symbolic solves take seconds each). The
+    small dense linear algebra uses one BLAS thread (:mod:`transgen.blas`)."""
     g = build_graph(mech)
     modes = select_modes(mech, which)
     out = []

@@ -38,9 +38,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import ClassVar, Mapping
+from typing import ClassVar, Mapping, NamedTuple
 
-from scipy.optimize import brentq
 
 from transgen.errors import SimulationError
 
@@ -257,9 +256,9 @@ class BasicTurbo:
         """Forget any warm-start information (nothing for the basic algorithm)."""
 
 
-@dataclass(frozen=True)
-class _Where:
-    """Operating point named in error messages (formatted only when an error is raised)."""
+class _Where(NamedTuple):
+    """Operating point named in error messages (formatted only when an error is raised; a named
+    tuple, built at every solve: a frozen dataclass cost more to build than it is ever read)."""
 
     device: str
     p_in: float
@@ -372,18 +371,19 @@ class IterativeTurbo(BasicTurbo):
         """Solve ``m = m_map(m)`` for one device between static states (p1, T1) and p2."""
         gas = device.gas
         where = _Where(name, p1, T1, p2, omega)
-        basic = device.operate(p1, T1, p2, omega)
-        if basic.m_dot <= 0.0:
-            return basic, (0.0, 0.0)
+        basic_point = device.flow(p1, T1, p2, omega)
+        if basic_point[0] <= 0.0:
+            return device.point(*basic_point), (0.0, 0.0)
+        basic_m, basic_T = basic_point[0], basic_point[1]
         # Choke check before the iteration (static-state choking of the port ducts).
         m_star = min(p1 * area_in * math.sqrt(gas.gamma / (gas.R * T1)),
                      p2 * area_out * math.sqrt(gas.gamma * (gas.gamma + 1.0)
-                                               / (2.0 * gas.R * basic.T_out)))
-        if basic.m_dot >= m_star:
-            raise ChokedFlowError(f"{where}: map flow {basic.m_dot:.4g} kg/s exceeds the "
+                                               / (2.0 * gas.R * basic_T)))
+        if basic_m >= m_star:
+            raise ChokedFlowError(f"{where}: map flow {basic_m:.4g} kg/s exceeds the "
                                   f"choked flow {m_star:.4g} kg/s of its port ducts")
         ratio_m, ratio_T, slope = self._warm.get(name, (1.0, 1.0, 1.0))
-        m_warm, T02 = basic.m_dot * ratio_m, basic.T_out * ratio_T
+        m_warm, T02 = basic_m * ratio_m, basic_T * ratio_T
         last: dict = {"T02": T02}
 
         def residual(m: float, inner: int | None = None) -> float:
@@ -394,22 +394,24 @@ class IterativeTurbo(BasicTurbo):
             T02 = last["T02"]
             for _ in range(self.inner_maxiter if inner is None else inner):
                 M2 = mach_from_total_temperature(m, p2, T02, area_out, gas)
-                pt = device.operate(p01, T01, total_pressure(p2, M2, gas), omega)
-                settled = abs(pt.T_out - T02) <= self.inner_tol * T02
+                pt = device.flow(p01, T01, total_pressure(p2, M2, gas), omega)  # (m_dot, T_out, ...)
+                settled = abs(pt[1] - T02) <= self.inner_tol * T02
                 if settled:
                     break
-                T02 = pt.T_out
+                T02 = pt[1]
             else:
                 if inner is None:
                     raise TurboConvergenceError(f"{where}: outlet total temperature did not "
                                                 f"converge in {self.inner_maxiter} iterations")
-            last.update(m=m, T02=pt.T_out, point=pt, mach=(M1, M2), settled=settled)
-            return m - pt.m_dot
+            last.update(m=m, T02=pt[1], point=pt, mach=(M1, M2), settled=settled)
+            return m - pt[0]
 
-        m, slope = self._secant(lambda m: residual(m, 1), lambda: last["settled"], m_warm, basic.m_dot,
+        m, slope = self._secant(lambda m: residual(m, 1), lambda: last["settled"], m_warm, basic_m,
                                 0.999 * m_star, slope, min(8, self.maxiter))
         if m is None:  # the fast path left its bounds or stalled: bracket and Brent
-            a, b = self._bracket(residual, m_warm, 0.999 * m_star, basic.m_dot, where)
+            from scipy.optimize import brentq  # rarely needed: not at import (start-up time)
+
+            a, b = self._bracket(residual, m_warm, 0.999 * m_star, basic_m, where)
             m, info = brentq(residual, a, b, xtol=self.xtol, maxiter=self.maxiter,
                              full_output=True, disp=False)
             if not info.converged:
@@ -421,8 +423,8 @@ class IterativeTurbo(BasicTurbo):
         if not (M1 < 1.0 and M2 < 1.0):
             raise ChokedFlowError(f"{where}: solution is not subsonic (M_in = {M1:.3f}, "
                                   f"M_out = {M2:.3f})")
-        self._warm[name] = (m / basic.m_dot, last["T02"] / basic.T_out, slope)
-        return last["point"], (M1, M2)
+        self._warm[name] = (m / basic_m, last["T02"] / basic_T, slope)
+        return device.point(*last["point"]), (M1, M2)
 
 
 def make_turbo(kind: str = "basic", compressor: Compressor | None = None,

@@ -79,6 +79,12 @@ class Turbomachine:
     def operate(self, p_in: float, T_in: float, p_out: float, omega: float):
         """Operating point at inlet total pressure [Pa] and temperature [K], outlet total
         pressure [Pa] and rotor speed [rad/s] (thesis Figures 4.8 and 4.12)."""
+        return self.point(*self.flow(p_in, T_in, p_out, omega))
+
+    def flow(self, p_in: float, T_in: float, p_out: float, omega: float) -> tuple:
+        """The fields of :meth:`operate`'s point as a tuple, ``m_dot`` and ``T_out`` first (an
+        iteration over the operating point reads those two; building the frozen point at every
+        step cost more than the look-up)."""
         tab = self.table
         n_corr = corrected_speed(omega, T_in, tab.T_ref)
         ratio = p_out / p_in if self.compresses else p_in / p_out
@@ -90,5 +96,5 @@ class Turbomachine:
         else:
             T_out = expansion_outlet_temperature(T_in, max(ratio, 1.0), eta, self.gas)
             power = m_dot * self.gas.cp * (T_in - T_out)
-        return self.point(m_dot, T_out, power, torque_from_power(power, omega, self.omega_floor),
-                          eta, ratio, *more, n_corr, m_corr)
+        return (m_dot, T_out, power, torque_from_power(power, omega, self.omega_floor),
+                eta, ratio, *more, n_corr, m_corr)

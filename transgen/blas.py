@@ -1,0 +1,45 @@
+"""Small dense linear algebra on one BLAS thread.
+
+The matrices of the mode generator and of the simulator are a few rows wide; a multi-threaded
+BLAS (OpenBLAS, MKL) hands such a solve to its thread pool, whose start-up and spinning cost more
+than the arithmetic, and on a loaded machine (other processes on the other cores) the threads wait
+for a core: small solves then run 1.7-2x slower (``benchmarks/bench_blas_threads.py``).
+:func:`single_threaded` limits the BLAS to one thread for the duration of a run (with
+``threadpoolctl``), where a run starts, not at import: a program that imports transgen keeps its
+own BLAS settings outside transgen's calls, and they are restored when the run ends.
+"""
+from __future__ import annotations
+
+import functools
+
+__all__ = ["single_threaded", "one_blas_thread"]
+
+
+def single_threaded(*preload: str):
+    """Context manager: the BLAS libraries loaded in this process use one thread inside it (the
+    previous limits are restored on exit; nested use is harmless). A library loaded later is not
+    limited: ``preload`` names modules to import first (``"scipy.linalg"``: scipy has a BLAS of
+    its own)."""
+    import importlib
+
+    from threadpoolctl import threadpool_limits  # here: start-up time of the command line
+
+    for name in preload:
+        importlib.import_module(name)
+
+    return threadpool_limits(limits=1, user_api="blas")
+
+
+def one_blas_thread(*preload: str):
+    """Decorator: the function runs inside :func:`single_threaded` (``preload`` as there);
+    ``func.__wrapped__`` is the undecorated function (the benchmark's multi-threaded comparison)."""
+
+    def decorate(func):
+        @functools.wraps(func)
+        def run(*args, **kwargs):
+            with single_threaded(*preload):
+                return func(*args, **kwargs)
+
+        return run
+
+    return decorate
