@@ -102,6 +102,7 @@ class DaskExecutor:
                 raise ClusterError(f"cannot reach the Dask scheduler at {self.address}: {exc}") from None
         try:
             _check_environment(client, self.address or repr(client))
+            client.run(_stop_profiler)
             [shared_future] = client.scatter([shared], broadcast=True, hash=False)
             futures = [client.submit(fn, shared_future, task, pure=False) for task in tasks]
             try:
@@ -146,6 +147,17 @@ def _check_environment(client, where: str) -> None:
     if wrong:
         raise ClusterError(f"the Dask cluster at {where} runs another transgen ("
                            f"{', '.join(f'{k}: {v}' for k, v in sorted(wrong.items()))}); {hint}")
+
+
+def _stop_profiler(dask_worker) -> None:
+    """On a Dask worker: stop its statistical profiler, which samples the running task's stack
+    every 10 ms (distributed.worker.profile) and made a simulation 32 % slower than in the local
+    pool (1 % without; benchmarks/bench_sweep.py). A sweep's tasks are all the same function;
+    their profile shows nothing the study needs."""
+    for name in ("profile", "profile-cycle"):
+        callback = dask_worker.periodic_callbacks.pop(name, None)
+        if callback is not None:
+            callback.stop()
 
 
 def _one_blas_thread() -> None:
