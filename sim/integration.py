@@ -238,11 +238,20 @@ def missed_crossing(sol, events: list):
     if not linear or len(sol.t) < 2:
         return None
     steps = np.asarray(sol.t)
-    frac = np.arange(1, CROSSING_SCAN + 1) / (CROSSING_SCAN + 1)
-    ts = (steps[:-1, None] + np.diff(steps)[:, None] * frac[None, :]).ravel()
-    ys = sol.sol(ts)
     rows = np.array([r for _, (r, _) in linear])
-    values = rows @ ys[: rows.shape[1]] + np.array([h for _, (_, h) in linear])[:, None]
+    halves = np.array([h for _, (_, h) in linear])[:, None]
+    # only the steps where a dip is possible: the value at an end is within twice the change over
+    # the step or its neighbours (elsewhere the slip is far from zero for its rate of change)
+    ends = rows @ np.asarray(sol.y)[: rows.shape[1]] + halves
+    change = np.abs(np.diff(ends, axis=1))
+    near = np.maximum(change, np.maximum(np.pad(change, ((0, 0), (1, 0)))[:, :-1], np.pad(change, ((0, 0), (0, 1)))[:, 1:]))
+    steps_in = np.flatnonzero(np.any(np.minimum(ends[:, :-1], ends[:, 1:]) <= 2.0 * near, axis=0))
+    if not len(steps_in):
+        return None
+    frac = np.arange(1, CROSSING_SCAN + 1) / (CROSSING_SCAN + 1)
+    ts = (steps[steps_in, None] + (steps[steps_in + 1] - steps[steps_in])[:, None] * frac[None, :]).ravel()
+    ys = sol.sol(ts)
+    values = rows @ ys[: rows.shape[1]] + halves
     below = values < 0.0
     if not below.any():
         return None
@@ -251,7 +260,8 @@ def missed_crossing(sol, events: list):
     for j in np.flatnonzero(below.any(axis=1)):
         m = int(first[j])
         t_hi = ts[m]
-        t_lo = ts[m - 1] if m > 0 else float(steps[0])
+        step = steps_in[m // CROSSING_SCAN]
+        t_lo = ts[m - 1] if m % CROSSING_SCAN else float(steps[step])
         if best is None or t_hi < best[1]:
             best = (j, t_hi, t_lo)
     j, t_hi, t_lo = best
