@@ -2,7 +2,7 @@
 each; an 8 x 8 grid of vehicle mass and throttle) serially in this process, on 1 and 2 local
 worker processes and on a Dask cluster of 2 worker processes on 127.0.0.1 (started here, its start
 and the workers' import of the simulator not timed: a cluster is started once and used for many
-sweeps, as the pool's fork server imports the simulator once).
+sweeps, as the pool's workers import the simulator when they start).
 
 Each sweep is timed end to end (validation, pool start, runs) and over its runs alone (from the
 moment the runs start to the last row); the rows of every engine are checked to be identical,
@@ -112,7 +112,7 @@ def main() -> None:
     with dask.config.set({"distributed.worker.profile.enabled": False}), \
             distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
                                      dashboard_address=None) as cluster:
-        with distributed.Client(cluster) as client:  # as the pool's fork server: the simulator imported once
+        with distributed.Client(cluster) as client:  # as the pool's workers: the simulator imported once
             client.run(_preload)
         dask = timed("Dask, 2 workers", DaskExecutor(cluster.scheduler_address), design)
         dask_cost = task_overhead(DaskExecutor(cluster.scheduler_address), shared)

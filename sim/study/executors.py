@@ -8,8 +8,8 @@ error, Ctrl-C) cancels the runs not started.
 
 * :class:`SerialExecutor` - one after the other in this process;
 * :class:`LocalExecutor` - a :class:`concurrent.futures.ProcessPoolExecutor` (``workers``, default
-  :func:`os.cpu_count`), started with the ``forkserver`` method where there is one (forking a
-  process that runs threads is unsafe), else ``spawn``; each worker runs its BLAS on one thread;
+  :func:`os.cpu_count`), started with the ``spawn`` method (see :meth:`LocalExecutor.run` for
+  why); each worker imports the simulator once and runs its BLAS on one thread;
 * :class:`DaskExecutor` - a Dask distributed cluster by scheduler address
   (``tcp://HOST:PORT``) or an existing ``distributed.Client``; the optional extra
   ``transgen[distributed]``, imported only here.
@@ -52,19 +52,25 @@ class LocalExecutor:
         import multiprocessing
         from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
-        methods = multiprocessing.get_all_start_methods()
-        context = multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
-        if context.get_start_method() == "forkserver":  # workers fork from a server that has the simulator loaded
-            from .task import PRELOAD
+        from concurrent.futures.process import BrokenProcessPool
 
-            context.set_forkserver_preload(list(PRELOAD))
-        pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=context, initializer=_one_blas_thread)
+        # spawn, not fork (threads of the parent, e.g. a BLAS pool, are unsafe to fork) and not
+        # forkserver: Python 3.11's fork server ignores the parent's sys.path and imports from its
+        # working directory first, so a folder named transgen there (a source checkout) shadows the
+        # installed package
+        context = multiprocessing.get_context("spawn")
+        pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=context, initializer=_start_worker)
         try:
             pending = {pool.submit(fn, shared, task) for task in tasks}
             while pending:
                 done, pending = wait(pending, return_when=FIRST_COMPLETED)
                 for future in done:
-                    yield future.result()
+                    try:
+                        row = future.result()
+                    except BrokenProcessPool:
+                        raise ClusterError("a local worker process died (killed, or out of memory); the rows "
+                                           "finished so far are kept: run the sweep again to resume") from None
+                    yield row
         finally:
             pool.shutdown(wait=True, cancel_futures=True)
 
@@ -158,6 +164,17 @@ def _stop_profiler(dask_worker) -> None:
         callback = dask_worker.periodic_callbacks.pop(name, None)
         if callback is not None:
             callback.stop()
+
+
+def _start_worker() -> None:
+    """Local worker start: one BLAS thread, and the simulator imported once per process."""
+    import importlib
+
+    from .task import PRELOAD
+
+    _one_blas_thread()
+    for name in PRELOAD:
+        importlib.import_module(name)
 
 
 def _one_blas_thread() -> None:

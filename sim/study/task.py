@@ -20,7 +20,7 @@ from collections.abc import Mapping
 
 __all__ = ["run_variant", "run_task", "result_scalars", "flatten", "PRELOAD"]
 
-#: modules a worker needs, imported once by a process pool's fork server rather than by every worker
+#: modules a worker needs, imported once when a local worker process starts (not at its first task)
 PRELOAD = ("transgen.sim.study.task", "transgen.sim.scenario", "transgen.sim.report", "transgen.sim.switching",
            "transgen.sim.compliant", "transgen.sim.powertrain", "transgen.sim.engine.turbo_report")
 
