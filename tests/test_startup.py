@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import subprocess
+import tempfile
 import sys
 from pathlib import Path
 
@@ -17,8 +18,10 @@ from transgen.language import _parser, grammar_text, load_mechanism
 def imported_after(code: str) -> set[str]:
     """Top-level packages in ``sys.modules`` after running ``code`` in a fresh interpreter."""
     probe = code + "\nimport sys\nprint(' '.join(sorted({m.partition('.')[0] for m in sys.modules})))"
+    # not from the checkout: `python -c` imports from its working directory first, and a source
+    # checkout's transgen folder is not the installed package (sim/ is mapped into it on install)
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True,
-                         env=dict(os.environ, MPLBACKEND="Agg"))
+                         env=dict(os.environ, MPLBACKEND="Agg"), cwd=tempfile.gettempdir())
     return set(out.stdout.strip().splitlines()[-1].split())
 
 

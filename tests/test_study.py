@@ -24,7 +24,7 @@ from transgen.sim.study.task import run_variant
 SCENARIO = "ht740_improved"
 # the 1-2 shift starts at 4 s: 4.6 s covers it and keeps each run near 0.3 s
 GRID = {"simulation.t_end": [4.6], "driveline.vehicle_mass": [20000, 36000], "input.throttle_signal": [0.6, 0.8]}
-TRANSGEN = [sys.executable, "-m", "transgen"]
+TRANSGEN = [sys.executable, "-m", "transgen"]  # run with cwd=tmp_path: never from a source checkout
 
 
 def _numbers(table: SweepTable) -> list[list]:
@@ -214,7 +214,7 @@ def test_cli_sweep_resumes_after_a_kill(tmp_path):
     grid = ["--grid", "simulation.t_end=4.6", "--grid", "driveline.vehicle_mass=20000:36000:3",
             "--grid", "input.throttle_signal=0.6,0.8"]
     proc = subprocess.Popen([*TRANSGEN, "sweep", SCENARIO, *grid, "--workers", "1", "-o", str(out)],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=tmp_path)
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and proc.poll() is None:
         if out.exists() and len(SweepTable.from_csv(out)) >= 2:
@@ -225,7 +225,7 @@ def test_cli_sweep_resumes_after_a_kill(tmp_path):
     finished = SweepTable.from_csv(out)
     assert 2 <= len(finished) < 6
     done = subprocess.run([*TRANSGEN, "sweep", SCENARIO, *grid, "--workers", "1", "-o", str(out), "--json"],
-                          capture_output=True, text=True, timeout=300)
+                          capture_output=True, text=True, timeout=300, cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     summary = json.loads(done.stdout)
     assert summary["schema"] == "transgen.sweep/1" and summary["transgen_version"]
@@ -243,7 +243,7 @@ def test_cli_sweep_resumes_after_a_kill(tmp_path):
 def test_cli_bad_key_is_an_error_before_any_run(tmp_path):
     out = tmp_path / "r.csv"
     res = subprocess.run([*TRANSGEN, "sweep", SCENARIO, "--grid", "driveline.vehicle_mas=20000,36000", "-o", str(out)],
-                         capture_output=True, text=True, timeout=120)
+                         capture_output=True, text=True, timeout=120, cwd=tmp_path)
     assert res.returncode == 2 and res.stdout == ""
     assert res.stderr.startswith("--grid driveline.vehicle_mas: error: unknown key")
     assert "did you mean 'driveline.vehicle_mass'" in res.stderr and "Traceback" not in res.stderr
