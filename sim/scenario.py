@@ -65,11 +65,20 @@ class Scenario:
     data: dict = field(default_factory=dict)
     lockup: list[str] = field(default_factory=list)  # converter lock-up clutches (not gear shifts)
 
-    def run(self, progress=None):
-        """Simulate; returns a :class:`~transgen.sim.result.Result`."""
+    def run(self, progress=None, start=None, t_end: float | None = None):
+        """Simulate; returns a :class:`~transgen.sim.result.Result`. ``start``: a saved state
+        (:mod:`.restart`) to run from, at its time; ``t_end``: stop there instead of at the
+        scenario's end [s] (the result's ``state`` then starts a later run)."""
+        from dataclasses import replace
+
         from .simulate import simulate
 
-        result = simulate(self.powertrain, self.options, progress)
+        options = self.options
+        if start is not None:
+            options = replace(options, t_start=start.t)
+        if t_end is not None:
+            options = replace(options, t_end=t_end)
+        result = simulate(self.powertrain, options, progress, start)
         result.meta.update({"scenario": str(self.path), "title": self.title, "lockup": list(self.lockup),
                             "input_link": self.mechanism.input, "output_link": self.mechanism.output})
         return result
