@@ -331,10 +331,19 @@ def _build(data: dict, source: Source, path: Path, overrides=None, access: FileA
                     for key in ("upshift_rpm", "downshift_rpm"))
         throttle = r.signal(auto_t.get("throttle_signal", 1.0), keys + ("throttle_signal",))
         template = _template(r, data, keys + ("template",))
+        shifts_of_order = {f"{a}-{b}" for a, b in zip(order, order[1:])} | {f"{b}-{a}" for a, b in zip(order, order[1:])}
+        templates = {}
+        for name in r.table(data, keys + ("templates",), None):
+            if name not in shifts_of_order:
+                close = difflib.get_close_matches(name, sorted(shifts_of_order), n=1)
+                raise r.error(keys + ("templates", name), f"templates: {shown(name)} is no shift of the order (\"SOURCE-TARGET\" "
+                              f"of neighbouring gears" + (f"; did you mean '{close[0]}'?)" if close else ")"))
+            templates[name] = _template(r, data, keys + ("templates", name))
         min_interval = r.number(auto_t, keys, "min_interval", 2.0, minimum=0.0)
         try:
             controllers.append(AutoShift(order, thr, up, down, throttle, tr.link_index[mech.output], gears,
-                                         template, min_interval, gear=init_gear if "gear" in init_t else order[0]))
+                                         template, min_interval, gear=init_gear if "gear" in init_t else order[0],
+                                         templates=templates))
         except ValueError as exc:
             raise r.error(keys, str(exc)) from None
     out_t = r.table(data, ("output",), S.OUTPUT_KEYS)
