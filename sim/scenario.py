@@ -26,7 +26,7 @@ from __future__ import annotations
 import difflib
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -69,8 +69,6 @@ class Scenario:
         """Simulate; returns a :class:`~transgen.sim.result.Result`. ``start``: a saved state
         (:mod:`.restart`) to run from, at its time; ``t_end``: stop there instead of at the
         scenario's end [s] (the result's ``state`` then starts a later run)."""
-        from dataclasses import replace
-
         from .simulate import simulate
 
         options = self.options
@@ -338,7 +336,9 @@ def _build(data: dict, source: Source, path: Path, overrides=None, access: FileA
                 close = difflib.get_close_matches(name, sorted(shifts_of_order), n=1)
                 raise r.error(keys + ("templates", name), f"templates: {shown(name)} is no shift of the order (\"SOURCE-TARGET\" "
                               f"of neighbouring gears" + (f"; did you mean '{close[0]}'?)" if close else ")"))
-            templates[name] = _template(r, data, keys + ("templates", name))
+            where = keys + ("templates", name)
+            given = r.table(data, where, set(ShiftTemplate.__dataclass_fields__))  # over the schedule's template
+            templates[name] = replace(template, **{k: r.number(given, where, k, minimum=0.0) for k in given})
         min_interval = r.number(auto_t, keys, "min_interval", 2.0, minimum=0.0)
         try:
             controllers.append(AutoShift(order, thr, up, down, throttle, tr.link_index[mech.output], gears,

@@ -181,3 +181,37 @@ def test_events_and_automatic_schedules_carry_their_templates(tmp_path):
     tuned = load_scenario(path, overrides)
     assert tuned.powertrain.controllers[0].templates["1-2"] == tmpl
     assert not math.isnan(tuned.run().time[-1])
+
+
+EVENTS = """
+mechanism = "simple2"
+[simulation]
+t_start = 4.0
+t_end = 7.0
+[initial]
+gear = "1"
+speeds_rpm = { Li = 1500 }
+[input]
+type = "torque"
+torque = 400.0
+[driveline]
+output_inertia = 100.0
+stiffness = 12000.0
+damping = 200.0
+[shifts]
+template = { ramp_end = 0.8 }
+events = [{ t = 5.0, from = "1", to = "2" }]
+"""
+
+
+def test_shift_events_carry_a_template_each(tmp_path):
+    path = tmp_path / "events.toml"
+    path.write_text(EVENTS)
+    scenario = load_scenario(path)
+    calibration, plans = plan_calibration(path, {}, scenario.run(), scenario)
+    assert calibration.kind == "events" and [(p.name, p.oncoming, p.offgoing) for p in plans] == [("1-2", "C2", "C1")]
+    assert plans[0].template == ShiftTemplate(ramp_end=0.8)
+    tmpl = ShiftTemplate(ramp_time=0.3)
+    overrides = calibration.overrides(plans, {1: tmpl})
+    assert overrides == {"shifts.events": [{"t": 5.0, "from": "1", "to": "2", "template": ShiftTemplate(ramp_time=0.3).__dict__}]}
+    assert load_scenario(path, overrides).run().success
