@@ -215,3 +215,19 @@ def test_shift_events_carry_a_template_each(tmp_path):
     overrides = calibration.overrides(plans, {1: tmpl})
     assert overrides == {"shifts.events": [{"t": 5.0, "from": "1", "to": "2", "template": ShiftTemplate(ramp_time=0.3).__dict__}]}
     assert load_scenario(path, overrides).run().success
+
+
+def test_local_processes_and_dask_give_the_same_calibration():
+    """The same seed gives the same search on every executor (the batches are put back in order)."""
+    distributed = pytest.importorskip("distributed")
+    from transgen.sim.study import DaskExecutor, LocalExecutor
+
+    serial = optimize("simple2_upshift", seed=1, **SMALL)
+    local = optimize("simple2_upshift", seed=1, executor=LocalExecutor(2), **SMALL)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                  dashboard_address=None) as cluster:
+        on_dask = optimize("simple2_upshift", seed=1, executor=DaskExecutor(cluster.scheduler_address), **SMALL)
+    scores = [r["score"] for r in serial.history]
+    assert [r["score"] for r in local.history] == scores
+    assert [r["score"] for r in on_dask.history] == scores
+    assert local.overrides == serial.overrides == on_dask.overrides

@@ -634,6 +634,11 @@ def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluati
     from transgen.sim import load_scenario, scenario_files
     from transgen.sim.scenario import scenario_path
 
+    from transgen.sim.shift_quality import ShiftQuality
+
+    if objective.weights.get("jerk") and "jerk_max" not in ShiftQuality.__dataclass_fields__:
+        raise ValueError("--objective: error: the jerk term needs the shift report's comfort metrics (jerk_max), "
+                         "which this transgen does not have")
     key = str(scenario_path(path).resolve())
     files = scenario_files(key, base)
     scenario = load_scenario(key, base, files)
@@ -658,17 +663,19 @@ def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluati
         # the run up to just before this shift, with the shifts tuned so far, from the last state
         fixed = {k: v for k, v in chosen.items() if k < plan.number}
         run_overrides = {**base, **calibration.overrides(plans, fixed)}
-        current = load_scenario(key, run_overrides, files).run(start=state)  # to the end: the shift's own time
-        if not current.success:
-            raise ScenarioError(f"{path}: error: the run with the shifts tuned before {plan.name} fails: {current.message}")
-        plan = _refresh(plan, current, plans, calibration, scenario)
+        if calibration.kind == "auto":  # the schedule commands the shift when the output speed crosses its line
+            current = load_scenario(key, run_overrides, files).run(start=state)
+            if not current.success:
+                raise ScenarioError(f"{path}: error: the run with the shifts tuned before {plan.name} fails: "
+                                    f"{current.message}")
+            plan = _refresh(plan, current)
         t_window = max(plan.t_start - _pre_window() - PRE_MARGIN, t_state)
         before = load_scenario(key, run_overrides, files).run(start=state, t_end=t_window) if t_window > t_state else None
         window_state = before.state if before is not None else state
         nxt = [p.t_start for p in plans if p.t_start > plan.t_start + 1e-9]
         limit = (min(nxt) - 1e-3) if nxt else scenario.options.t_end
-        if calibration.kind == "auto":
-            limit = min(limit, _next_command(current, plan.t_start, scenario.options.t_end))
+        if calibration.kind == "auto":  # the next command of the run with the shifts tuned so far
+            limit = _next_command(current, plan.t_start, scenario.options.t_end)
         shared = {"path": key, "files": files, "state": window_state,
                   "shift": (plan.oncoming, plan.offgoing, plan.t_start, plan.name), "limit": limit}
         bounds = _bounds(plan.template, limit - plan.t_start - SETTLE)
@@ -772,11 +779,9 @@ def _next_command(result, t0: float, t_end: float) -> float:
     return (min(later) - 1e-3) if later else t_end
 
 
-def _refresh(plan: ShiftPlan, result, plans, calibration, scenario) -> ShiftPlan:
+def _refresh(plan: ShiftPlan, result) -> ShiftPlan:
     """``plan`` with its command time from ``result`` (the run with the shifts tuned before it: an
     automatic schedule commands the shift when the output speed crosses its line)."""
-    if calibration.kind != "auto":
-        return plan
     from transgen.sim.report import shift_report
 
     for q in shift_report(result):
