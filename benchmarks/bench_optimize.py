@@ -10,7 +10,7 @@ against a whole run of the scenario. Goal (issue 12): each shift in under 60 s o
 
 Wall times on a machine shared with other work are not the machine's speed: read the CPU figures.
 
-    python benchmarks/bench_optimize.py [--scenario ht740_original] [--workers 2] [--evaluations 360]
+    python benchmarks/bench_optimize.py [--scenario ht740_original] [--workers 2] [--evaluations 720]
 """
 import argparse
 import time
@@ -24,7 +24,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--scenario", default="ht740_original")
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--evaluations", type=int, default=360)
+    parser.add_argument("--evaluations", type=int, default=720)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
 

@@ -90,7 +90,7 @@ class Objective:
     """Weights of the objective terms (:data:`OBJECTIVE_TERMS`), each term divided by the
     starting calibration's value of the shift."""
 
-    weights: Mapping[str, float] = field(default_factory=lambda: {"energy": 1.0, "hole": 0.5, "duration": 0.1})
+    weights: Mapping[str, float] = field(default_factory=lambda: {"energy": 1.0, "hole": 1.0, "duration": 0.1})
 
     def text(self) -> str:
         return ",".join(f"{k}={v:g}" for k, v in self.weights.items())
@@ -613,8 +613,8 @@ def _bounds(template, t_gap: float) -> list[tuple[float, float]]:
 
 
 def optimize(path, shifts: Sequence[str] | None = None, objective: Objective = Objective(),
-             constraints: Constraints = Constraints(), executor=None, seed: int = 0, max_evaluations: int = 240,
-             population: int = 12, progress: Callable | None = None, overrides: Mapping | None = None) -> OptimizeResult:
+             constraints: Constraints = Constraints(), executor=None, seed: int = 0, max_evaluations: int = 720,
+             population: int = 36, progress: Callable | None = None, overrides: Mapping | None = None) -> OptimizeResult:
     """Tune the shifts of the scenario ``path`` (all, or those named in ``shifts``: ``1-2`` or a
     number from 1); see the module docstring. ``max_evaluations``: per shift (rounded to whole
     generations of ``population`` candidates); ``executor``: where candidates run (default in

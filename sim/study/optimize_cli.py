@@ -32,9 +32,9 @@ def add_optimize_command(sub) -> None:
     s.add_argument("scenario", metavar="SCENARIO", help="scenario .toml file or bundled name")
     s.add_argument("--shift", metavar="NAME", action="append",
                    help="tune only this shift: its gears (1-2) or number (1 = first); repeatable (default: all)")
-    s.add_argument("--objective", default="energy=1,hole=0.5,duration=0.1", metavar="TERM=W,...",
+    s.add_argument("--objective", default="energy=1,hole=1,duration=0.1", metavar="TERM=W,...",
                    help="weights of the objective terms energy, hole, duration, flare, jerk, each relative to "
-                        "the starting calibration (default energy=1,hole=0.5,duration=0.1)")
+                        "the starting calibration (default energy=1,hole=1,duration=0.1)")
     s.add_argument("--max-flare", type=float, default=20.0, metavar="RPM",
                    help="largest flare of the input speed [rpm] (default 20)")
     s.add_argument("--max-hole", type=float, metavar="PCT", help="deepest torque hole [%% of the output torque before]")
@@ -50,10 +50,10 @@ def add_optimize_command(sub) -> None:
     engine.add_argument("--scheduler", metavar="tcp://HOST:PORT",
                         help="evaluate on a Dask distributed cluster (needs transgen[distributed])")
     s.add_argument("--seed", type=int, default=0, help="seed of the optimizer (default 0): the same seed, the same result")
-    s.add_argument("--evaluations", type=int, default=360, metavar="N",
-                   help="simulations per shift, in whole generations (default 360)")
-    s.add_argument("--population", type=int, default=18, metavar="N",
-                   help="candidates per generation, rounded up to a multiple of the 9 parameters (default 18)")
+    s.add_argument("--evaluations", type=int, default=720, metavar="N",
+                   help="simulations per shift, in whole generations (default 720)")
+    s.add_argument("--population", type=int, default=36, metavar="N",
+                   help="candidates per generation, rounded up to a multiple of the 9 parameters (default 36)")
     s.add_argument("-o", "--output", required=True, metavar="TUNED.toml", help="the tuned scenario file")
     s.add_argument("--history", metavar="FILE.csv",
                    help="every evaluation: shift, parameters, metrics, score (default: OUTPUT with .history.csv)")
