@@ -75,6 +75,9 @@ class Planetary:
     n_ring: int
     pinions: Literal[1, 2] = 1
     span: Span = _span()
+    eta0: float | None = None
+    """Standing (carrier-fixed) efficiency of the sun-ring train, 0 < eta0 <= 1; ``None``: the
+    default of :func:`transgen.powerflow.power_flow`."""
 
     @property
     def members(self) -> tuple[str, str, str]:
@@ -99,6 +102,8 @@ class GearPair:
     by: Literal["teeth", "radius"] = "teeth"
     mesh: Literal["external", "internal"] = "external"
     span: Span = _span()
+    eta: float | None = None
+    """Mesh efficiency, 0 < eta <= 1; ``None``: the default of :func:`transgen.powerflow.power_flow`."""
 
     @property
     def sign(self) -> int:
@@ -125,6 +130,9 @@ class ShiftElement:
     free: Literal["positive", "negative"] | None = None
     brake_type: Literal["plate", "band"] | None = None
     span: Span = _span()
+    max_slip_rpm: float | None = None
+    """Highest admissible slip speed while open [rpm] (``None``: no limit given); see
+    :func:`transgen.powerflow.power_flow`."""
 
     @property
     def links(self) -> tuple[str, str]:

@@ -20,7 +20,8 @@ __all__ = ["mechanism_parameters", "with_parameter", "ParameterError"]
 
 # .mech parameter -> field of the model object, per statement keyword (the names are _PARAMS')
 _FIELDS = {"J": "inertia", "Ns": "n_sun", "Nr": "n_ring", "pinions": "pinions", "N1": "n1", "N2": "n2", "r1": "n1",
-           "r2": "n2", "mesh": "mesh", "static": "static", "dynamic": "dynamic", "type": "brake_type", "free": "free"}
+           "r2": "n2", "mesh": "mesh", "static": "static", "dynamic": "dynamic", "type": "brake_type", "free": "free",
+           "eta0": "eta0", "eta": "eta", "max_slip_rpm": "max_slip_rpm"}
 
 
 class ParameterError(ValueError):
