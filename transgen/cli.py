@@ -226,7 +226,7 @@ def cmd_powerflow(args) -> int:
     mech = load_checked(args.file)
     flow = power_flow(mech, eta0=args.eta0, input_rpm=args.input_rpm, max_slip_rpm=args.max_slip_rpm,
                       eta_pair=args.eta_pair, design_torque=args.design_torque, safety_factor=args.safety_factor,
-                      dynamic_ratio=args.dynamic_ratio)
+                      dynamic_ratio=args.dynamic_ratio, gears=args.gear)
     for g in flow.gears:
         for w in g.warnings:
             warnings.warn(f"gear {g.name}: {w}")
@@ -349,6 +349,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="suggested static capacity over the largest element torque (default 1.4)")
     s.add_argument("--dynamic-ratio", type=_number_option(0, 1), default=0.85, metavar="X",
                    help="suggested dynamic over static capacity (default 0.85)")
+    s.add_argument("--gear", action="append", metavar="NAME", help="only this gear (repeatable; default: every gear)")
     s.add_argument("--json", action="store_true", help="machine-readable output")
     s.set_defaults(func=cmd_powerflow)
 

@@ -601,7 +601,7 @@ def power_flow(mech: Mechanism, eta0: float | None = None, input_rpm: float | No
     g = build_graph(mech)
     declared = [gr for gr in mech.gears if gr.kind == "gear"]
     if gears is not None:
-        names = {gr.name for gr in declared}
+        names = [gr.name for gr in declared]
         unknown = [n for n in gears if n not in names]
         if unknown:
             raise PowerFlowError(f"no gear {', '.join(unknown)} in {mech.name} (gears: {', '.join(names) or 'none'})")
@@ -640,10 +640,11 @@ def powerflow_text(flow: PowerFlow) -> str:
         for w in g.warnings:
             out.append(f"    warning: {w}")
     out.append("")
+    over = f"over gears {' '.join(g.name for g in flow.gears)}"
     if flow.design_torque is None:
-        out.append("largest element torques per unit input torque (give --design-torque for capacities):")
+        out.append(f"largest element torques per unit input torque {over} (give --design-torque for capacities):")
     else:
-        out.append(f"capacities at a design input torque of {flow.design_torque:g} N*m, safety factor "
+        out.append(f"capacities {over} at a design input torque of {flow.design_torque:g} N*m, safety factor "
                    f"{flow.safety_factor:g}, dynamic = {flow.dynamic_ratio:g} x static:")
     out.append(f"  {'element':<10} {'kind':<7} {'max t/T_in':>10} {'gear':>5} {'torque':>9} {'static':>9} "
                f"{'dynamic':>9}   declared static/dynamic [N*m]")
