@@ -395,6 +395,9 @@ def test_power_balance_on_random_mechanisms(seed, eta0, eta_pair):
             assert abs(r) <= 1e-8 * max(1.0, abs(g.torque_ratio)), text
         assert abs(1.0 - g.output_power - g.losses) <= 1e-8 * max(1.0, abs(g.torque_ratio))
         assert g.losses >= -1e-10
+        for s in g.sets:  # a set with a floating member is taken as lossless: it carries no torque
+            if None in s.speeds.values():
+                assert max(abs(t) for t in s.torques.values()) <= 1e-9 and s.loss == 0.0
         if not g.warnings:
             assert 0 < g.efficiency <= 1 + 1e-12
 

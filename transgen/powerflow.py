@@ -17,7 +17,8 @@ out), :func:`power_flow` gives
 * the **efficiency** ``eta = P_out / P_in = torque_ratio / ratio``;
 * per transformer (planetary set or gear pair) the power each member feeds into it, its
   throughput (the sum of the positive ones), its loss and which member drives in the carrier frame;
-* the circulating (recirculated) power of the gear.
+* the circulating (recirculated) power of the gear;
+* the slip in rpm at a given input speed, and the open elements over their slip limit.
 
 Loss model (Müller's carrier-frame rule)
 ----------------------------------------
@@ -38,7 +39,9 @@ double-pinion set ``eta0`` is the **overall** standing efficiency of its two mes
 planet-ring through the planet-planet mesh), e.g. ``0.98 * 0.99``: state it per set. A gear pair
 is the same with the housing as carrier and its mesh efficiency ``eta`` (``gears ... eta=0.99``;
 default :data:`DEFAULT_ETA_PAIR`); the reaction goes into the housing. A set without relative
-motion (all members at one speed) or without torque is lossless. The power directions are first
+motion (all members at one speed) or without torque is lossless, and so is a set with a floating
+member (one the input speed does not fix: its relative speeds are undetermined, and it carries no
+torque in the bundled and the randomly generated gears). The power directions are first
 taken from the lossless solution and then iterated until the assumed and the resulting directions
 agree; when the iteration cycles, every assignment of directions is tried, and a gear without
 exactly one consistent assignment is reported by name (:class:`PowerFlowConvergenceError`), never
@@ -440,7 +443,7 @@ def _solve_directions(gear: _Gear, name: str) -> tuple[np.ndarray, list[int], in
             if _consistent(gear, xt, trial):
                 found.append((xt, trial))
         if len(found) == 1:
-            return found[0][0], found[0][1], _MAX_ITERATIONS
+            return found[0][0], found[0][1], iteration + 2 ** len(active)
         what = "no" if not found else f"{len(found)}"
         raise PowerFlowConvergenceError(
             f"gear {name}: the power directions of {', '.join(cycling) or 'the sets'} oscillate and {what} "
