@@ -331,7 +331,7 @@ def _speeds(g: nx.DiGraph, links: list[str], reps, i_in: int) -> tuple[np.ndarra
     w = np.linalg.lstsq(m, rhs, rcond=None)[0]
     w += np.linalg.lstsq(m, rhs - m @ w, rcond=None)[0]
     determined = np.linalg.norm(free, axis=1) <= 1e-9 if free.size else np.ones(len(links), dtype=bool)
-    w[np.abs(w) < 1e-12] = 0.0  # round-off of the SVD basis
+    w[np.abs(w) < 1e-12] = 0.0  # round-off
     return w, determined
 
 
@@ -390,8 +390,9 @@ class _Gear:
     def solve(self, factors, gear: str) -> np.ndarray:
         a, b = self.matrix(factors)
         if numeric_rank(a) < a.shape[1]:
-            raise PowerFlowError(f"gear {gear}: the static torques are not unique (the engaged elements "
-                                 f"{' '.join(self.locked)} over-constrain the mechanism)")
+            raise PowerFlowError(f"gear {gear}: the static torques are not unique: the engaged elements "
+                                 f"{' '.join(self.locked)} or the gearsets over-constrain the mechanism "
+                                 f"(a statically indeterminate torque split, see 'transgen modes')")
         x, *_ = np.linalg.lstsq(a, b, rcond=None)
         x += np.linalg.lstsq(a, b - a @ x, rcond=None)[0]  # one step of iterative refinement
         if np.linalg.norm(a @ x - b) > 1e-9 * (1.0 + np.linalg.norm(b)):
@@ -465,8 +466,7 @@ def _gear_flow(mech: Mechanism, g: nx.DiGraph, gear_decl, eta: dict, input_rpm, 
     link_speeds = {k: (speed[k] if ok else None) for k, ok in zip(gear.links, gear.determined)}
 
     sets = []
-    for t, cols, d, f, (rel, ok) in zip(gear.transformers, gear.port_col, directions, gear.factors(directions),
-                                       gear.relative):
+    for t, cols, d, (rel, _) in zip(gear.transformers, gear.port_col, directions, gear.relative):
         torques = {port: float(x[c]) for (_, port, _), c in zip(t.ports, cols)}
         speeds = {port: (0.0 if link == HOUSING else link_speeds[link]) for link, port, _ in t.ports}
         powers = {port: (0.0 if torques[port] == 0.0 else torques[port] * (speeds[port] or 0.0)) for port in torques}
