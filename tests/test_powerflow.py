@@ -503,3 +503,21 @@ def test_third_gear_of_the_8hp_by_hand(mech, eta0):
     assert g.set("PS1").driving == "sun" and g.set("PS4").driving == "sun"
     assert g.set("PS2").driving is None and g.set("PS3").driving is None
     assert g.torque_ratio == pytest.approx((1 - t_s1) * (1 + eta0 * k4), rel=1e-13)
+
+
+def test_statically_indeterminate_gear_is_an_error_by_name(tmp_path, capsys):
+    path = tmp_path / "twin.mech"
+    path.write_text("link IN J=0.1\nlink M J=0.1\nlink OUT J=0.1\ngears G IN M N1=20 N2=20 mesh=internal\n"
+                    "clutch K1 IN OUT static=1 dynamic=1\nclutch K2 M OUT static=1 dynamic=1\n"
+                    "input IN\noutput OUT\ngear 1 = K1 K2\n")
+    assert main(["powerflow", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "gear 1: the static torques are not unique" in err and "Traceback" not in err
+
+
+def test_cli_non_convergence_exits_1(monkeypatch, capsys):
+    calls = iter(range(10**6))
+    monkeypatch.setattr(_Gear, "directions", lambda self, x: [1 - 2 * (next(calls) % 2)] * len(self.transformers))
+    code = main(["powerflow", "zf8hp70", "--gear", "1"])
+    err = capsys.readouterr().err
+    assert code == 1 and "error: gear 1: the power directions of" in err
