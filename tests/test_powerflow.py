@@ -521,3 +521,12 @@ def test_cli_non_convergence_exits_1(monkeypatch, capsys):
     code = main(["powerflow", "zf8hp70", "--gear", "1"])
     err = capsys.readouterr().err
     assert code == 1 and "error: gear 1: the power directions of" in err
+
+
+def test_power_flow_parameters_are_not_simulation_keys():
+    from transgen.parameters import ParameterError, mechanism_parameters, with_parameter
+
+    mech = load_mechanism("zf8hp70")
+    assert not any(k.split(".")[1] in ("eta0", "eta", "max_slip_rpm") for k in mechanism_parameters(mech))
+    with pytest.raises(ParameterError, match="read by 'transgen powerflow' only"):
+        with_parameter(mech, "PS1", "eta0", 0.97)
