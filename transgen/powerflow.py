@@ -201,6 +201,7 @@ UNITS = {
     "link_speeds": "1 (per unit input speed)", "element_slips": "1 (per unit input speed)",
     "element_slip_rpm": "rpm", "element_torques": "1 (per unit input torque)",
     "set_power": "1 (per unit input power)", "set_loss": "1 (per unit input power)",
+    "set_member_power": "1 (per unit input power)",
     "eta0": "1", "eta_pair": "1", "eta": "1", "input_rpm": "rpm", "max_slip_rpm": "rpm",
     "design_torque": "N*m", "safety_factor": "1", "dynamic_ratio": "1",
     "max_torque": "1 (per unit input torque)", "torque": "N*m", "static": "N*m", "dynamic": "N*m",
@@ -248,7 +249,8 @@ class PowerFlow:
                  "element_slips": dict(g.element_slips), "element_slip_rpm": g.element_slip_rpm,
                  "overspeed": list(g.overspeed), "link_speeds": dict(g.link_speeds), "set_power": g.set_power,
                  "set_loss": {s.name: s.loss for s in g.sets},
-                 "set_driving": {s.name: s.driving for s in g.sets}, "warnings": list(g.warnings)}
+                 "set_driving": {s.name: s.driving for s in g.sets},
+                 "set_member_power": {s.name: dict(s.powers) for s in g.sets}, "warnings": list(g.warnings)}
                 for g in self.gears
             ],
             "design_torque": self.design_torque,
