@@ -530,3 +530,12 @@ def test_power_flow_parameters_are_not_simulation_keys():
     assert not any(k.split(".")[1] in ("eta0", "eta", "max_slip_rpm") for k in mechanism_parameters(mech))
     with pytest.raises(ParameterError, match="read by 'transgen powerflow' only"):
         with_parameter(mech, "PS1", "eta0", 0.97)
+
+
+def test_eta0_alone_makes_gear_pairs_lossless_too():
+    mech = load_mechanism("simple2")  # its gearing is gear pairs only
+    for g in power_flow(mech, eta0=1.0).gears:
+        assert abs(g.torque_ratio - g.ratio) <= 1e-12 * abs(g.ratio) and g.losses == 0.0
+    assert all(v == 0.99 for v in power_flow(mech).eta.values())
+    assert all(v == 0.95 for v in power_flow(mech, eta0=0.95).eta.values())
+    assert all(v == 0.97 for v in power_flow(mech, eta0=0.95, eta_pair=0.97).eta.values())

@@ -335,10 +335,10 @@ def build_parser() -> argparse.ArgumentParser:
                                    "and efficiency with mesh losses, and a capacity sizing of the shift elements.")
     s.add_argument("file", metavar="FILE")
     s.add_argument("--eta0", type=_number_option(0, 1), metavar="X",
-                   help="standing (carrier-fixed) efficiency of the planetary sets without eta0= in the file "
-                        "(default 0.98; 1 = lossless)")
+                   help="standing (carrier-fixed) efficiency of the planetary sets without eta0= in the file, "
+                        "and of the gear pairs without eta= unless --eta-pair is given (default 0.98; 1 = lossless)")
     s.add_argument("--eta-pair", type=_number_option(0, 1), metavar="X",
-                   help="mesh efficiency of the gear pairs without eta= in the file (default 0.99)")
+                   help="mesh efficiency of the gear pairs without eta= in the file (default: --eta0 if given, else 0.99)")
     s.add_argument("--input-rpm", type=_number_option(0, 1e7), metavar="N",
                    help="input speed [rpm]: slips in rpm, over-speed of the open elements")
     s.add_argument("--max-slip-rpm", type=_number_option(0, 1e7), metavar="N",

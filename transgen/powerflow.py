@@ -38,7 +38,9 @@ torques obey
 double-pinion set ``eta0`` is the **overall** standing efficiency of its two meshes (sun-planet and
 planet-ring through the planet-planet mesh), e.g. ``0.98 * 0.99``: state it per set. A gear pair
 is the same with the housing as carrier and its mesh efficiency ``eta`` (``gears ... eta=0.99``;
-default :data:`DEFAULT_ETA_PAIR`); the reaction goes into the housing. A set without relative
+default :data:`DEFAULT_ETA_PAIR`, or the global ``eta0`` when one is given: a gear pair is a
+train whose carrier is the housing, so that ``eta0=1`` alone is lossless); the reaction goes into
+the housing. A set without relative
 motion (all members at one speed) or without torque is lossless, and so is a set with a floating
 member (one the input speed does not fix: its relative speeds are undetermined, and it carries no
 torque in the bundled and the randomly generated gears). The power directions are first
@@ -282,12 +284,13 @@ def _check_number(name: str, value, low: float, high: float, low_open: bool = Tr
 
 
 def _efficiencies(mech: Mechanism, eta0: float | None, eta_pair: float | None) -> dict[str, float]:
-    """The efficiency of every transformer: the file's own value, else the given global one, else
-    the default."""
+    """The efficiency of every transformer: the file's own value, else the given global one (for
+    a gear pair ``eta_pair``, else ``eta0``), else the default."""
     out = {p.name: p.eta0 if p.eta0 is not None else (eta0 if eta0 is not None else DEFAULT_ETA0)
            for p in mech.planetaries}
-    out.update({g.name: g.eta if g.eta is not None else (eta_pair if eta_pair is not None else DEFAULT_ETA_PAIR)
-                for g in mech.gear_pairs})
+    if eta_pair is None:
+        eta_pair = eta0 if eta0 is not None else DEFAULT_ETA_PAIR
+    out.update({g.name: g.eta if g.eta is not None else eta_pair for g in mech.gear_pairs})
     return out
 
 
@@ -563,16 +566,17 @@ def power_flow(mech: Mechanism, eta0: float | None = None, input_rpm: float | No
         The mechanism; every declared gear (not the neutrals) is analysed, or those named in
         ``gears``.
     eta0
-        Standing efficiency of the planetary sets that give none in the file (default
-        :data:`DEFAULT_ETA0`); ``1`` is lossless. The file's ``eta0=`` of a set wins.
+        Standing efficiency of the planetary sets (and, unless ``eta_pair`` is given, of the gear
+        pairs) that give none in the file (default :data:`DEFAULT_ETA0`); ``1`` is lossless. The
+        file's ``eta0=`` of a set (``eta=`` of a pair) wins.
     input_rpm
         Input speed [rpm]: gives the slips in rpm and flags the open elements whose slip exceeds
         their ``max_slip_rpm`` (the file's, else ``max_slip_rpm`` here) as ``overspeed``.
     max_slip_rpm
         Slip limit [rpm] for the elements that give none in the file.
     eta_pair
-        Mesh efficiency of the gear pairs that give none in the file (default
-        :data:`DEFAULT_ETA_PAIR`).
+        Mesh efficiency of the gear pairs that give none in the file (default: ``eta0`` when
+        given, else :data:`DEFAULT_ETA_PAIR`).
     design_torque
         Design input torque [N*m] for the capacity sizing (without it only the per-unit largest
         torques are given).
