@@ -83,8 +83,8 @@ def _link_balance_residuals(mech, g):
     on the output, -t/+t of each element on its LINK1/LINK2, minus the torque each planetary
     member and gear exerts on its set."""
     total = {k.name: 0.0 for k in mech.links}
-    total[mech.input] += 1.0
-    total[mech.output] -= g.torque_ratio
+    total[mech.input] += g.input_torque
+    total[mech.output] -= g.torque_ratio * g.input_torque
     for label, t in g.element_torques.items():
         e = mech.element(label.split("+")[0])
         for link, sign in ((e.link1, -1), (e.link2, 1)):
@@ -138,7 +138,10 @@ def _check_loss_relations(mech, g, eta):
 
 
 def _check_power(g, where=""):
-    assert abs(1.0 - g.output_power - g.losses) <= 1e-9, f"{where} power balance of gear {g.name}"
+    """P_in = P_out + losses (in coast both negative: the output supplies, the input absorbs)."""
+    assert abs(g.input_power - g.output_power - g.losses) <= 1e-9, f"{where} power balance of gear {g.name}"
+    drive, coast = (g.output_power, g.input_power) if g.input_torque > 0 else (g.input_power, g.output_power)
+    assert abs(g.efficiency - drive / coast) <= 1e-12 * abs(g.efficiency), where
     assert g.losses >= -1e-12 and all(s.loss >= -1e-12 for s in g.sets), where
     assert 0.0 < g.efficiency <= 1.0 + 1e-12, f"{where} gear {g.name}: efficiency {g.efficiency}"
     assert abs(g.losses - sum(sum(s.powers.values()) for s in g.sets)) <= 1e-9, where
@@ -360,11 +363,12 @@ def test_efficiencies_round_trip_through_the_language():
 
 
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(name=st.sampled_from(sorted(BUNDLED)), eta0=st.floats(0.85, 1.0), eta_pair=st.floats(0.9, 1.0))
-def test_power_balance_closes_over_the_bundled_mechanisms(name, eta0, eta_pair):
+@given(name=st.sampled_from(sorted(BUNDLED)), eta0=st.floats(0.85, 1.0), eta_pair=st.floats(0.9, 1.0),
+       coast=st.booleans())
+def test_power_balance_closes_over_the_bundled_mechanisms(name, eta0, eta_pair, coast):
     mech = load_mechanism(name)
-    flow = power_flow(mech, eta0=eta0, eta_pair=eta_pair)
-    lossless = power_flow(mech, eta0=1.0, eta_pair=1.0)
+    flow = power_flow(mech, eta0=eta0, eta_pair=eta_pair, coast=coast)
+    lossless = power_flow(mech, eta0=1.0, eta_pair=1.0, coast=coast)
     for g, ref in zip(flow.gears, lossless.gears):
         _check_power(g, name)
         assert g.efficiency <= ref.efficiency + 1e-12
@@ -393,7 +397,7 @@ def test_power_balance_on_random_mechanisms(seed, eta0, eta_pair):
         g = flow.gears[0]
         for r in _link_balance_residuals(mech, g).values():
             assert abs(r) <= 1e-8 * max(1.0, abs(g.torque_ratio)), text
-        assert abs(1.0 - g.output_power - g.losses) <= 1e-8 * max(1.0, abs(g.torque_ratio))
+        assert abs(g.input_power - g.output_power - g.losses) <= 1e-8 * max(1.0, abs(g.torque_ratio))
         assert g.losses >= -1e-10
         for s in g.sets:  # a set with a floating member is taken as lossless: it carries no torque
             if None in s.speeds.values():
@@ -539,3 +543,50 @@ def test_eta0_alone_makes_gear_pairs_lossless_too():
     assert all(v == 0.99 for v in power_flow(mech).eta.values())
     assert all(v == 0.95 for v in power_flow(mech, eta0=0.95).eta.values())
     assert all(v == 0.97 for v in power_flow(mech, eta0=0.95, eta_pair=0.97).eta.values())
+
+
+# ------------------------------------------------------------------------ coast
+
+
+def _single_coast(fixed, inp, out, ns, nr, eta0):
+    links = {"sun": "S", "ring": "R", "carrier": "C"}
+    text = (f"link S J=0.01\nlink R J=0.03\nlink C J=0.02\n"
+            f"planetary P sun=S ring=R carrier=C Ns={ns} Nr={nr} eta0={eta0}\n"
+            f"brake BR {links[fixed]} static=100 dynamic=80\ninput {links[inp]}\noutput {links[out]}\ngear 1 = BR\n")
+    return power_flow(parse_mechanism(text), coast=True).gear("1")
+
+
+@pytest.mark.parametrize("ns, nr, eta0", [(30, 72, 0.97), (23, 85, 0.98)])
+def test_coast_closed_forms(ns, nr, eta0):
+    """Coast: the output drives, so each set's meshes are driven from the other member: ring fixed,
+    sun in, carrier out gives eta = (1 + k) / (1 + k/eta0) (the reduction run backwards)."""
+    k = nr / ns
+    for fixed, inp, out, eta in [("ring", "sun", "carrier", (1 + k) / (1 + k / eta0)),
+                                 ("carrier", "sun", "ring", eta0),
+                                 ("sun", "carrier", "ring", (1 + eta0 / k) / (1 + 1 / k))]:
+        g = _single_coast(fixed, inp, out, ns, nr, eta0)
+        assert g.input_torque == -1.0 and g.efficiency == pytest.approx(eta, abs=1e-12), (fixed, inp, out)
+        assert g.torque_ratio == pytest.approx(g.ratio / eta, rel=1e-12)
+        _check_power(g)
+
+
+@pytest.mark.parametrize("name", ["zf8hp70", "hsw_ravigneaux4", "mb722_6_w5a580_2004", "simple2", "ht740"])
+def test_coast_balances_torque_and_power(name):
+    mech = load_mechanism(name)
+    flow = power_flow(mech, coast=True)
+    assert flow.to_dict()["direction"] == "coast"
+    for g in flow.gears:
+        for link, r in _link_balance_residuals(mech, g).items():
+            assert abs(r) <= 1e-10, (name, g.name, link, r)
+        _check_loss_relations(mech, g, flow.eta)
+        _check_power(g, name)
+        assert abs(g.torque_ratio) >= abs(g.ratio) - 1e-12  # the driveline supplies the losses too
+    for g, ref in zip(power_flow(mech, eta0=1.0, coast=True).gears, flow.gears):
+        assert g.torque_ratio == pytest.approx(g.ratio, rel=1e-12) and g.efficiency == pytest.approx(1.0)
+        assert g.efficiency >= ref.efficiency
+
+
+def test_one_way_clutches_overrun_in_coast():
+    flow = power_flow(load_mechanism("mb722_6_w5a580_2004"), coast=True)
+    assert any("F1 overruns" in w and "only in drive" in w for w in flow.gear("1").warnings)
+    assert not power_flow(load_mechanism("mb722_6_w5a580_2004")).gear("1").warnings

@@ -29,6 +29,7 @@ COMMANDS = [
     (["powerflow", "zf8hp70", "--json"], "transgen.powerflow/1"),
     (["powerflow", "hsw_ravigneaux4", "--input-rpm", "6000", "--max-slip-rpm", "8000", "--design-torque", "400",
       "--json"], "transgen.powerflow/1"),
+    (["powerflow", "mb722_6_w5a580_2004", "--coast", "--json"], "transgen.powerflow/1"),
     (["simulate", "--list", "--json"], "transgen.scenarios/1"),
     (["simulate", "simple2_upshift", "--json"], "transgen.simulate/1"),
     (["simulate", "simple2_upshift", "--compare-model", "compliant", "--json"], "transgen.simulate/1"),

@@ -226,7 +226,7 @@ def cmd_powerflow(args) -> int:
     mech = load_checked(args.file)
     flow = power_flow(mech, eta0=args.eta0, input_rpm=args.input_rpm, max_slip_rpm=args.max_slip_rpm,
                       eta_pair=args.eta_pair, design_torque=args.design_torque, safety_factor=args.safety_factor,
-                      dynamic_ratio=args.dynamic_ratio, gears=args.gear)
+                      dynamic_ratio=args.dynamic_ratio, gears=args.gear, coast=args.coast)
     for g in flow.gears:
         for w in g.warnings:
             warnings.warn(f"gear {g.name}: {w}")
@@ -350,6 +350,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--dynamic-ratio", type=_number_option(0, 1), default=0.85, metavar="X",
                    help="suggested dynamic over static capacity (default 0.85)")
     s.add_argument("--gear", action="append", metavar="NAME", help="only this gear (repeatable; default: every gear)")
+    s.add_argument("--coast", action="store_true",
+                   help="coast (overrun, engine braking): the driveline drives the output, the input absorbs")
     s.add_argument("--json", action="store_true", help="machine-readable output")
     s.set_defaults(func=cmd_powerflow)
 

@@ -141,7 +141,10 @@ class GearFlow:
     """The power flow of one declared gear (see the module docstring for every convention).
 
     Speeds are per unit input speed (``None``: a floating link, not fixed by the input speed);
-    torques per unit input torque; powers per unit input power.
+    torques per unit input torque; powers per unit input power. In drive the input torque is
+    ``input_torque = 1``; in coast (the driveline drives the output, the input absorbs) it is
+    ``-1``, and ``torque_ratio = T_out/T_in`` is ``ratio / efficiency`` with ``efficiency =
+    P_in/P_out``.
     """
 
     name: str
@@ -159,6 +162,7 @@ class GearFlow:
     element_slip_rpm: dict | None = field(default=None, compare=False)
     overspeed: tuple[str, ...] = ()
     warnings: tuple[str, ...] = ()
+    input_torque: float = 1.0
 
     @property
     def set_power(self) -> dict[str, float]:
@@ -166,8 +170,14 @@ class GearFlow:
         return {s.name: s.throughput for s in self.sets}
 
     @property
+    def input_power(self) -> float:
+        """Power into the transmission at the input: 1 in drive, -1 in coast (absorbed)."""
+        return self.input_torque
+
+    @property
     def output_power(self) -> float:
-        return self.torque_ratio / self.ratio
+        """Power out of the transmission at the output (negative in coast: supplied by the driveline)."""
+        return self.input_torque * self.torque_ratio / self.ratio
 
     def set(self, name: str) -> SetFlow:
         for s in self.sets:
@@ -199,7 +209,7 @@ class Capacity:
 
 UNITS = {
     "ratio": "1", "torque_ratio": "1", "efficiency": "1", "losses": "1 (per unit input power)",
-    "circulating_power": "1 (per unit input power)", "iterations": "1",
+    "circulating_power": "1 (per unit input power)", "iterations": "1", "input_torque": "1 (+1 drive, -1 coast)",
     "link_speeds": "1 (per unit input speed)", "element_slips": "1 (per unit input speed)",
     "element_slip_rpm": "rpm", "element_torques": "1 (per unit input torque)",
     "set_power": "1 (per unit input power)", "set_loss": "1 (per unit input power)",
@@ -225,6 +235,7 @@ class PowerFlow:
     design_torque: float | None = None
     safety_factor: float = DEFAULT_SAFETY_FACTOR
     dynamic_ratio: float = DEFAULT_DYNAMIC_RATIO
+    coast: bool = False
 
     def gear(self, name: str) -> GearFlow:
         for g in self.gears:
@@ -240,12 +251,14 @@ class PowerFlow:
             "mechanism": m.name,
             "input": m.input,
             "output": m.output,
+            "direction": "coast" if self.coast else "drive",
             "eta0": {k: v for k, v in self.eta.items() if k in planetaries},
             "eta_pair": {k: v for k, v in self.eta.items() if k not in planetaries},
             "input_rpm": self.input_rpm,
             "max_slip_rpm": self.max_slip_rpm,
             "gears": [
                 {"name": g.name, "engaged": list(g.engaged), "ratio": g.ratio, "torque_ratio": g.torque_ratio,
+                 "input_torque": g.input_torque,
                  "efficiency": g.efficiency, "losses": g.losses, "circulating_power": g.circulating_power,
                  "iterations": g.iterations, "element_torques": dict(g.element_torques),
                  "element_slips": dict(g.element_slips), "element_slip_rpm": g.element_slip_rpm,
@@ -341,10 +354,12 @@ def _speeds(g: nx.DiGraph, links: list[str], reps, i_in: int) -> tuple[np.ndarra
 
 
 class _Gear:
-    """The static torque problem of one gear: unknowns ``x = [lambda..., T_out]`` with the
-    locked-group and transformer-port torques ``lambda`` as in :func:`transgen.equations.assemble`."""
+    """The static torque problem of one gear: unknowns ``x = [lambda..., T]`` with the
+    locked-group and transformer-port torques ``lambda`` as in :func:`transgen.equations.assemble`
+    and ``T = T_out`` for ``T_in = 1`` (drive) or ``T = T_in`` for ``T_out = -sign(w_out)`` (coast:
+    the driveline drives the output in its direction of rotation)."""
 
-    def __init__(self, mech: Mechanism, g: nx.DiGraph, engaged, eta: dict[str, float]):
+    def __init__(self, mech: Mechanism, g: nx.DiGraph, engaged, eta: dict[str, float], coast: bool = False):
         links = link_nodes(g)
         self.links = links
         self.locked = complete_locked(g, engaged)
@@ -354,14 +369,17 @@ class _Gear:
         self.lam = eq.z[n:]
         col = {name: i for i, name in enumerate(self.lam)}
         ui = {name: i for i, name in enumerate(eq.u)}
-        # the link balances without the accelerations (massless, static); T_out joins the unknowns
-        self.balance = np.hstack([eq.E[:n, n:], eq.F[:n, [ui["T_out"]]]])
-        self.rhs_balance = -eq.F[:n, ui["T_in"]]
+        # the link balances without the accelerations (massless, static); the driven end's torque
+        # joins the unknowns
+        self.w, self.determined = _speeds(g, links, tuple(grp.first for grp in self.groups), links.index(mech.input))
+        given, unknown = ("T_out", "T_in") if coast else ("T_in", "T_out")
+        value = -np.sign(self.w[links.index(mech.output)]) if coast else 1.0
+        self.balance = np.hstack([eq.E[:n, n:], eq.F[:n, [ui[unknown]]]])
+        self.rhs_balance = -eq.F[:n, ui[given]] * value
         self.transformers = _transformers(g)
         self.port_col = [[col[f"t_{t.name}.{port}"] for _, port, _ in t.ports] for t in self.transformers]
         self.eta = [eta[t.name] for t in self.transformers]
         self.group_col = [col[f"t_{grp.label}"] for grp in self.groups]
-        self.w, self.determined = _speeds(g, links, tuple(grp.first for grp in self.groups), links.index(mech.input))
         speed = dict(zip(links, self.w))
         known = dict(zip(links, self.determined))
         speed[HOUSING], known[HOUSING] = 0.0, True
@@ -457,15 +475,24 @@ def _solve_directions(gear: _Gear, name: str) -> tuple[np.ndarray, list[int], in
     raise PowerFlowConvergenceError(f"gear {name}: the power directions of {', '.join(cycling)} do not settle")
 
 
-def _gear_flow(mech: Mechanism, g: nx.DiGraph, gear_decl, eta: dict, input_rpm, max_slip_rpm) -> GearFlow:
+def _gear_flow(mech: Mechanism, g: nx.DiGraph, gear_decl, eta: dict, input_rpm, max_slip_rpm,
+               coast: bool = False) -> GearFlow:
     name = gear_decl.name
     combo = analyze(mech, gear_decl.engaged, g)
     if combo.ratio is None:
         raise PowerFlowError(f"gear {name} ({' '.join(gear_decl.engaged)}) has no determined ratio ({combo.kind})")
-    gear = _Gear(mech, g, gear_decl.engaged, eta)
+    gear = _Gear(mech, g, gear_decl.engaged, eta, coast)
     x, directions, iterations = _solve_directions(gear, name)
     x = np.where(np.abs(x) < 1e-14 * max(1.0, float(np.abs(x).max())), 0.0, x)
-    torque_ratio = float(x[-1])
+    if coast:  # per unit torque absorbed at the input (T_in = -1); a positive scale keeps the directions
+        if x[-1] >= 0.0:
+            raise PowerFlowError(f"gear {name} self-locks in coast: the output cannot drive the input with these "
+                                 f"efficiencies (the input would receive {x[-1]:+.4g} N*m per N*m at the output)")
+        scale = -1.0 / float(x[-1])
+        x = x * scale  # now x[-1] = T_in = -1 and T_out = -sign(w_out) * scale
+        input_torque, torque_ratio = -1.0, float(np.sign(gear.w[gear.links.index(mech.output)])) * scale
+    else:
+        input_torque, torque_ratio = 1.0, float(x[-1])
     speed = {k: float(w) for k, w in zip(gear.links, gear.w)}
     ratio = 1.0 / speed[mech.output]  # = combo.ratio, more accurately
     link_speeds = {k: (speed[k] if ok else None) for k, ok in zip(gear.links, gear.determined)}
@@ -495,8 +522,11 @@ def _gear_flow(mech: Mechanism, g: nx.DiGraph, gear_decl, eta: dict, input_rpm, 
             branches.append(abs(t * w))
         holding = [e for e, sgn in zip(grp.members, grp.signs) if _holds(mech.element(e), sgn * t)]
         if not holding:
-            warnings.append(f"one-way clutch {grp.label} overruns under this torque: the gear holds only in coast")
-    circulating = max(0.0, max(branches, default=0.0) - 1.0)
+            warnings.append(f"one-way clutch {grp.label} overruns under this torque: the gear holds only in "
+                            f"{'drive' if coast else 'coast'}")
+    # the power of the source: the input's (1) in drive, the output's in coast
+    source = torque_ratio * speed[mech.output] if coast else 1.0
+    circulating = max(0.0, max(branches, default=0.0) - source)
     if circulating < 1e-12:
         circulating = 0.0
 
@@ -513,11 +543,13 @@ def _gear_flow(mech: Mechanism, g: nx.DiGraph, gear_decl, eta: dict, input_rpm, 
             limit = e.max_slip_rpm if e.max_slip_rpm is not None else max_slip_rpm
             if limit is not None and slip_rpm[e.name] is not None and abs(slip_rpm[e.name]) > limit:
                 overspeed.append(e.name)
-    efficiency = torque_ratio * speed[mech.output]
+    # P_out / P_in in drive, P_in / P_out in coast (powers into the input, out of the output)
+    efficiency = 1.0 / (torque_ratio * speed[mech.output]) if coast else torque_ratio * speed[mech.output]
     if efficiency <= 0.0:
         warnings.append(f"efficiency {efficiency:.4g} <= 0: the gear self-locks in drive with these efficiencies")
     return GearFlow(name, tuple(gear_decl.engaged), ratio, torque_ratio, efficiency, link_speeds, element_torques,
-                    slips, tuple(sets), losses, circulating, iterations, slip_rpm, tuple(overspeed), tuple(warnings))
+                    slips, tuple(sets), losses, circulating, iterations, slip_rpm, tuple(overspeed), tuple(warnings),
+                    input_torque)
 
 
 def _holds(e, t: float) -> bool:
@@ -557,7 +589,7 @@ def _capacities(mech: Mechanism, gears, design_torque, safety_factor, dynamic_ra
 def power_flow(mech: Mechanism, eta0: float | None = None, input_rpm: float | None = None,
                max_slip_rpm: float | None = None, eta_pair: float | None = None,
                design_torque: float | None = None, safety_factor: float = DEFAULT_SAFETY_FACTOR,
-               dynamic_ratio: float = DEFAULT_DYNAMIC_RATIO, gears=None) -> PowerFlow:
+               dynamic_ratio: float = DEFAULT_DYNAMIC_RATIO, gears=None, coast: bool = False) -> PowerFlow:
     """Power flow, efficiency and element loads of every declared gear of ``mech``.
 
     Parameters
@@ -583,6 +615,11 @@ def power_flow(mech: Mechanism, eta0: float | None = None, input_rpm: float | No
     safety_factor, dynamic_ratio
         Suggested static capacity = ``safety_factor`` x the largest element torque; dynamic =
         ``dynamic_ratio`` x static.
+    gears
+        Names of the gears to analyse (default: every declared gear).
+    coast
+        Coast (overrun, engine braking) instead of drive: the driveline drives the output and the
+        input absorbs unit torque (``input_torque = -1``); the mesh losses then act the other way.
 
     Raises
     ------
@@ -615,10 +652,10 @@ def power_flow(mech: Mechanism, eta0: float | None = None, input_rpm: float | No
         if unknown:
             raise PowerFlowError(f"no gear {', '.join(unknown)} in {mech.name} (gears: {', '.join(names) or 'none'})")
         declared = [gr for gr in declared if gr.name in set(gears)]
-    flows = tuple(_gear_flow(mech, g, gr, eta, input_rpm, max_slip_rpm) for gr in declared)
+    flows = tuple(_gear_flow(mech, g, gr, eta, input_rpm, max_slip_rpm, bool(coast)) for gr in declared)
     capacities = _capacities(mech, flows, design_torque, safety_factor, dynamic_ratio)
     return PowerFlow(mech, flows, eta, capacities, input_rpm, max_slip_rpm, design_torque, safety_factor,
-                     dynamic_ratio)
+                     dynamic_ratio, bool(coast))
 
 
 def _pairs(values: dict, fmt: str = "{:+.4f}") -> str:
@@ -629,8 +666,10 @@ def powerflow_text(flow: PowerFlow) -> str:
     """A readable table per gear and the capacity sizing (``transgen powerflow``)."""
     m = flow.mechanism
     eta = ", ".join(f"{k} {v:g}" for k, v in flow.eta.items()) or "none"
-    out = [f"{m.name}: power flow per gear; input {m.input}, output {m.output}",
-           f"  per unit input speed, torque and power; efficiencies: {eta}",
+    out = [f"{m.name}: power flow per gear in {'coast (the driveline drives the output)' if flow.coast else 'drive'}; "
+           f"input {m.input}, output {m.output}",
+           f"  per unit input speed, torque and power{' (input torque -1: absorbed)' if flow.coast else ''}; "
+           f"efficiencies: {eta}",
            "  torque ratio = output torque to the driveline / input torque; element torques from LINK1 to LINK2"]
     for g in flow.gears:
         out.append("")
