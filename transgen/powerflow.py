@@ -14,11 +14,15 @@ out), :func:`power_flow` gives
 * the **torque ratio** ``T_out / T_in``: the torque the output delivers to the driveline (the
   simulator's ``T_out``, acting ``-T_out`` on the output link) per unit input torque. It has the
   sign of the speed ratio (negative in reverse) and equals it without losses;
-* the **efficiency** ``eta = P_out / P_in = torque_ratio / ratio``;
+* the **efficiency** ``eta = P_out / P_in = torque_ratio / ratio`` (drive);
 * per transformer (planetary set or gear pair) the power each member feeds into it, its
   throughput (the sum of the positive ones), its loss and which member drives in the carrier frame;
 * the circulating (recirculated) power of the gear;
 * the slip in rpm at a given input speed, and the open elements over their slip limit.
+
+``coast=True`` analyses overrun (engine braking) instead: the driveline drives the output in its
+direction of rotation and the input absorbs unit torque (``T_in = -1``); the torque ratio is then
+``ratio / eta`` and the efficiency ``P_in / P_out``.
 
 Loss model (Müller's carrier-frame rule)
 ----------------------------------------
@@ -40,19 +44,19 @@ planet-ring through the planet-planet mesh), e.g. ``0.98 * 0.99``: state it per 
 is the same with the housing as carrier and its mesh efficiency ``eta`` (``gears ... eta=0.99``;
 default :data:`DEFAULT_ETA_PAIR`, or the global ``eta0`` when one is given: a gear pair is a
 train whose carrier is the housing, so that ``eta0=1`` alone is lossless); the reaction goes into
-the housing. A set without relative
-motion (all members at one speed) or without torque is lossless, and so is a set with a floating
-member (one the input speed does not fix: its relative speeds are undetermined, and it carries no
-torque in the bundled and the randomly generated gears). The power directions are first
-taken from the lossless solution and then iterated until the assumed and the resulting directions
-agree; when the iteration cycles, every assignment of directions is tried, and a gear without
+the housing. A set without relative motion (all members at one speed) or without torque is
+lossless, and so is a set with a floating member (one the input speed does not fix: its relative
+speeds are undetermined, and it carries no torque in the bundled and the randomly generated
+gears). The power directions are first taken from the lossless solution and then iterated until
+the assumed and the resulting directions agree; when the iteration cycles, every assignment of directions is tried, and a gear without
 exactly one consistent assignment is reported by name (:class:`PowerFlowConvergenceError`), never
 answered. Classical checks (tests): ring fixed, sun in, carrier out ``eta = (1 + eta0*Nr/Ns) /
 (1 + Nr/Ns)``; carrier fixed ``eta = eta0``.
 
-Circulating power: a gear recirculates power when some branch carries more than the input power
-(a set's throughput, or the power ``t * w`` through a locked clutch); the **circulating power** is
-the excess ``max(branch) - P_in``, per unit input power (0 when no branch exceeds the input).
+Circulating power: a gear recirculates power when some branch carries more than the power of the
+source (the input's in drive, the output's in coast): a set's throughput, or the power ``t * w``
+through a locked clutch; the **circulating power** is the excess ``max(branch) - P_source``, per
+unit input power (0 when no branch exceeds the source).
 
 Capacity sizing: the largest element torque over the gears, times a design input torque, times a
 safety factor gives a suggested static capacity; the dynamic one is ``dynamic_ratio`` (the ratio of
