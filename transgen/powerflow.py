@@ -138,6 +138,8 @@ class SetFlow:
     throughput: float = 0.0
     loss: float = 0.0
     driving: str | None = None
+    links: dict = field(default_factory=dict, compare=False)
+    """The link (or ``housing``) on each port."""
 
 
 @dataclass(frozen=True)
@@ -512,7 +514,8 @@ def _gear_flow(mech: Mechanism, g: nx.DiGraph, gear_decl, eta: dict, input_rpm, 
         # sum(powers) is the same up to round-off, which the tests check
         loss = 0.0 if d == 0 else (1.0 - eta[t.name]) * abs(float(x[cols[driver]]) * rel[driver])
         sets.append(SetFlow(t.name, t.kind, eta[t.name], torques, speeds, powers,
-                            sum(p for p in powers.values() if p > 0), loss, driving))
+                            sum(p for p in powers.values() if p > 0), loss, driving,
+                            {port: link for link, port, _ in t.ports}))
     losses = sum(s.loss for s in sets)
 
     element_torques, warnings = {}, []
@@ -666,6 +669,11 @@ def _pairs(values: dict, fmt: str = "{:+.4f}") -> str:
     return "  ".join(f"{k} {'-' if v is None else fmt.format(v)}" for k, v in values.items()) or "(none)"
 
 
+def _driver(s: SetFlow) -> str:
+    """The driving member: ``sun``/``ring`` of a planetary, the driving link of a gear pair."""
+    return s.driving if s.kind == "planetary" else s.links[s.driving]
+
+
 def powerflow_text(flow: PowerFlow) -> str:
     """A readable table per gear and the capacity sizing (``transgen powerflow``)."""
     m = flow.mechanism
@@ -686,7 +694,7 @@ def powerflow_text(flow: PowerFlow) -> str:
         if g.element_slip_rpm is not None:
             out.append(f"    slips at {flow.input_rpm:g} rpm  {_pairs(g.element_slip_rpm, '{:+.0f}')}"
                        + (f"   OVER-SPEED: {', '.join(g.overspeed)}" if g.overspeed else ""))
-        sets = "  ".join(f"{s.name} {s.throughput:.3f}" + (f" (loss {s.loss:.4f}, {s.driving} drives)" if s.driving else "")
+        sets = "  ".join(f"{s.name} {s.throughput:.3f}" + (f" (loss {s.loss:.4f}, {_driver(s)} drives)" if s.driving else "")
                          for s in g.sets)
         out.append(f"    set power        {sets or '(none)'}")
         for w in g.warnings:
