@@ -1,0 +1,1 @@
+"""Design synthesis: tooth counts from target ratios, shift tables from a mechanism."""
