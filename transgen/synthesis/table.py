@@ -124,7 +124,9 @@ class TableSynthesis:
     complete: bool
     notes: tuple[str, ...] = ()
 
-    UNITS = {"ratios": "1", "steps": "1", "spread": "1", "score": "1"}
+    UNITS = {"ratios": "1", "steps": "1", "spread": "1", "score": "1", "forward_candidates": "1",
+             "reverse_candidates": "1", "sequences_scored": "1"}
+    """Units of the numeric fields of :meth:`to_dict` (ratios: input speed / output speed)."""
 
     def to_dict(self) -> dict:
         return {"mechanism": self.mechanism.name, "score_formula": SCORE_FORMULA,

@@ -221,7 +221,10 @@ class TeethSynthesis:
     continuous: tuple[dict, ...] = ()
     notes: tuple[str, ...] = ()
 
-    UNITS = {"max_error": "1", "errors": "1", "ratios": "1", "target": "1", "tolerance": "1", "k": "1"}
+    UNITS = {"max_error": "1", "errors": "1", "ratios": "1", "target": "1", "tolerance": "1", "k": "1",
+             "worst_residual": "1", "Ns": "1", "Nr": "1", "planets": "1", "size": "1", "count": "1"}
+    """Units of the numeric fields of :meth:`to_dict` (ratios and their errors: input speed / output
+    speed; tooth and planet counts; ``worst_residual``: largest error over its tolerance)."""
 
     def to_dict(self) -> dict:
         return {
