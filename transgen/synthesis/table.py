@@ -20,7 +20,8 @@ Score (larger is better), with the steps ``phi_i = i_i / i_(i+1)`` of the forwar
             - 1.0 * sum_i max(0, ln(phi_(i+1)/phi_i))   (a step larger than the one before it)
             - 0.5 * double swaps
             - 0.25 * gears whose number of engaged elements differs from the most common one
-            + 0.05 * one-way clutches holding in the gears (they engage and release by themselves)
+            + 0.05 * upshifts in which a one-way clutch releases (by itself: no clutch-to-clutch timing)
+            + 0.01 * one-way clutches holding in the forward gears (no apply pressure: a tie-break)
             - for each reverse gear: 0.5 * (elements changed from 1st gear - 2)/2
                                      + 0.5 * |ln(|i_R| / i_1)|
 
@@ -45,7 +46,11 @@ STEP_RANGE = (1.1, 1.8)
 """Comfortable range of the step between neighbouring forward gears."""
 
 ONEWAY_BONUS = 0.05
-"""Score per one-way clutch holding in a gear (it engages and releases by itself)."""
+"""Score per upshift in which a one-way clutch releases (by itself: no clutch-to-clutch timing)."""
+
+HOLD_BONUS = 0.01
+"""Score per one-way clutch holding in a forward gear: it needs no apply pressure, so of a one-way
+clutch and a friction element in parallel the one-way clutch is preferred (a tie-break)."""
 
 MAX_VISITS = 2_000_000
 """Most search nodes visited before the search stops (and says so)."""
@@ -59,8 +64,9 @@ class TableInputError(TransgenError, ValueError):
 class Candidate:
     engaged: frozenset
     ratio: float
-    oneways: int = 0  # one-way clutches engaged (each holding in drive)
+    oneways: frozenset = frozenset()  # the engaged one-way clutches (each holding in drive)
     positions: frozenset = frozenset()  # the (link1, link2) pairs the engaged elements join
+    where: tuple = ()  # (element, (link1, link2)) of each engaged element
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -136,7 +142,7 @@ class TableSynthesis:
 
 
 SCORE_FORMULA = ("ln(spread) - 2*sum out(step) - 1*sum max(0, ln(step[i+1]/step[i])) - 0.5*double swaps "
-                 "- 0.25*gears with an unusual element count + 0.05*one-way clutches holding in the gears - per reverse gear (0.5*(changes from 1st - 2)/2 "
+                 "- 0.25*gears with an unusual element count + 0.05*upshifts released by a one-way clutch + 0.01*one-way clutches holding in forward gears - per reverse gear (0.5*(changes from 1st - 2)/2 "
                  "+ 0.5*|ln(|i_R|/i_1)|); out(step) = max(0, ln(1.1/step), ln(step/1.8))")
 
 
@@ -153,9 +159,9 @@ def gear_candidates(mech: Mechanism) -> list[Candidate]:
         c = analyze(mech, combo, g)
         if c.kind == "gear" and c.dof == 1 and c.ratio is not None and math.isfinite(c.ratio):
             if _oneways_hold(mech, combo, g) is not False:
-                oneways = sum(1 for e in combo if g.nodes[e]["kind"] == "oneway")
-                positions = frozenset((g.nodes[e]["link1"], g.nodes[e]["link2"]) for e in combo)
-                out.append(Candidate(frozenset(combo), c.ratio, oneways, positions))
+                oneways = frozenset(e for e in combo if g.nodes[e]["kind"] == "oneway")
+                where = tuple((e, (g.nodes[e]["link1"], g.nodes[e]["link2"])) for e in combo)
+                out.append(Candidate(frozenset(combo), c.ratio, oneways, frozenset(p for _, p in where), where))
     return out
 
 
@@ -229,7 +235,13 @@ def _out(step: float) -> float:
     return max(0.0, math.log(low / step), math.log(step / high))
 
 
-def table_score(ratios: list[float], counts: list[int], doubles: int, oneways: int = 0) -> float:
+def _oneway_releases(a: Candidate, b: Candidate) -> int:
+    """One-way clutches of ``a`` whose constraint is gone in ``b``: they release by themselves in
+    the shift from ``a`` to ``b`` (no clutch-to-clutch timing)."""
+    return sum(1 for e, position in a.where if e in a.oneways and position not in b.positions)
+
+
+def table_score(ratios: list[float], counts: list[int], doubles: int, releases: int = 0, holding: int = 0) -> float:
     """The forward part of the score (see the module docstring)."""
     steps = [a / b for a, b in zip(ratios, ratios[1:])]
     score = math.log(ratios[0] / ratios[-1]) if len(ratios) > 1 else 0.0
@@ -238,11 +250,11 @@ def table_score(ratios: list[float], counts: list[int], doubles: int, oneways: i
     score -= 0.5 * doubles
     usual = Counter(counts).most_common(1)[0][0]
     score -= 0.25 * sum(1 for c in counts if c != usual)
-    return score + ONEWAY_BONUS * oneways
+    return score + ONEWAY_BONUS * releases + HOLD_BONUS * holding
 
 
 def _reverse_term(first: Candidate, rev: Candidate) -> float:
-    return -ONEWAY_BONUS * rev.oneways + 0.5 * max(0, _changes(first, rev) - 2) / 2 + 0.5 * abs(math.log(abs(rev.ratio) / first.ratio))
+    return 0.5 * max(0, _changes(first, rev) - 2) / 2 + 0.5 * abs(math.log(abs(rev.ratio) / first.ratio))
 
 
 def synthesize_table(mech: Mechanism, forward: int, reverse: int = 1, top: int = 5,
@@ -282,7 +294,9 @@ def synthesize_table(mech: Mechanism, forward: int, reverse: int = 1, top: int =
             ratios = [fwd[k].ratio for k in path]
             counts = [len(fwd[k].engaged) for k in path]
             doubles = sum(1 for a, b in zip(path, path[1:]) if _changes(fwd[a], fwd[b]) > 2)
-            score = table_score(ratios, counts, doubles, sum(fwd[k].oneways for k in path))
+            releases = sum(_oneway_releases(fwd[a], fwd[b]) for a, b in zip(path, path[1:]))
+            holding = sum(len(fwd[k].oneways) for k in path)
+            score = table_score(ratios, counts, doubles, releases, holding)
             tick += 1
             item = (score, -tick, tuple(path))
             if len(heap) < keep:
