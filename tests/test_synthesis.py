@@ -214,3 +214,65 @@ def test_too_many_gears_asked_is_bad_input(capsys, tmp_path):
     path.write_text(bare.text)
     assert main(["synthesize", "table", str(path), "--forward", "9"]) == 2
     assert "distinct forward ratios" in capsys.readouterr().err
+
+
+# ------------------------------------------------------------------ no solution is lost
+
+
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+
+def _admissible_pairs(pinions: int, rules: AssemblyRules, ring_max: int = 130):
+    return [(ns, nr) for ns in range(rules.min_teeth, 80) for nr in range(ns + 1, ring_max + 1)
+            if planet_count(ns, nr, pinions, rules)]
+
+
+_SIMPLE = _admissible_pairs(1, AssemblyRules())
+_DOUBLE = _admissible_pairs(2, AssemblyRules())
+
+
+@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.sampled_from(_SIMPLE), st.sampled_from(_SIMPLE))
+def test_random_admissible_teeth_are_found_from_their_rounded_ratios(ps3, ps4):
+    """Choose admissible teeth for two 8HP70 sets, round the resulting ratios to 4 decimals, and
+    ask for them back: the chosen teeth must be among the solutions (the bands lose nothing)."""
+    text = _text("zf8hp70")
+    chosen = "\n".join(
+        line.replace("Ns=69 Nr=111", f"Ns={ps3[0]} Nr={ps3[1]}").replace("Ns=23 Nr=85", f"Ns={ps4[0]} Nr={ps4[1]}")
+        for line in text.split("\n") if not line.startswith("gear "))
+    mech = parse_mechanism(chosen + "\n" + "\n".join(line.split(" ratio=")[0] for line in text.split("\n")
+                                                     if line.startswith("gear ")), "chosen.mech")
+    ratios = gear_ratios(mech)
+    if any(r is None or abs(r) > 1e5 or abs(r) < 1e-3 for r in ratios.values()):
+        return
+    unknown = parse_mechanism(_unknown(mech.text, {"PS3", "PS4"}), "u.mech", unknown_teeth=True)
+    from transgen.synthesis.teeth import parse_ratio_targets
+    targets = ratio_targets(unknown, parse_ratio_targets(",".join(f"{g}={r:.4f}" for g, r in ratios.items())))
+    result = synthesize_teeth(unknown, targets, top=0)
+    assert {"PS1": (48, 96), "PS2": (48, 96), "PS3": ps3, "PS4": ps4} in [_teeth(s) for s in result.solutions]
+
+
+_RAVIGNEAUX_RULES = AssemblyRules(k_min=1.2, k_max=4.5)
+_RAVIGNEAUX = [(small, (ns, small[1])) for small in _admissible_pairs(2, _RAVIGNEAUX_RULES)
+               for ns in range(_RAVIGNEAUX_RULES.min_teeth, small[1]) if planet_count(ns, small[1], 1, _RAVIGNEAUX_RULES)]
+
+
+@settings(max_examples=4, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.sampled_from(_RAVIGNEAUX))
+def test_ravigneaux_double_pinion_teeth_are_found(sets):
+    """A Ravigneaux set (a double-pinion and a simple set on one ring and carrier), both unknown:
+    teeth chosen admissible with a common ring come back from their rounded ratios."""
+    small, large = sets
+    text = _text("hsw_ravigneaux4")
+    text = text.replace("Ns=30 Nr=72 pinions=2", f"Ns={small[0]} Nr={small[1]} pinions=2").replace(
+        "Ns=36 Nr=72 ", f"Ns={large[0]} Nr={large[1]} ")
+    lines = [line.split(" ratio=")[0] if line.startswith("gear ") else line for line in text.split("\n")]
+    mech = parse_mechanism("\n".join(lines), "chosen.mech")
+    ratios = gear_ratios(mech)
+    assert all(r is not None for r in ratios.values())
+    unknown = parse_mechanism(_unknown(mech.text), "u.mech", unknown_teeth=True)
+    from transgen.synthesis.teeth import parse_ratio_targets
+    targets = ratio_targets(unknown, parse_ratio_targets(",".join(f"{g}={r:.4f}" for g, r in ratios.items())))
+    result = synthesize_teeth(unknown, targets, _RAVIGNEAUX_RULES, top=0)
+    assert {"PG_small": small, "PG_large": large} in [_teeth(s) for s in result.solutions]
