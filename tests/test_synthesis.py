@@ -276,3 +276,35 @@ def test_ravigneaux_double_pinion_teeth_are_found(sets):
     targets = ratio_targets(unknown, parse_ratio_targets(",".join(f"{g}={r:.4f}" for g, r in ratios.items())))
     result = synthesize_teeth(unknown, targets, _RAVIGNEAUX_RULES, top=0)
     assert {"PG_small": small, "PG_large": large} in [_teeth(s) for s in result.solutions]
+
+
+def test_completed_mech_is_written_and_checks(tmp_path, capsys):
+    path = tmp_path / "u.mech"
+    path.write_text(_unknown(_text("zf8hp70"), {"PS4"}))
+    done = tmp_path / "done.mech"
+    assert main(["synthesize", "teeth", str(path), "-o", str(done)]) == 0
+    assert "wrote" in capsys.readouterr().out
+    assert main(["check", str(done)]) == 0  # the published ratios hold: check compares them
+    assert "Ns=23 Nr=85" in done.read_text()
+
+
+def test_tooth_ranges_bound_the_search(tmp_path, capsys):
+    text = _text("zf8hp70").replace("Ns=23 Nr=85", "Ns=20..30 Nr=80..90").replace("Ns=69 Nr=111", "Ns=? Nr=100..120")
+    mech = parse_mechanism(text, "r.mech", unknown_teeth=True)
+    result = synthesize_teeth(mech, ratio_targets(mech), top=0)
+    assert [_teeth(s)["PS4"] for s in result.solutions] == [(23, 85)] * result.count
+    assert {_teeth(s)["PS3"] for s in result.solutions} == {(69, 111)}  # 46/74: planets of 14 teeth
+
+
+@pytest.mark.parametrize("options, message", [
+    (["--planets", "3,x"], "--planets"),
+    (["--ratios", "1=4.70,9=1.0"], "gear '9'"),
+    (["--ratios", "1=fast"], "cannot read"),
+    (["--ring-sun", "4,2"], "ring/sun"),
+    (["--tolerance", "-1"], "--tolerance"),
+])
+def test_bad_synthesis_options_are_bad_input(options, message, tmp_path, capsys):
+    path = tmp_path / "u.mech"
+    path.write_text(_unknown(_text("zf8hp70"), {"PS4"}))
+    assert main(["synthesize", "teeth", str(path)] + options) == 2
+    assert message in capsys.readouterr().err

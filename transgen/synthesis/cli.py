@@ -46,6 +46,10 @@ def cmd_teeth(args) -> int:
     result = synthesize_teeth(mech, targets, rules, top=args.top, progress=progress)
     if progress:
         print(file=sys.stderr)
+    if args.output and result.solutions:
+        from ..export import write_text
+
+        write_text(args.output, completed_text(mech, result.solutions[0]))
     if args.json:
         print_document("transgen.synthesis_teeth/1", result.to_dict(), result.UNITS)
         return 0 if result.solutions else 1
@@ -68,11 +72,12 @@ def cmd_teeth(args) -> int:
         teeth = "  ".join(f"{t.name} Ns={t.n_sun} Nr={t.n_ring} n={t.planets}" for t in s.teeth)
         print(f"  {i:>3}. {teeth}   max error {s.max_error:.2e}")
         print("       errors: " + ", ".join(f"{g} {e:+.1e}" for g, e in s.errors.items()))
-    if result.solutions:
+    if result.solutions and args.output:
+        print(f"\nwrote {args.output}: the .mech completed with the best solution")
+    elif result.solutions:
         print("\ncompleted .mech (best solution):")
         print(completed_text(mech, result.solutions[0]).rstrip("\n"))
-        return 0
-    return 1
+    return 0 if result.solutions else 1
 
 
 def cmd_table(args) -> int:
@@ -132,6 +137,7 @@ def add_commands(sub) -> None:
     t.add_argument("--max-teeth", type=int, default=150, help="largest ring of a set written Nr=? (default 150)")
     t.add_argument("--profile-shift", action="store_true", help="allow odd Nr - Ns (profile-shifted planets)")
     t.add_argument("--top", type=int, default=10, help="solutions shown (0 = all; default 10)")
+    t.add_argument("-o", "--output", help="write the .mech completed with the best solution here (else it is printed)")
     t.add_argument("--json", action="store_true", help="machine-readable output")
     t.set_defaults(func=cmd_teeth)
 
