@@ -522,11 +522,11 @@ def synthesize_teeth(mech: Mechanism, targets: tuple[RatioTarget, ...], rules: A
     rng = np.random.default_rng(seed)
     pb = _problem(mech, targets, rules, rng)
     notes = []
+    free = {p for p in range(len(pb.unknown)) if not any(p in gk.depends for gk in pb.gears)}
     for p, name in enumerate(pb.unknown):
-        if not any(p in gk.depends for gk in pb.gears):
+        if p in free:
             notes.append(f"no target ratio depends on set {name}: any admissible teeth fit, the smallest are listed")
     minima = _continuous(pb, starts, rng, progress) if pb.unknown else [(np.zeros(0), 0.0)]
-    candidates_k: list[set[Fraction]] = [set() for _ in pb.unknown]
     pairs: list[dict] = [{} for _ in pb.unknown]
     combos: set[tuple[Fraction, ...]] = set()
     for k, value in minima:
@@ -539,9 +539,11 @@ def synthesize_teeth(mech: Mechanism, targets: tuple[RatioTarget, ...], rules: A
         local = []
         for p in range(len(pb.unknown)):
             found = pb.pairs(p, low[p], high[p])
+            if p in free and found:  # no ratio depends on it: one representative k carries every pair
+                merged = sorted((t for v in found.values() for t in v), key=lambda t: t[0] + t[1])
+                found = {min(found): merged}
             pairs[p].update(found)
             local.append(sorted(found))
-            candidates_k[p].update(found)
         combos.update(_search(pb, local, progress))
     exact = []
     for ks in sorted(combos):
