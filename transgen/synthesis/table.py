@@ -31,12 +31,13 @@ are penalised (a geometric or progressive table has none), double swaps cost hal
 from __future__ import annotations
 
 import heapq
+import itertools
 import math
 from collections import Counter
 from dataclasses import dataclass
 
 from ..errors import TransgenError
-from ..kinematics import analyze, engaged_combinations
+from ..kinematics import analyze
 from ..graph import build_graph, element_nodes
 from ..model import Mechanism
 
@@ -70,7 +71,8 @@ class Candidate:
 
     @property
     def names(self) -> tuple[str, ...]:
-        return tuple(sorted(self.engaged))
+        """The engaged elements in the file's order."""
+        return tuple(e for e, _ in self.where) if self.where else tuple(sorted(self.engaged))
 
 
 @dataclass(frozen=True)
@@ -153,9 +155,9 @@ def gear_candidates(mech: Mechanism) -> list[Candidate]:
     names = element_nodes(g)
     free = analyze(mech, (), g).dof
     out = []
-    for combo in engaged_combinations(names):
-        if len(combo) != free - 1:  # every engaged element removes one degree of freedom
-            continue
+    if free < 1:
+        return []  # locked without any element engaged
+    for combo in itertools.combinations(names, free - 1):  # each engaged element removes one DOF
         c = analyze(mech, combo, g)
         if c.kind == "gear" and c.dof == 1 and c.ratio is not None and math.isfinite(c.ratio):
             if _oneways_hold(mech, combo, g) is not False:
