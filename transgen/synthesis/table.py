@@ -37,8 +37,10 @@ from collections import Counter
 from dataclasses import dataclass
 
 from ..errors import TransgenError
-from ..kinematics import analyze
-from ..graph import build_graph, element_nodes
+import numpy as np
+
+from ..graph import build_graph, coefficient, element_nodes, link_nodes, transformer_ports
+from ..kinematics import _values, analyze
 from ..model import Mechanism
 
 __all__ = ["ShiftTable", "TableSynthesis", "gear_candidates", "synthesize_table", "table_score", "STEP_RANGE"]
@@ -176,11 +178,6 @@ def oneway_torques(mech: Mechanism, engaged, g=None) -> dict[str, float] | None:
     coefficients ``c_k``), the torque of each engaged element and the output torque; one torque
     balance per link.
     """
-    import numpy as np
-
-    from ..graph import link_nodes, transformer_ports
-    from ..kinematics import _values
-
     g = build_graph(mech) if g is None else g
     links = link_nodes(g)
     row = {name: i for i, name in enumerate(links)}
@@ -189,8 +186,6 @@ def oneway_torques(mech: Mechanism, engaged, g=None) -> dict[str, float] | None:
     engaged = list(engaged)
     m = np.zeros((len(links), len(transformers) + len(engaged) + 1))
     b = np.zeros(len(links))
-    from ..graph import coefficient
-
     for j, node in enumerate(transformers):
         for link, _, terms in transformer_ports(g, node):
             if link in row:
