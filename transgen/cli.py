@@ -300,6 +300,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--json", action="store_true", help="machine-readable output")
     s.set_defaults(func=cmd_list)
 
+    from .synthesis.cli import add_commands as add_synthesis_commands
+
+    add_synthesis_commands(sub)
     _add_sim_commands(sub)
     return p
 
