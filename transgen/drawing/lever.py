@@ -29,7 +29,7 @@ from fractions import Fraction
 
 from ..model import HOUSING, Mechanism
 
-__all__ = ["LeverNode", "Lever", "lever_layout", "lever_speeds", "lever_document", "LEVER_UNITS", "LEVER_TOLERANCE"]
+__all__ = ["LeverNode", "Lever", "lever_layout", "lever_speeds", "lever_document", "drawn_gears", "LEVER_UNITS", "LEVER_TOLERANCE"]
 
 LEVER_TOLERANCE = 1e-9
 """Relative tolerance (to the lever's length) of the check that a third shared node agrees."""
@@ -165,6 +165,23 @@ def lever_layout(mech: Mechanism) -> tuple[Lever, ...]:
     return tuple(out)
 
 
+def drawn_gears(mech: Mechanism, gears=None) -> list[str]:
+    """The gears to draw: ``gears`` checked against the declared ones (ValueError naming the
+    declared gears for an unknown one or a neutral), or every declared gear that is not a neutral."""
+    declared = [g.name for g in mech.gears if g.kind == "gear"]
+    if gears is None:
+        return declared
+    out = []
+    for name in gears:
+        if name not in declared:
+            neutral = any(g.name == name for g in mech.neutrals)
+            why = "is a neutral: no speeds follow from the input speed" if neutral else "is not a declared gear"
+            raise ValueError(f"{name!r} {why} of {mech.name} (gears: {' '.join(declared) or 'none'})")
+        if name not in out:
+            out.append(name)
+    return out
+
+
 def lever_speeds(mech: Mechanism, gear: str) -> dict[str, float | None]:
     """Speed of every link per unit input speed in the declared gear ``gear`` (the housing 0),
     from :func:`transgen.kinematics.link_speeds`; ``None`` for a link the gear leaves free.
@@ -188,8 +205,6 @@ def lever_document(mech: Mechanism, gears=None) -> dict:
     """The JSON form of ``transgen lever --json``: the levers and, for every drawn gear (``gears``,
     default every declared gear but the neutrals), its engaged elements, ratio and the speed of
     every link per unit input speed (``null``: left free by the gear)."""
-    from .lever_figure import drawn_gears
-
     rows = []
     for name in drawn_gears(mech, gears):
         speeds = lever_speeds(mech, name)

@@ -21,9 +21,9 @@ from dataclasses import dataclass
 from ..model import HOUSING, Mechanism
 from .common import LOCK_COLOR
 from .figure import MARGIN, NODE_FONT, SMALL_FONT, TITLE_FONT, Rect, figure_and_axes, place_label, set_limits, text_size
-from .lever import Lever, lever_layout, lever_speeds
+from .lever import Lever, drawn_gears, lever_layout, lever_speeds
 
-__all__ = ["draw_levers", "draw_speed_chart", "drawn_gears"]
+__all__ = ["draw_levers", "draw_speed_chart"]
 
 LEVER_HEIGHT = 2.3  # inches from the lowest to the highest node of a lever
 _LEVER_COLOR = "#2b5d8a"
@@ -33,23 +33,6 @@ _BRAKE_COLOR = "#8a2b2b"
 _IN_COLOR = "#2b7a3b"
 _OUT_COLOR = "#c06000"
 _JOIN_COLOR = "#7a7a7a"
-
-
-def drawn_gears(mech: Mechanism, gears=None) -> list[str]:
-    """The gears to draw: ``gears`` checked against the declared ones (ValueError naming the
-    declared gears for an unknown one or a neutral), or every declared gear that is not a neutral."""
-    declared = [g.name for g in mech.gears if g.kind == "gear"]
-    if gears is None:
-        return declared
-    out = []
-    for name in gears:
-        if name not in declared:
-            neutral = any(g.name == name for g in mech.neutrals)
-            why = "is a neutral: no speeds follow from the input speed" if neutral else "is not a declared gear"
-            raise ValueError(f"{name!r} {why} of {mech.name} (gears: {' '.join(declared) or 'none'})")
-        if name not in out:
-            out.append(name)
-    return out
 
 
 def _element_kind_label(e) -> str:
