@@ -191,7 +191,7 @@ def draw_levers(mech: Mechanism, gears=None, topology: bool | None = None, ax=No
         c.x0 = x + c.left - scale * c.wmin
         x = c.x0 + scale * c.wmax + c.right
     panel_w = x + 0.1
-    title_h = 0.55
+    title_h = 0.7
     axis_h = 0.35
     panel_h = title_h + LEVER_HEIGHT + 0.5 + axis_h
     legend_h = 1.0  # about; measured once the width is known
@@ -203,10 +203,12 @@ def draw_levers(mech: Mechanism, gears=None, topology: bool | None = None, ax=No
     ncols = min(range(1, len(panels) + 1), key=misfit)
     nrows = -(-len(panels) // ncols)
     width = max(ncols * panel_w + 2 * MARGIN, 7.0)
+    pivot = any(n.link == HOUSING for lv in levers for n in lv.nodes)
     twice = any(n.link != HOUSING and home[n.link][0] != k for k, lv in enumerate(levers) for n in lv.nodes)
     shown = {"lever", "input", "output"}
     for text, present in (("brake engaged (ground)", brakes), ("clutch engaged", clutches),
-                          ("open element", mech.elements), ("same link on two levers", twice)):
+                          ("open element", mech.elements), ("same link on two levers", twice),
+                          ("housing (gear axes)", pivot)):
         if present:
             shown.add(text)
     legend_rows, note = _legend_rows(width, shown)
@@ -280,7 +282,7 @@ def draw_levers(mech: Mechanism, gears=None, topology: bool | None = None, ax=No
                          solid_capstyle="round", zorder=2, gid=f"lever:{pname}:{lv.name}")
                 else:
                     line([x0, x0], [y_lo, y_hi], color=_REST_COLOR, linewidth=2.5, linestyle="--", zorder=2)
-                ax.text(x0, base + LEVER_HEIGHT + 0.14, " + ".join(lv.sets), ha="center", va="bottom",
+                ax.text(x0, base + LEVER_HEIGHT + 0.3, " + ".join(lv.sets), ha="center", va="bottom",
                         fontsize=SMALL_FONT * fs, color="#333333", style="italic", parse_math=False)
             texts = []
             for n in lv.nodes:
@@ -300,7 +302,7 @@ def draw_levers(mech: Mechanism, gears=None, topology: bool | None = None, ax=No
                     texts.append((yn, xn, _node_text(n.link, mech, w if speeds is not None else None), n))
                 obstacles.append(Rect(xn, yn, 0.12, 0.12))
             hs = [text_size(t, NODE_FONT)[1] for _, _, t, _ in texts]
-            gap = max(hs) * 0.8 + (0.1 if speeds is None else 0.0)
+            gap = max(hs) * 0.8 if speeds is not None else max(hs) + text_size("P", SMALL_FONT)[1] + 0.02
             ys = _spread_1d([t[0] + 0.02 for t in texts], gap)
             for (yn, xn, t, n), yl in zip(texts, ys):
                 color = _IN_COLOR if n.link == mech.input else (_OUT_COLOR if n.link == mech.output else "#111111")
@@ -338,14 +340,16 @@ def draw_levers(mech: Mechanism, gears=None, topology: bool | None = None, ax=No
             label = _element_kind_label(e)
             tw, th = text_size(label, SMALL_FONT)
             xl = min(x0 - 0.17, x0 + scale * cols[k].wmin - 0.14)
-            ax.text(xl, yn, label, ha="right", va="center", fontsize=SMALL_FONT * fs, color=color,
+            ax.text(xl, yn + 0.03, label, ha="right", va="bottom", fontsize=SMALL_FONT * fs, color=color,
                     fontweight="bold" if on and speeds is not None else "normal", parse_math=False, zorder=6,
                     gid=f"element:{pname}:{e.name}",
                     bbox=dict(boxstyle="square,pad=0.02", facecolor="white", edgecolor="none", alpha=0.85))
-            placed.append(Rect(xl - tw / 2, yn, tw, th))
+            placed.append(Rect(xl - tw / 2, yn + 0.03 + th / 2, tw, th))
         # clutches: joins between nodes; beside the lever when both nodes are on it
         lane: dict[int, int] = {}
-        for e in clutches:
+        pair = {e.name: frozenset((home[e.link1], home[e.link2])) for e in clutches}
+        done: dict[frozenset, int] = {}
+        for e in sorted(clutches, key=lambda e: speeds is not None and e.name in engaged):  # engaged on top
             k1, k2 = home[e.link1][0], home[e.link2][0]
             on = speeds is None or e.name in engaged
             color = (LOCK_COLOR if speeds is not None else "#333333") if on else _OPEN_COLOR
@@ -359,7 +363,10 @@ def draw_levers(mech: Mechanism, gears=None, topology: bool | None = None, ax=No
                 mx, my, vertical = xb, (y1 + y2) / 2, True
             else:
                 line([x1, x2], [y1, y2], color=color, linewidth=lw, linestyle=style, zorder=3)
-                mx, my, vertical = (x1 + x2) / 2, (y1 + y2) / 2, abs(x2 - x1) < abs(y2 - y1)
+                # elements in parallel (the same two nodes) get their symbols side by side
+                done[pair[e.name]] = done.get(pair[e.name], 0) + 1
+                t = done[pair[e.name]] / (1 + sum(1 for v in pair.values() if v == pair[e.name]))
+                mx, my, vertical = x1 + t * (x2 - x1), y1 + t * (y2 - y1), abs(x2 - x1) < abs(y2 - y1)
             # the clutch symbol: two plates across the join
             d = 0.035
             for s in (-1, 1):
@@ -398,8 +405,8 @@ def _frame(x, y, w, h):
                           edgecolor="#d0d0d0", linewidth=0.8, zorder=0)
 
 
-_LEGEND = ("lever", "brake engaged (ground)", "clutch engaged", "open element", "same link on two levers",
-           "input", "output")
+_LEGEND = ("lever", "brake engaged (ground)", "housing (gear axes)", "clutch engaged", "open element",
+           "same link on two levers", "input", "output")
 _NOTE = ("Horizontal: the speed of each node per unit input speed (the numbers; thin line 0, dotted line 1 = "
          "the input speed). Vertical: the position along the lever, spaced by the tooth counts: simple set "
          "S-C : C-R = Nr : Ns, double-pinion set S-R : R-C = (Nr - Ns) : Ns.")
@@ -432,10 +439,10 @@ def _legend(ax, fs, rows, note, top, Line2D):
     def line(xs, ys, **kw):
         ax.add_line(Line2D(xs, ys, **kw))
 
-    def brake(x, y):
-        line([x, x], [y - 0.08, y + 0.08], color=_BRAKE_COLOR, linewidth=1.6)
+    def brake(x, y, color=_BRAKE_COLOR):
+        line([x, x], [y - 0.08, y + 0.08], color=color, linewidth=1.6)
         for t in (-0.07, 0.0, 0.07):
-            line([x, x - 0.06], [y + t, y + t - 0.05], color=_BRAKE_COLOR, linewidth=0.9)
+            line([x, x - 0.06], [y + t, y + t - 0.05], color=color, linewidth=0.9)
 
     def clutch(x, y):
         line([x - 0.2, x + 0.2], [y, y], color=LOCK_COLOR, linewidth=2.0)
@@ -445,6 +452,7 @@ def _legend(ax, fs, rows, note, top, Line2D):
     symbols = {
         "lever": lambda x, y: line([x - 0.15, x + 0.15], [y - 0.06, y + 0.06], color=_LEVER_COLOR, linewidth=3.2),
         "brake engaged (ground)": brake,
+        "housing (gear axes)": lambda x, y: brake(x, y, "#222222"),
         "clutch engaged": clutch,
         "open element": lambda x, y: line([x - 0.2, x + 0.2], [y, y], color=_OPEN_COLOR, linewidth=1.2,
                                           linestyle=(0, (3, 2))),
