@@ -339,7 +339,7 @@ def draw_levers(mech: Mechanism, gears=None, topology: bool | None = None, ax=No
                     line([x0 - 0.07, xn], [yn, yn], color=color, linewidth=1.6, zorder=4)
             label = _element_kind_label(e)
             tw, th = text_size(label, SMALL_FONT)
-            xl = min(x0 - 0.17, x0 + scale * cols[k].wmin - 0.14)
+            xl = x0 - 0.17 if speeds is None else min(x0 - 0.17, x0 + scale * cols[k].wmin - 0.14)
             ax.text(xl, yn + 0.03, label, ha="right", va="bottom", fontsize=SMALL_FONT * fs, color=color,
                     fontweight="bold" if on and speeds is not None else "normal", parse_math=False, zorder=6,
                     gid=f"element:{pname}:{e.name}",
@@ -365,8 +365,18 @@ def draw_levers(mech: Mechanism, gears=None, topology: bool | None = None, ax=No
                 line([x1, x2], [y1, y2], color=color, linewidth=lw, linestyle=style, zorder=3)
                 # elements in parallel (the same two nodes) get their symbols side by side
                 done[pair[e.name]] = done.get(pair[e.name], 0) + 1
-                t = done[pair[e.name]] / (1 + sum(1 for v in pair.values() if v == pair[e.name]))
+                m = 1 + sum(1 for v in pair.values() if v == pair[e.name])
+                t0 = done[pair[e.name]] / m
+                # the symbol where it meets no label: near its share of the line
+                for dt in (0.0, -0.08, 0.08, -0.16, 0.16, -0.24, 0.24):
+                    t = min(max(t0 + dt / (m - 1), 0.15), 0.85)
+                    box = Rect(x1 + t * (x2 - x1), y1 + t * (y2 - y1), 0.2, 0.2)
+                    if not any(box.overlaps(r) for r in placed):
+                        break
+                else:
+                    t = t0
                 mx, my, vertical = x1 + t * (x2 - x1), y1 + t * (y2 - y1), abs(x2 - x1) < abs(y2 - y1)
+                placed.append(Rect(mx, my, 0.18, 0.18))
             # the clutch symbol: two plates across the join
             d = 0.035
             for s in (-1, 1):
@@ -426,7 +436,7 @@ def _legend_rows(width: float, shown) -> tuple[list[list[tuple[str, float]]], li
     lines, current = [], ""
     for word in _NOTE.split(" "):
         trial = (current + " " + word).strip()
-        if current and text_size(trial, SMALL_FONT)[0] > width - 2 * MARGIN - 0.2:
+        if current and text_size(trial, SMALL_FONT)[0] > 0.92 * (width - 2 * MARGIN - 0.2):
             lines.append(current)
             trial = word
         current = trial
