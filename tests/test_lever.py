@@ -269,3 +269,34 @@ def test_lever_json_gives_the_geometry_and_speeds(capsys):
     assert rows["1"]["ratio"] == pytest.approx(48 / 13) and rows["R"]["ratio"] == pytest.approx(-1021 / 169)
     assert rows["4"]["speeds"] == pytest.approx({f"L{i}": 1.0 for i in range(1, 7)})
     assert rows["1"]["speeds"] == pytest.approx(link_speeds(load_mechanism("ht740"), ("C1", "C5")))
+
+
+FLOATING = """transmission "a set left free"
+link IN J=0.05
+link S J=0.01
+link R J=0.01
+link C J=0.02
+link S2 J=0.01
+link R2 J=0.01
+link C2 J=0.01
+planetary P sun=S ring=R carrier=C Ns=30 Nr=70
+planetary Q sun=S2 ring=R2 carrier=C2 Ns=30 Nr=70
+clutch K1 IN S static=100 dynamic=80
+brake B1 R static=100 dynamic=80
+clutch K2 C C2 static=100 dynamic=80
+input IN
+output C
+gear 1 = K1 B1
+"""
+
+
+def test_a_lever_the_gear_leaves_free_is_drawn_free(figures):
+    from transgen import parse_mechanism
+
+    mech = parse_mechanism(FLOATING, "floating.mech")
+    speeds = lever_speeds(mech, "1")
+    assert speeds["C"] == pytest.approx(30 / 100) and {speeds[k] for k in ("S2", "R2", "C2")} == {None}
+    fig = draw_levers(mech)
+    figures.append(fig)
+    texts = {t.get_gid(): t.get_text() for t in fig.findobj(Text)}
+    assert texts["node:1:Q:C2"] == "C2 free" and texts["node:1:P:C"] == "C out 0.30"

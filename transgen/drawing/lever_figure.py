@@ -53,6 +53,31 @@ class _Column:
     lane: float = 0.0  # x of the first lane of those clutches, from x0
 
 
+def _column_order(levers, mech, max_search: int = 7):
+    """The levers left to right: the order (of at most ``max_search`` levers; else as given) in
+    which the joins of a link on two levers and the clutches jump over the fewest levers, the
+    given order (gearsets in declaration order, then lone links) among equals."""
+    import itertools
+
+    if len(levers) > max_search:
+        return levers
+    owners: dict[str, list[int]] = {}
+    for k, lv in enumerate(levers):
+        for n in lv.nodes:
+            if n.link != HOUSING:
+                owners.setdefault(n.link, []).append(k)
+    pairs = [(ks[0], k) for ks in owners.values() for k in ks[1:]]
+    pairs += [(owners[e.link1][0], owners[e.link2][0]) for e in mech.elements
+              if e.link2 != HOUSING and e.link1 in owners and e.link2 in owners]
+    best, best_cost = None, None
+    for order in itertools.permutations(range(len(levers))):
+        at = {k: i for i, k in enumerate(order)}
+        cost = sum(max(abs(at[a] - at[b]) - 1, 0) for a, b in pairs)
+        if best_cost is None or cost < best_cost:
+            best, best_cost = order, cost
+    return tuple(levers[k] for k in best)
+
+
 def _orient(levers, mech) -> dict[str, dict[str, float]]:
     """Heights of every node, lever by lever: the first multi-node lever as laid out, each next
     one flipped where that brings its links nearer to the same links (or the links they are
@@ -150,7 +175,7 @@ def draw_levers(mech: Mechanism, gears=None, topology: bool | None = None, ax=No
     names = drawn_gears(mech, gears)
     if topology is None:
         topology = gears is None
-    levers = lever_layout(mech)
+    levers = _column_order(lever_layout(mech), mech)
     panels: list[tuple[str, dict | None]] = [("levers", None)] if topology else []
     panels += [(g, lever_speeds(mech, g)) for g in names]
     if not panels:
@@ -396,7 +421,9 @@ def draw_levers(mech: Mechanism, gears=None, topology: bool | None = None, ax=No
         # the input arrow: from below into a lone input shaft, else from the left
         if mech.input in home:
             xi, yi = xy(home[mech.input][0], mech.input)
-            ux, uy = (0.0, 1.0) if len(cols[home[mech.input][0]].lever.nodes) == 1 else (1.0, 0.0)
+            ux, uy = (1.0, 0.0)
+            if len(cols[home[mech.input][0]].lever.nodes) == 1:  # a lone shaft: from below, or above
+                ux, uy = (0.0, 1.0) if yi - base > 0.5 else (0.0, -1.0)
             tip, back = 0.07, 0.2
             ax.add_patch(Polygon([(xi - tip * ux, yi - tip * uy),
                                   (xi - back * ux - 0.06 * uy, yi - back * uy + 0.06 * ux),
