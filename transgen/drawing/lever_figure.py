@@ -118,9 +118,10 @@ def _orient(levers, mech) -> dict[str, dict[str, float]]:
 
 
 def _node_text(link: str, mech: Mechanism, w) -> str:
+    """``"L6 out 0.27"``: the link, its role, its speed per unit input speed (if given)."""
     role = " in" if link == mech.input else (" out" if link == mech.output else "")
     if w is None:
-        return f"{link}{role}" if w is None else ""
+        return f"{link}{role}"
     return f"{link}{role} {w:.2f}".replace("-0.00", "0.00")
 
 
@@ -248,11 +249,7 @@ def draw_levers(mech: Mechanism, gears=None, topology: bool | None = None, ax=No
         ax.add_line(Line2D(xs, ys, **kw))
 
     def ground(xg, yg, color, z=3):
-        """A ground symbol: a short wall at ``xg`` hatched on its left."""
-        h = 0.09
-        line([xg, xg], [yg - h, yg + h], color=color, linewidth=1.6, zorder=z, solid_capstyle="butt")
-        for t in (-1.0, -0.33, 0.33, 1.0):
-            line([xg, xg - 0.06], [yg + t * h * 0.85, yg + t * h * 0.85 - 0.06], color=color, linewidth=0.9, zorder=z)
+        _ground(ax, xg, yg, color, z)
 
     for p, (pname, speeds) in enumerate(panels):
         px = MARGIN + (p % ncols) * panel_w
@@ -402,13 +399,7 @@ def draw_levers(mech: Mechanism, gears=None, topology: bool | None = None, ax=No
                     t = t0
                 mx, my, vertical = x1 + t * (x2 - x1), y1 + t * (y2 - y1), abs(x2 - x1) < abs(y2 - y1)
                 placed.append(Rect(mx, my, 0.18, 0.18))
-            # the clutch symbol: two plates across the join
-            d = 0.035
-            for s in (-1, 1):
-                if vertical:
-                    line([mx - 0.08, mx + 0.08], [my + s * d] * 2, color=color, linewidth=2.2, zorder=4)
-                else:
-                    line([mx + s * d] * 2, [my - 0.08, my + 0.08], color=color, linewidth=2.2, zorder=4)
+            _plates(ax, mx, my, vertical, color)
             label = _element_kind_label(e)
             tw, th = text_size(label, SMALL_FONT)
             cands = [(mx + 0.12 + tw / 2, my), (mx - 0.12 - tw / 2, my), (mx, my + 0.16), (mx, my - 0.16),
@@ -471,25 +462,39 @@ def _legend_rows(width: float, shown) -> tuple[list[list[tuple[str, float]]], li
     return rows, lines
 
 
+def _ground(ax, x: float, y: float, color: str, z: float = 3) -> None:
+    """A ground symbol: a short wall at ``x`` hatched on its left (inches)."""
+    from matplotlib.lines import Line2D
+
+    h = 0.09
+    ax.add_line(Line2D([x, x], [y - h, y + h], color=color, linewidth=1.6, zorder=z, solid_capstyle="butt"))
+    for t in (-1.0, -0.33, 0.33, 1.0):
+        ax.add_line(Line2D([x, x - 0.06], [y + t * h * 0.85, y + t * h * 0.85 - 0.06], color=color, linewidth=0.9,
+                           zorder=z))
+
+
+def _plates(ax, x: float, y: float, vertical: bool, color: str) -> None:
+    """The clutch symbol at ``(x, y)``: two plates across a join (horizontal plates on a vertical one)."""
+    from matplotlib.lines import Line2D
+
+    for s in (-0.035, 0.035):
+        xs, ys = ([x - 0.08, x + 0.08], [y + s] * 2) if vertical else ([x + s] * 2, [y - 0.08, y + 0.08])
+        ax.add_line(Line2D(xs, ys, color=color, linewidth=2.2, zorder=4))
+
+
 def _legend(ax, fs, rows, note, top, Line2D):
     """The key to the symbols under the panels."""
     def line(xs, ys, **kw):
         ax.add_line(Line2D(xs, ys, **kw))
 
-    def brake(x, y, color=_BRAKE_COLOR):
-        line([x, x], [y - 0.08, y + 0.08], color=color, linewidth=1.6)
-        for t in (-0.07, 0.0, 0.07):
-            line([x, x - 0.06], [y + t, y + t - 0.05], color=color, linewidth=0.9)
-
     def clutch(x, y):
         line([x - 0.2, x + 0.2], [y, y], color=LOCK_COLOR, linewidth=2.0)
-        for s in (-1, 1):
-            line([x + s * 0.035] * 2, [y - 0.08, y + 0.08], color=LOCK_COLOR, linewidth=2.2)
+        _plates(ax, x, y, False, LOCK_COLOR)
 
     symbols = {
         "lever": lambda x, y: line([x - 0.15, x + 0.15], [y - 0.06, y + 0.06], color=_LEVER_COLOR, linewidth=3.2),
-        "brake engaged (ground)": brake,
-        "housing (gear axes)": lambda x, y: brake(x, y, "#222222"),
+        "brake engaged (ground)": lambda x, y: _ground(ax, x, y, _BRAKE_COLOR),
+        "housing (gear axes)": lambda x, y: _ground(ax, x, y, "#222222"),
         "clutch engaged": clutch,
         "open element": lambda x, y: line([x - 0.2, x + 0.2], [y, y], color=_OPEN_COLOR, linewidth=1.2,
                                           linestyle=(0, (3, 2))),
