@@ -26,6 +26,7 @@ COMMANDS = [
     (["matrices", "ht740", "--list-coordinates", "--json"], "transgen.coordinates/1"),
     (["std", "simple2", "--json"], "transgen.std/1"),
     (["list", "--json"], "transgen.list/1"),
+    (["lever", "zf8hp70", "--json"], "transgen.lever/1"),
     (["simulate", "--list", "--json"], "transgen.scenarios/1"),
     (["simulate", "simple2_upshift", "--json"], "transgen.simulate/1"),
     (["simulate", "simple2_upshift", "--compare-model", "compliant", "--json"], "transgen.simulate/1"),

@@ -44,6 +44,7 @@ __all__ = [
     "GearTable",
     "gear_table",
     "check_gears",
+    "link_speeds",
 ]
 
 RANK_RTOL = 1e-9
@@ -319,3 +320,25 @@ def check_gears(mech: Mechanism) -> list[Diagnostic]:
             line = gear.span.line
             problems.append(Diagnostic(mech.source, line, gear.span.column, message, mech.source_line(line)))
     return problems
+
+
+def link_speeds(mech: Mechanism, engaged=(), graph: nx.DiGraph | None = None) -> dict[str, float | None]:
+    """Speed of every link per unit input speed with the elements ``engaged`` (``w_link / w_in``).
+
+    Links whose speed the input speed does not fix (floating members, or every link but the
+    input in a neutral) get ``None``; the input link gets 1. Raises ``ValueError`` when the
+    combination holds the input (a tie-up, or the input braked).
+    """
+    g = build_graph(mech) if graph is None else graph
+    links = link_nodes(g)
+    a = constraint_matrix(g, engaged)
+    basis = null_space(a, len(links))
+    i_in = links.index(mech.input)
+    v_in = basis[i_in] if basis.shape[1] else np.zeros(0)
+    tol = 1e-9
+    if np.linalg.norm(v_in) <= tol:
+        raise ValueError(f"{' '.join(engaged) or 'no element'} engaged: the input {mech.input} is held, "
+                         f"the link speeds are not proportional to the input speed")
+    w = basis @ (v_in / np.dot(v_in, v_in))  # the least-norm motion with unit input speed
+    held = null_space(np.vstack([a, np.eye(len(links))[i_in]]), len(links))
+    return {name: (None if np.linalg.norm(held[k]) > tol else float(w[k])) for k, name in enumerate(links)}
