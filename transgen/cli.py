@@ -111,6 +111,31 @@ def cmd_graph(args) -> int:
     return 0
 
 
+def cmd_lever(args) -> int:
+    from .drawing import FIGURE_FORMATS, draw_levers, draw_speed_chart, save_figure
+    from .drawing.lever import LEVER_UNITS, lever_document
+
+    for out in (args.output, args.chart):
+        if out is not None and Path(out).suffix.lower() not in FIGURE_FORMATS:
+            raise ValueError(f"cannot draw into {out!r}: unknown suffix {Path(out).suffix!r} "
+                             f"(use one of {', '.join(FIGURE_FORMATS)})")
+    if not (args.output or args.chart or args.json):
+        raise ValueError("nothing to do: give -o levers.svg|png|pdf, --chart speeds.png or --json")
+    mech = load_checked(args.file)
+    doc = lever_document(mech, args.gear)  # checks the gears
+    if args.output:
+        save_figure(draw_levers(mech, args.gear), args.output)
+    if args.chart:
+        save_figure(draw_speed_chart(mech, args.gear), args.chart)
+    if args.json:
+        print_document("transgen.lever/1", doc, LEVER_UNITS)
+    else:
+        for out in (args.output, args.chart):
+            if out:
+                print(f"wrote {out}")
+    return 0
+
+
 def cmd_modes(args) -> int:
     from .describe import MODES_UNITS, modes_report
 
@@ -299,6 +324,19 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("-o", "--output", required=True, help="output file: .png .svg .pdf .dot .graphml")
     s.set_defaults(func=cmd_graph)
 
+    s = sub.add_parser("lever", help="lever diagrams (lever analogy) and the speed chart",
+                       description="Lever diagrams (Benford and Leising's lever analogy): every planetary set a lever "
+                                   "with nodes spaced by the tooth counts, sets sharing two members combined, one "
+                                   "panel per gear with the nodes at their speeds per unit input speed; "
+                                   "--chart: every link's speed in every gear.")
+    s.add_argument("file", metavar="FILE")
+    s.add_argument("--gear", action="append", metavar="G",
+                   help="draw this declared gear (repeatable; default: every gear, after a panel of the levers at rest)")
+    s.add_argument("-o", "--output", help="the lever diagrams: .svg .png .pdf")
+    s.add_argument("--chart", metavar="OUT", help="the speed chart: .svg .png .pdf")
+    s.add_argument("--json", action="store_true", help="the lever geometry and the node speeds of every gear as JSON")
+    s.set_defaults(func=cmd_lever)
+
     s = sub.add_parser("modes", help="modes with locked elements, DOF and kind",
                        description="List the modelled modes (or all combinations) and diagnose tie-ups and non-unique torques.")
     s.add_argument("file", metavar="FILE")
@@ -359,6 +397,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--json", action="store_true", help="machine-readable output")
     s.set_defaults(func=cmd_list)
 
+    from .synthesis.cli import add_commands as add_synthesis_commands
+
+    add_synthesis_commands(sub)
     _add_sim_commands(sub)
     return p
 

@@ -322,6 +322,24 @@ def read_number(text: str, key: str, quantity: Quantity) -> float | int | str:
     return number
 
 
+@dataclass(frozen=True)
+class _UnknownTeeth:
+    """A tooth count written ``?`` (``bounds`` None) or ``a..b``."""
+
+    word: _Word
+    bounds: tuple[int, int] | None
+
+
+def _unknown_teeth(word: _Word, key: str, report: _Reporter) -> _UnknownTeeth | None:
+    if word.text == "?":
+        return _UnknownTeeth(word, None)
+    low, high = (int(x) for x in word.text.split(".."))
+    if not 1 <= low <= high <= TEETH.high:
+        report.error(word.span, f"{key}={word.text}: a range of tooth counts a..b needs 1 <= a <= b <= {TEETH.high:g}")
+        return None
+    return _UnknownTeeth(word, (low, high))
+
+
 def _check_params(stmt: _Statement, report: _Reporter) -> dict[str, object]:
     """Validate the key=value parameters of a statement; return their converted values."""
     allowed = _PARAMS.get(stmt.keyword, {})
@@ -335,6 +353,15 @@ def _check_params(stmt: _Statement, report: _Reporter) -> dict[str, object]:
             report.error(key_span, f"unknown parameter '{shorten(key)}' for '{stmt.keyword}'{_suggest(key, allowed)} (known: {known})")
             continue
         kind = allowed[key]
+        if not is_number and (word.text == "?" or ".." in word.text):  # no name has these characters
+            if kind is TEETH and stmt.keyword == "planetary":
+                unknown = _unknown_teeth(word, key, report)
+                if unknown is not None:
+                    values[key] = unknown
+            else:
+                report.error(word.span, f"{key} cannot be unknown ('{shorten(word.text)}'): only the tooth counts "
+                                        f"Ns, Nr of a planetary can be written ? or a..b")
+            continue
         if isinstance(kind, tuple):
             if word.text not in kind:
                 report.error(word.span, f"{key} must be one of {', '.join(kind)}, not '{shorten(word.text)}'")
@@ -367,7 +394,8 @@ def _check_params(stmt: _Statement, report: _Reporter) -> dict[str, object]:
 # Step 3: names and whole-file rules
 
 
-def _resolve(statements: list[_Statement], report: _Reporter, filename: str) -> Mechanism | None:
+def _resolve(statements: list[_Statement], report: _Reporter, filename: str,
+             unknown_teeth: bool = False) -> Mechanism | None:
     declared: dict[str, tuple[str, Span]] = {}  # link/planetary/gears/element/torque names
 
     def declare(word: _Word, what: str) -> bool:
@@ -414,11 +442,26 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str) -> 
                 if texts.count(m.text) > 1 and m is present[texts.index(m.text)]:
                     report.error(m.span, f"planetary {name.text}: member '{m.text}' is used twice (sun, ring and carrier must be different links)")
             ns, nr = params.get("Ns"), params.get("Nr")
+            bounds = {}
+            for key in ("Ns", "Nr"):
+                value = params.get(key)
+                if isinstance(value, _UnknownTeeth):
+                    bounds[key] = value.bounds
+                    if not unknown_teeth:
+                        report.error(value.word.span, f"planetary {name.text}: tooth count {key} is unknown "
+                                                      f"({key}={value.word.text}); only 'transgen synthesize teeth' "
+                                                      f"accepts unknown teeth: write a whole number")
+                        ok = False
+            ns, nr = (None if k in bounds else params.get(k) for k in ("Ns", "Nr"))
+            if bounds and "Ns" in params and "Nr" in params and ok and None not in members and len(set(texts)) == 3:
+                planetaries.append(Planetary(name.text, texts[0], texts[1], texts[2], ns, nr,
+                                             int(params.get("pinions", "1")), name.span,
+                                             bounds.get("Ns"), bounds.get("Nr"), eta0=params.get("eta0")))
             if ns is not None and nr is not None and nr <= ns:
                 report.error(stmt.params["Nr"][0].span, f"planetary {name.text}: ring teeth Nr={nr} must exceed sun teeth Ns={ns}")
             if ok and None not in members and ns is not None and nr is not None and len(set(texts)) == 3 and nr > ns:
                 planetaries.append(Planetary(name.text, texts[0], texts[1], texts[2], ns, nr, int(params.get("pinions", "1")), name.span,
-                                             params.get("eta0")))
+                                             eta0=params.get("eta0")))
         elif kw == "gears":
             name, w1, w2 = words
             ok = declare(name, "gear pair")
@@ -550,8 +593,11 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str) -> 
     )
 
 
-def parse_mechanism(text: str, filename: str = "<string>") -> Mechanism:
+def parse_mechanism(text: str, filename: str = "<string>", unknown_teeth: bool = False) -> Mechanism:
     """Parse and validate ``.mech`` text.
+
+    ``unknown_teeth`` accepts planetary tooth counts written ``?`` or ``a..b`` (for
+    :mod:`transgen.synthesis`; the counts are ``None`` in the model); otherwise they are errors.
 
     Raises
     ------
@@ -572,15 +618,15 @@ def parse_mechanism(text: str, filename: str = "<string>") -> Mechanism:
     """
     tree = parse_tree(text, filename)
     report = _Reporter(filename, text)
-    mechanism = _resolve(_statements(tree, report), report, filename)
+    mechanism = _resolve(_statements(tree, report), report, filename, unknown_teeth)
     if report.diagnostics:
         raise MechValidationError(report.diagnostics)
     assert mechanism is not None
     return mechanism
 
 
-def load_mechanism(path: str | Path) -> Mechanism:
-    """Read and parse a ``.mech`` file.
+def load_mechanism(path: str | Path, unknown_teeth: bool = False) -> Mechanism:
+    """Read and parse a ``.mech`` file (``unknown_teeth`` as in :func:`parse_mechanism`).
 
     A bare name such as ``"ht740"`` or ``"ht740.mech"`` that is not an existing file is looked
     up in the bundled library (:mod:`transgen.library`).
@@ -602,7 +648,7 @@ def load_mechanism(path: str | Path) -> Mechanism:
         raise MechSyntaxError([Diagnostic(str(path), 1, 1, f"not a text file ({exc.reason})")]) from None
     except OSError as exc:
         raise MechSyntaxError([Diagnostic(str(path), 1, 1, f"cannot read file: {exc.strerror}{hint}")]) from None
-    return parse_mechanism(text, str(path))
+    return parse_mechanism(text, str(path), unknown_teeth)
 
 
 def _number(x: float) -> str:
@@ -614,13 +660,18 @@ def _optional(key: str, value: float | None) -> str:
     return "" if value is None else f" {key}={_number(value)}"
 
 
+def _teeth_text(n: int | None, bounds: tuple[int, int] | None) -> str:
+    return str(n) if n is not None else ("?" if bounds is None else f"{bounds[0]}..{bounds[1]}")
+
+
 def format_mechanism(m: Mechanism) -> str:
     """Write a mechanism back as ``.mech`` text (canonical form; parses to an equal mechanism)."""
     out = [f'transmission "{m.name}"']
     out += [f"link {k.name} J={_number(k.inertia)}" for k in m.links]
     for p in m.planetaries:
         pin = " pinions=2" if p.pinions == 2 else ""
-        out.append(f"planetary {p.name} sun={p.sun} ring={p.ring} carrier={p.carrier} Ns={p.n_sun} Nr={p.n_ring}{pin}"
+        ns, nr = (_teeth_text(n, b) for n, b in ((p.n_sun, p.sun_bounds), (p.n_ring, p.ring_bounds)))
+        out.append(f"planetary {p.name} sun={p.sun} ring={p.ring} carrier={p.carrier} Ns={ns} Nr={nr}{pin}"
                    + _optional("eta0", p.eta0))
     for g in m.gear_pairs:
         k1, k2 = ("N1", "N2") if g.by == "teeth" else ("r1", "r2")

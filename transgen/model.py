@@ -65,19 +65,29 @@ class Planetary:
     ``pinions=1``: simple set, ``Ns*w_s + Nr*w_r = (Ns + Nr)*w_c`` (thesis eq. 3.37).
     ``pinions=2``: double-pinion set, ``Nr*w_r - Ns*w_s = (Nr - Ns)*w_c``.
     Members are link names or :data:`HOUSING`.
+
+    A tooth count written ``?`` or ``a..b`` is unknown (``None``), to be found by
+    :mod:`transgen.synthesis`; ``sun_bounds``/``ring_bounds`` keep a written range ``(a, b)``.
+    Only ``parse_mechanism(..., unknown_teeth=True)`` builds such a set.
     """
 
     name: str
     sun: str
     ring: str
     carrier: str
-    n_sun: int
-    n_ring: int
+    n_sun: int | None
+    n_ring: int | None
     pinions: Literal[1, 2] = 1
     span: Span = _span()
+    sun_bounds: tuple[int, int] | None = None
+    ring_bounds: tuple[int, int] | None = None
     eta0: float | None = None
     """Standing (carrier-fixed) efficiency of the sun-ring train, 0 < eta0 <= 1; ``None``: the
     default of :func:`transgen.powerflow.power_flow`."""
+
+    @property
+    def teeth_known(self) -> bool:
+        return self.n_sun is not None and self.n_ring is not None
 
     @property
     def members(self) -> tuple[str, str, str]:

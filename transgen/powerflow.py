@@ -74,7 +74,7 @@ import numpy as np
 from .equations import assemble, complete_locked, locked_constraints
 from .errors import TransgenError
 from .graph import build_graph, coefficient, link_nodes, transformer_ports
-from .kinematics import analyze, constraint_matrix, null_space, numeric_rank
+from .kinematics import analyze, link_speeds, numeric_rank
 from .model import HOUSING, Mechanism
 
 __all__ = [
@@ -341,24 +341,6 @@ def _transformers(g: nx.DiGraph) -> list[_Transformer]:
     return out
 
 
-def _speeds(g: nx.DiGraph, links: list[str], reps, i_in: int) -> tuple[np.ndarray, np.ndarray]:
-    """Link speeds per unit input speed and which of them the input speed determines."""
-    a = constraint_matrix(g, reps)
-    basis = null_space(a, len(links))
-    row = basis[i_in]
-    free = basis @ null_space(row[None, :], basis.shape[1])
-    # A w = 0 with w_in = 1 by least squares and one refinement step: the speeds to about one
-    # unit in the last place (the SVD basis alone gives some 1e-14)
-    m = np.vstack([a, np.eye(len(links))[i_in]])
-    rhs = np.zeros(m.shape[0])
-    rhs[-1] = 1.0
-    w = np.linalg.lstsq(m, rhs, rcond=None)[0]
-    w += np.linalg.lstsq(m, rhs - m @ w, rcond=None)[0]
-    determined = np.linalg.norm(free, axis=1) <= 1e-9 if free.size else np.ones(len(links), dtype=bool)
-    w[np.abs(w) < 1e-12] = 0.0  # round-off
-    return w, determined
-
-
 class _Gear:
     """The static torque problem of one gear: unknowns ``x = [lambda..., T]`` with the
     locked-group and transformer-port torques ``lambda`` as in :func:`transgen.equations.assemble`
@@ -377,7 +359,10 @@ class _Gear:
         ui = {name: i for i, name in enumerate(eq.u)}
         # the link balances without the accelerations (massless, static); the driven end's torque
         # joins the unknowns
-        self.w, self.determined = _speeds(g, links, tuple(grp.first for grp in self.groups), links.index(mech.input))
+        speeds = link_speeds(mech, tuple(grp.first for grp in self.groups), g)
+        self.determined = np.array([speeds[k] is not None for k in links])
+        # a floating link's speed is undetermined: 0 here, and its sets are lossless (directions 0)
+        self.w = np.array([0.0 if speeds[k] is None or abs(speeds[k]) < 1e-12 else speeds[k] for k in links])
         given, unknown = ("T_out", "T_in") if coast else ("T_in", "T_out")
         value = -np.sign(self.w[links.index(mech.output)]) if coast else 1.0
         self.balance = np.hstack([eq.E[:n, n:], eq.F[:n, [ui[unknown]]]])
@@ -501,12 +486,12 @@ def _gear_flow(mech: Mechanism, g: nx.DiGraph, gear_decl, eta: dict, input_rpm, 
         input_torque, torque_ratio = 1.0, float(x[-1])
     speed = {k: float(w) for k, w in zip(gear.links, gear.w)}
     ratio = 1.0 / speed[mech.output]  # = combo.ratio, more accurately
-    link_speeds = {k: (speed[k] if ok else None) for k, ok in zip(gear.links, gear.determined)}
+    known_speeds = {k: (speed[k] if ok else None) for k, ok in zip(gear.links, gear.determined)}
 
     sets = []
     for t, cols, d, (rel, _) in zip(gear.transformers, gear.port_col, directions, gear.relative):
         torques = {port: float(x[c]) for (_, port, _), c in zip(t.ports, cols)}
-        speeds = {port: (0.0 if link == HOUSING else link_speeds[link]) for link, port, _ in t.ports}
+        speeds = {port: (0.0 if link == HOUSING else known_speeds[link]) for link, port, _ in t.ports}
         powers = {port: (0.0 if torques[port] == 0.0 else torques[port] * (speeds[port] or 0.0)) for port in torques}
         driver = t.a if d > 0 else t.b
         driving = None if d == 0 else t.ports[driver][1]
@@ -525,7 +510,7 @@ def _gear_flow(mech: Mechanism, g: nx.DiGraph, gear_decl, eta: dict, input_rpm, 
         element_torques[grp.label] = t
         first = mech.element(grp.first)
         w = speed[first.link1]
-        if first.kind == "clutch" and link_speeds[first.link1] is not None:
+        if first.kind == "clutch" and known_speeds[first.link1] is not None:
             branches.append(abs(t * w))
         holding = [e for e, sgn in zip(grp.members, grp.signs) if _holds(mech.element(e), sgn * t)]
         if not holding:
@@ -540,8 +525,8 @@ def _gear_flow(mech: Mechanism, g: nx.DiGraph, gear_decl, eta: dict, input_rpm, 
     open_elements = [e for e in mech.elements if e.name not in gear.locked]
     slips = {}
     for e in open_elements:
-        w1 = 0.0 if e.link1 == HOUSING else link_speeds[e.link1]
-        w2 = 0.0 if e.link2 == HOUSING else link_speeds[e.link2]
+        w1 = 0.0 if e.link1 == HOUSING else known_speeds[e.link1]
+        w2 = 0.0 if e.link2 == HOUSING else known_speeds[e.link2]
         slips[e.name] = None if w1 is None or w2 is None else w1 - w2
     slip_rpm, overspeed = None, []
     if input_rpm is not None:
@@ -554,7 +539,7 @@ def _gear_flow(mech: Mechanism, g: nx.DiGraph, gear_decl, eta: dict, input_rpm, 
     efficiency = 1.0 / (torque_ratio * speed[mech.output]) if coast else torque_ratio * speed[mech.output]
     if efficiency <= 0.0:
         warnings.append(f"efficiency {efficiency:.4g} <= 0: the gear self-locks in drive with these efficiencies")
-    return GearFlow(name, tuple(gear_decl.engaged), ratio, torque_ratio, efficiency, link_speeds, element_torques,
+    return GearFlow(name, tuple(gear_decl.engaged), ratio, torque_ratio, efficiency, known_speeds, element_torques,
                     slips, tuple(sets), losses, circulating, iterations, slip_rpm, tuple(overspeed), tuple(warnings),
                     input_torque)
 
