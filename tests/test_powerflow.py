@@ -590,3 +590,12 @@ def test_one_way_clutches_overrun_in_coast():
     flow = power_flow(load_mechanism("mb722_6_w5a580_2004"), coast=True)
     assert any("F1 overruns" in w and "only in drive" in w for w in flow.gear("1").warnings)
     assert not power_flow(load_mechanism("mb722_6_w5a580_2004")).gear("1").warnings
+
+
+def test_unknown_teeth_are_refused():
+    from transgen.language import parse_mechanism as parse
+
+    text = load_mechanism("zf8hp70").text.replace("Ns=23 Nr=85", "Ns=? Nr=?")
+    mech = parse(text, "x.mech", unknown_teeth=True)
+    with pytest.raises(PowerFlowError, match="tooth counts of PS4 are unknown"):
+        power_flow(mech)

@@ -635,6 +635,10 @@ def power_flow(mech: Mechanism, eta0: float | None = None, input_rpm: float | No
     design_torque = _check_number("design_torque", design_torque, 0.0, 1e9)
     safety_factor = _check_number("safety_factor", safety_factor, 0.0, 1e3)
     dynamic_ratio = _check_number("dynamic_ratio", dynamic_ratio, 0.0, 1.0)
+    unknown_teeth = [p.name for p in mech.planetaries if not p.teeth_known]
+    if unknown_teeth:
+        raise PowerFlowError(f"the tooth counts of {', '.join(unknown_teeth)} are unknown: choose them first "
+                             f"('transgen synthesize teeth')")
     eta = _efficiencies(mech, eta0, eta_pair)
     g = build_graph(mech)
     declared = [gr for gr in mech.gears if gr.kind == "gear"]
