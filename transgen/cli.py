@@ -245,6 +245,39 @@ def cmd_std(args) -> int:
     return 0
 
 
+def cmd_powerflow(args) -> int:
+    from .powerflow import UNITS, power_flow
+
+    mech = load_checked(args.file)
+    flow = power_flow(mech, eta0=args.eta0, input_rpm=args.input_rpm, max_slip_rpm=args.max_slip_rpm,
+                      eta_pair=args.eta_pair, design_torque=args.design_torque, safety_factor=args.safety_factor,
+                      dynamic_ratio=args.dynamic_ratio, gears=args.gear, coast=args.coast)
+    for g in flow.gears:
+        for w in g.warnings:
+            warnings.warn(f"gear {g.name}: {w}")
+    if args.json:
+        print_document("transgen.powerflow/1", flow.to_dict(), UNITS)
+        return 0
+    from .powerflow import powerflow_text
+
+    print(powerflow_text(flow))
+    return 0
+
+
+def _number_option(low: float, high: float, low_open: bool = True):
+    """An argparse type: a finite number in ``(low, high]`` (``[low, high]`` when not ``low_open``)."""
+    def read(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+        if not (value > low if low_open else value >= low) or not value <= high:  # also refuses nan
+            raise argparse.ArgumentTypeError(f"must be a finite number in {'(' if low_open else '['}{low:g}, {high:g}], "
+                                             f"not {text}")
+        return value
+    return read
+
+
 def cmd_list(args) -> int:
     from .library import bundled_mechanisms
     from .language import load_mechanism
@@ -333,6 +366,32 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--all", action="store_true", help="all combinations as modes")
     s.add_argument("--json", action="store_true", help="modes and transitions with conditions as JSON")
     s.set_defaults(func=cmd_std)
+
+    s = sub.add_parser("powerflow", help="power flow, efficiency and element torques per gear",
+                       description="For every declared gear: link speeds, slips of the open elements, torques of the "
+                                   "engaged ones, power through every planetary set (circulating power), torque ratio "
+                                   "and efficiency with mesh losses, and a capacity sizing of the shift elements.")
+    s.add_argument("file", metavar="FILE")
+    s.add_argument("--eta0", type=_number_option(0, 1), metavar="X",
+                   help="standing (carrier-fixed) efficiency of the planetary sets without eta0= in the file, "
+                        "and of the gear pairs without eta= unless --eta-pair is given (default 0.98; 1 = lossless)")
+    s.add_argument("--eta-pair", type=_number_option(0, 1), metavar="X",
+                   help="mesh efficiency of the gear pairs without eta= in the file (default: --eta0 if given, else 0.99)")
+    s.add_argument("--input-rpm", type=_number_option(0, 1e7), metavar="N",
+                   help="input speed [rpm]: slips in rpm, over-speed of the open elements")
+    s.add_argument("--max-slip-rpm", type=_number_option(0, 1e7), metavar="N",
+                   help="slip limit [rpm] of the elements without max_slip_rpm= in the file")
+    s.add_argument("--design-torque", type=_number_option(0, 1e9), metavar="N*m",
+                   help="design input torque [N*m] for the capacity sizing")
+    s.add_argument("--safety-factor", type=_number_option(0, 1e3), default=1.4, metavar="X",
+                   help="suggested static capacity over the largest element torque (default 1.4)")
+    s.add_argument("--dynamic-ratio", type=_number_option(0, 1), default=0.85, metavar="X",
+                   help="suggested dynamic over static capacity (default 0.85)")
+    s.add_argument("--gear", action="append", metavar="NAME", help="only this gear (repeatable; default: every gear)")
+    s.add_argument("--coast", action="store_true",
+                   help="coast (overrun, engine braking): the driveline drives the output, the input absorbs")
+    s.add_argument("--json", action="store_true", help="machine-readable output")
+    s.set_defaults(func=cmd_powerflow)
 
     s = sub.add_parser("list", help="list the bundled mechanisms", description="List the bundled mechanisms.")
     s.add_argument("--json", action="store_true", help="machine-readable output")

@@ -16,7 +16,7 @@ def _capacity(x: float):
 
 MECHANISM_UNITS = {"J": "kg*m^2", "static": "N*m", "dynamic": "N*m", "Ns": "1", "Nr": "1",
                    "n1": "1 (by = teeth) or m (by = radius)", "n2": "1 (by = teeth) or m (by = radius)",
-                   "ratio": "1"}
+                   "ratio": "1", "eta0": "1", "eta": "1", "max_slip_rpm": "rpm"}
 """Units of the numeric fields of :func:`mechanism_to_dict` (``static`` None: no limit)."""
 
 MODES_UNITS = {"dof": "1", "kinematic_dof": "1", "combinations": "1", "of": "1", "max_engaged": "1"}
@@ -31,16 +31,17 @@ def mechanism_to_dict(m: Mechanism) -> dict:
         "links": [{"name": k.name, "J": k.inertia} for k in m.links],
         "planetaries": [
             {"name": p.name, "type": "double-pinion" if p.pinions == 2 else "simple", "sun": p.sun, "ring": p.ring,
-             "carrier": p.carrier, "Ns": p.n_sun, "Nr": p.n_ring}
+             "carrier": p.carrier, "Ns": p.n_sun, "Nr": p.n_ring, "eta0": p.eta0}
             for p in m.planetaries
         ],
         "gear_pairs": [
-            {"name": g.name, "link1": g.link1, "link2": g.link2, "by": g.by, "n1": g.n1, "n2": g.n2, "mesh": g.mesh}
+            {"name": g.name, "link1": g.link1, "link2": g.link2, "by": g.by, "n1": g.n1, "n2": g.n2, "mesh": g.mesh, "eta": g.eta}
             for g in m.gear_pairs
         ],
         "elements": [
             {"name": e.name, "kind": e.kind, "links": [e.link1, e.link2], "static": _capacity(e.static),
-             "dynamic": e.dynamic, "free": e.free, "brake_type": e.brake_type}
+             "dynamic": e.dynamic, "free": e.free, "brake_type": e.brake_type,
+             "max_slip_rpm": e.max_slip_rpm}
             for e in m.elements
         ],
         "input": m.input,

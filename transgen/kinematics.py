@@ -339,6 +339,13 @@ def link_speeds(mech: Mechanism, engaged=(), graph: nx.DiGraph | None = None) ->
     if np.linalg.norm(v_in) <= tol:
         raise ValueError(f"{' '.join(engaged) or 'no element'} engaged: the input {mech.input} is held, "
                          f"the link speeds are not proportional to the input speed")
-    w = basis @ (v_in / np.dot(v_in, v_in))  # the least-norm motion with unit input speed
-    held = null_space(np.vstack([a, np.eye(len(links))[i_in]]), len(links))
+    # the least-norm motion with unit input speed: A w = 0, w_in = 1 by least squares with one step
+    # of iterative refinement (to about a unit in the last place; basis @ v_in alone is off by
+    # some 1e-14, which shows e.g. as a direct drive's efficiency 1 - 3e-15)
+    m = np.vstack([a, np.eye(len(links))[i_in]])
+    rhs = np.zeros(m.shape[0])
+    rhs[-1] = 1.0
+    w = np.linalg.lstsq(m, rhs, rcond=None)[0]
+    w += np.linalg.lstsq(m, rhs - m @ w, rcond=None)[0]
+    held = null_space(m, len(links))
     return {name: (None if np.linalg.norm(held[k]) > tol else float(w[k])) for k, name in enumerate(links)}

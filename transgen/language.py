@@ -254,16 +254,20 @@ TEETH = Quantity(1, 100_000, sign=">0", integer=True)
 RADIUS = Quantity(1e-4, 100.0, "m", ">0")
 CAPACITY = Quantity(sys.float_info.min, 1e8, "N*m", ">=0")
 RATIO = Quantity(1e-6, 1e6)
+EFFICIENCY = Quantity(1e-6, 1.0, sign=">0")
+SLIP_SPEED = Quantity(1e-3, 1e6, "rpm", ">0")
 """Ranges of the numbers of a ``.mech`` file (see README, "Numbers")."""
 
 # Allowed parameters per statement: key -> a Quantity, "name" (a link), or a tuple of allowed words.
 _PARAMS: dict[str, dict[str, object]] = {
     "link": {"J": INERTIA},
-    "planetary": {"sun": "name", "ring": "name", "carrier": "name", "Ns": TEETH, "Nr": TEETH, "pinions": ("1", "2")},
-    "gears": {"N1": TEETH, "N2": TEETH, "r1": RADIUS, "r2": RADIUS, "mesh": ("external", "internal")},
-    "clutch": {"static": CAPACITY, "dynamic": CAPACITY},
-    "brake": {"static": CAPACITY, "dynamic": CAPACITY, "type": ("plate", "band")},
-    "oneway": {"free": ("positive", "negative")},
+    "planetary": {"sun": "name", "ring": "name", "carrier": "name", "Ns": TEETH, "Nr": TEETH, "pinions": ("1", "2"),
+                  "eta0": EFFICIENCY},
+    "gears": {"N1": TEETH, "N2": TEETH, "r1": RADIUS, "r2": RADIUS, "mesh": ("external", "internal"),
+              "eta": EFFICIENCY},
+    "clutch": {"static": CAPACITY, "dynamic": CAPACITY, "max_slip_rpm": SLIP_SPEED},
+    "brake": {"static": CAPACITY, "dynamic": CAPACITY, "type": ("plate", "band"), "max_slip_rpm": SLIP_SPEED},
+    "oneway": {"free": ("positive", "negative"), "max_slip_rpm": SLIP_SPEED},
     "gear": {"ratio": RATIO},
 }
 _REQUIRED: dict[str, tuple[str, ...]] = {
@@ -452,11 +456,12 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str,
             if bounds and "Ns" in params and "Nr" in params and ok and None not in members and len(set(texts)) == 3:
                 planetaries.append(Planetary(name.text, texts[0], texts[1], texts[2], ns, nr,
                                              int(params.get("pinions", "1")), name.span,
-                                             bounds.get("Ns"), bounds.get("Nr")))
+                                             bounds.get("Ns"), bounds.get("Nr"), eta0=params.get("eta0")))
             if ns is not None and nr is not None and nr <= ns:
                 report.error(stmt.params["Nr"][0].span, f"planetary {name.text}: ring teeth Nr={nr} must exceed sun teeth Ns={ns}")
             if ok and None not in members and ns is not None and nr is not None and len(set(texts)) == 3 and nr > ns:
-                planetaries.append(Planetary(name.text, texts[0], texts[1], texts[2], ns, nr, int(params.get("pinions", "1")), name.span))
+                planetaries.append(Planetary(name.text, texts[0], texts[1], texts[2], ns, nr, int(params.get("pinions", "1")), name.span,
+                                             eta0=params.get("eta0")))
         elif kw == "gears":
             name, w1, w2 = words
             ok = declare(name, "gear pair")
@@ -479,7 +484,8 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str,
                     ok = False
             if ok and all(k in params for k in keys):
                 pairs.append(GearPair(name.text, w1.text, w2.text, params[keys[0]], params[keys[1]],
-                                      "teeth" if by_teeth else "radius", params.get("mesh", "external"), name.span))
+                                      "teeth" if by_teeth else "radius", params.get("mesh", "external"), name.span,
+                                      params.get("eta")))
         elif kw in ("clutch", "brake", "oneway"):
             name = words[0]
             ok = declare(name, kw if kw != "oneway" else "one-way clutch")
@@ -500,7 +506,8 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str,
                         report.error(stmt.params["dynamic"][0].span,
                                      f"{kw} {name.text}: dynamic capacity {dynamic:g} N*m exceeds static capacity {static:g} N*m")
                 elements.append(ShiftElement(name.text, kw, w1.text, w2.text, static, dynamic,
-                                             params.get("free"), params.get("type"), name.span))
+                                             params.get("free"), params.get("type"), name.span,
+                                             params.get("max_slip_rpm")))
         elif kw == "input":
             inputs.append(words[0])
             link_refs.append((words[0], False))
@@ -648,6 +655,11 @@ def _number(x: float) -> str:
     return repr(float(x))  # shortest text that reads back as the same float
 
 
+def _optional(key: str, value: float | None) -> str:
+    """`` key=value`` for an optional number that is given, else ``""``."""
+    return "" if value is None else f" {key}={_number(value)}"
+
+
 def _teeth_text(n: int | None, bounds: tuple[int, int] | None) -> str:
     return str(n) if n is not None else ("?" if bounds is None else f"{bounds[0]}..{bounds[1]}")
 
@@ -659,19 +671,21 @@ def format_mechanism(m: Mechanism) -> str:
     for p in m.planetaries:
         pin = " pinions=2" if p.pinions == 2 else ""
         ns, nr = (_teeth_text(n, b) for n, b in ((p.n_sun, p.sun_bounds), (p.n_ring, p.ring_bounds)))
-        out.append(f"planetary {p.name} sun={p.sun} ring={p.ring} carrier={p.carrier} Ns={ns} Nr={nr}{pin}")
+        out.append(f"planetary {p.name} sun={p.sun} ring={p.ring} carrier={p.carrier} Ns={ns} Nr={nr}{pin}"
+                   + _optional("eta0", p.eta0))
     for g in m.gear_pairs:
         k1, k2 = ("N1", "N2") if g.by == "teeth" else ("r1", "r2")
         v1, v2 = (int(g.n1), int(g.n2)) if g.by == "teeth" else (_number(g.n1), _number(g.n2))
-        out.append(f"gears {g.name} {g.link1} {g.link2} {k1}={v1} {k2}={v2} mesh={g.mesh}")
+        out.append(f"gears {g.name} {g.link1} {g.link2} {k1}={v1} {k2}={v2} mesh={g.mesh}" + _optional("eta", g.eta))
     for e in m.elements:
+        slip = _optional("max_slip_rpm", e.max_slip_rpm)
         if e.kind == "clutch":
-            out.append(f"clutch {e.name} {e.link1} {e.link2} static={_number(e.static)} dynamic={_number(e.dynamic)}")
+            out.append(f"clutch {e.name} {e.link1} {e.link2} static={_number(e.static)} dynamic={_number(e.dynamic)}{slip}")
         elif e.kind == "brake":
             typ = f" type={e.brake_type}" if e.brake_type else ""
-            out.append(f"brake {e.name} {e.link1} static={_number(e.static)} dynamic={_number(e.dynamic)}{typ}")
+            out.append(f"brake {e.name} {e.link1} static={_number(e.static)} dynamic={_number(e.dynamic)}{typ}{slip}")
         else:
-            out.append(f"oneway {e.name} {e.link1} {e.link2} free={e.free}")
+            out.append(f"oneway {e.name} {e.link1} {e.link2} free={e.free}{slip}")
     out += [f"input {m.input}", f"output {m.output}"]
     out += [f"torque {t.name} {t.link}" for t in m.loads]
     for g in m.gears:

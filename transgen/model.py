@@ -81,6 +81,9 @@ class Planetary:
     span: Span = _span()
     sun_bounds: tuple[int, int] | None = None
     ring_bounds: tuple[int, int] | None = None
+    eta0: float | None = None
+    """Standing (carrier-fixed) efficiency of the sun-ring train, 0 < eta0 <= 1; ``None``: the
+    default of :func:`transgen.powerflow.power_flow`."""
 
     @property
     def teeth_known(self) -> bool:
@@ -109,6 +112,8 @@ class GearPair:
     by: Literal["teeth", "radius"] = "teeth"
     mesh: Literal["external", "internal"] = "external"
     span: Span = _span()
+    eta: float | None = None
+    """Mesh efficiency, 0 < eta <= 1; ``None``: the default of :func:`transgen.powerflow.power_flow`."""
 
     @property
     def sign(self) -> int:
@@ -135,6 +140,9 @@ class ShiftElement:
     free: Literal["positive", "negative"] | None = None
     brake_type: Literal["plate", "band"] | None = None
     span: Span = _span()
+    max_slip_rpm: float | None = None
+    """Highest admissible slip speed while open [rpm] (``None``: no limit given); see
+    :func:`transgen.powerflow.power_flow`."""
 
     @property
     def links(self) -> tuple[str, str]:

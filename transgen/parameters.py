@@ -21,6 +21,9 @@ __all__ = ["mechanism_parameters", "with_parameter", "ParameterError"]
 # .mech parameter -> field of the model object, per statement keyword (the names are _PARAMS')
 _FIELDS = {"J": "inertia", "Ns": "n_sun", "Nr": "n_ring", "pinions": "pinions", "N1": "n1", "N2": "n2", "r1": "n1",
            "r2": "n2", "mesh": "mesh", "static": "static", "dynamic": "dynamic", "type": "brake_type", "free": "free"}
+POWER_FLOW_ONLY = frozenset({"eta0", "eta", "max_slip_rpm"})
+"""Parameters that only ``transgen powerflow`` reads (the simulator has no mesh losses or slip
+limits): not settable here, so that a study cannot vary something without effect."""
 
 
 class ParameterError(ValueError):
@@ -42,7 +45,7 @@ def _statements(m: Mechanism):
 def _params(keyword: str, obj) -> dict:
     """The settable parameters of a statement: its keyword's numbers and words (not link names),
     a gear pair's sizes as it gives them (teeth or radii)."""
-    allowed = {k: v for k, v in _PARAMS[keyword].items() if v != "name"}
+    allowed = {k: v for k, v in _PARAMS[keyword].items() if v != "name" and k not in POWER_FLOW_ONLY}
     if isinstance(obj, GearPair):
         drop = ("r1", "r2") if obj.by == "teeth" else ("N1", "N2")
         allowed = {k: v for k, v in allowed.items() if k not in drop}
@@ -74,6 +77,9 @@ def with_parameter(m: Mechanism, name: str, key: str, value) -> Mechanism:
                              + (f"; did you mean '{close[0]}'?" if close else f" (names: {', '.join(found)})"))
     keyword, obj = found[name]
     allowed = _params(keyword, obj)
+    if key in POWER_FLOW_ONLY and key in _PARAMS[keyword]:
+        raise ParameterError(f"{keyword} {name}: {key} is read by 'transgen powerflow' only (the simulator has no "
+                             f"mesh losses or slip limits); write it in the .mech file")
     if key not in allowed:
         close = _closest(key, allowed)
         raise ParameterError(f"{keyword} {name} has no parameter '{key}'" + (f"; did you mean '{close[0]}'?" if close else "")
