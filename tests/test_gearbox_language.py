@@ -38,3 +38,78 @@ def test_ratios_table_names_the_floating_members(tmp_path, capsys):
     assert "floating" in out.splitlines()[2]
     row = [line for line in out.splitlines() if line.strip().startswith("1 ")][0]
     assert row.rstrip().endswith("X")
+
+
+# --- published ratios: truncated, toleranced; a mismatch is a finding of `ratios` -------------
+
+TRUNC = FLOAT + "brake BA A static=10 dynamic=8\n"
+
+
+def _rows(extra: str):
+    m = parse_mechanism(TRUNC + extra, "t.mech")
+    return m, gear_table(m, all_combinations=False).gears
+
+
+def test_truncated_published_ratio_is_cut_toward_zero():
+    # computed -2 exactly; a truncated 3-decimal print of 1.49781 is 1.497
+    m, rows = _rows("gear 1 = BY ratio=-2.000 rounding=truncated\ngear 2 = BY ratio=-1.998 rounding=truncated\n"
+                    "gear 3 = BY ratio=-2.001 rounding=truncated\ngear 4 = BY ratio=-2.0000\n")
+    assert [r.matches_published for r in rows] == [True, False, False, True]
+    assert rows[0].published_range == pytest.approx((-2.001, -2.0))
+    assert [d.line for d in check_gears(m)] == [TRUNC.count("\n") + 2, TRUNC.count("\n") + 3]
+
+
+def test_truncation_of_a_positive_ratio():
+    text = FLOAT.replace("N1=20 N2=40", "N1=20000 N2=29956") + "gear 1 = BY ratio=-1.497 rounding=truncated\n"
+    row = gear_table(parse_mechanism(text), all_combinations=False).gears[0]
+    assert row.ratio == pytest.approx(-1.4978) and row.matches_published is True
+    rounded = text.replace(" rounding=truncated", "")
+    assert gear_table(parse_mechanism(rounded), all_combinations=False).gears[0].matches_published is False
+
+
+def test_explicit_tolerance():
+    m, rows = _rows("gear 1 = BY ratio=-2.01 tol=0.01\ngear 2 = BY ratio=-2.01 tol=0.009\n")
+    assert [r.matches_published for r in rows] == [True, False]
+    assert "tol=0.009" in check_gears(m)[0].message
+
+
+@pytest.mark.parametrize("extra, message", [
+    ("gear 1 = BY tol=0.1", "give ratio=... too"),
+    ("gear 1 = BY ratio=2 tol=0.1 rounding=truncated", "not both"),
+    ("gear 1 = BY ratio=2 rounding=down", "rounding must be one of nearest, truncated"),
+    ("gear 1 = BY ratio=2 tol=-0.1", "tol must be positive"),
+    ("gear 1 = BY ratio=2 tol=nan", "NaN"),
+])
+def test_bad_tolerances_are_located_errors(extra, message):
+    from transgen.errors import MechValidationError
+
+    with pytest.raises(MechValidationError) as exc:
+        parse_mechanism(TRUNC + extra + "\n")
+    assert message in str(exc.value)
+
+
+def test_tolerances_round_trip_through_format():
+    m = parse_mechanism(TRUNC + "gear 1 = BY ratio=-2.000 rounding=truncated\ngear 2 = BY ratio=-2.01 tol=0.01\n")
+    assert parse_mechanism(format_mechanism(m)) == m
+
+
+def test_ratios_reports_a_mismatch_with_the_table_and_exit_1(tmp_path, capsys):
+    path = _write(tmp_path, TRUNC + "gear 1 = BY ratio=-2.1\ngear 2 = BY ratio=-2\n")
+    assert main(["ratios", path]) == 1
+    out = capsys.readouterr().out
+    assert "MISMATCH" in out and "-2 ok" in out and "all " in out  # table and combinations printed
+    assert f"{path}:{TRUNC.count(chr(10)) + 1}:6: warning: gear 1: computed ratio -2" in out
+    assert main(["ratios", path, "--json"]) == 1
+    data = json.loads(capsys.readouterr().out)
+    assert [g["matches_published"] for g in data["gears"]] == [False, True]
+    assert len(data["findings"]) == 1 and data["findings"][0]["line"] == TRUNC.count("\n") + 1
+    from transgen.schemas import validate
+    validate(data)
+    # check still refuses the file (exit 2): a published ratio that does not hold is an error there
+    assert main(["check", path]) == 2
+    assert "error: gear 1: computed ratio -2 does not match the declared ratio=-2.1" in capsys.readouterr().err
+
+
+def test_ratios_exit_0_without_mismatch(tmp_path, capsys):
+    assert main(["ratios", _write(tmp_path, TRUNC + "gear 1 = BY ratio=-2\n"), "--gears-only"]) == 0
+    assert "published ratio" not in capsys.readouterr().out

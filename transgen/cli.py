@@ -63,27 +63,46 @@ def cmd_check(args) -> int:
 
 
 def cmd_ratios(args) -> int:
-    from .kinematics import gear_table
+    """Exit 1 when a declared ``ratio=`` is not reproduced (the table is printed in full and each
+    mismatch reported as a finding); 2 for bad input, including gears that tie up."""
+    import dataclasses
 
-    mech = load_checked(args.file)
+    from .kinematics import check_gears, gear_table, published_findings
+    from .language import load_mechanism
+
+    mech = load_mechanism(args.file)
+    problems = check_gears(mech, published=False)
+    if problems:
+        raise MechValidationError(problems)
     table = gear_table(mech, all_combinations=not args.gears_only)
+    findings = [dataclasses.replace(d, severity="warning") for d in published_findings(mech, table)]
+    status = 1 if findings else 0
     if args.json:
-        print_document("transgen.ratios/1", table.to_dict(), table.UNITS)
-        return 0
+        data = table.to_dict()
+        data["findings"] = [{"line": d.line, "column": d.column, "message": d.message} for d in findings]
+        print_document("transgen.ratios/1", data, table.UNITS)
+        return status
     print(f"{mech.name}: input {mech.input}, output {mech.output} (ratio = input speed / output speed)")
     print()
     print(f"  {'gear':>6}  {'engaged':<16} {'DOF':>3}  {'ratio':>9}  {'step':>6}  {'published':<16} floating")
     for row in table.gears:
         step = f"{row.step:.3f}" if row.step else ""
-        pub = (row.published + (" ok" if row.matches_published else " MISMATCH")) if row.published else ""
+        pub = ""
+        if row.published:
+            how = f"~{row.tolerance}" if row.tolerance else (" trunc" if row.rounding == "truncated" else "")
+            pub = f"{row.published}{how} " + ("ok" if row.matches_published else "MISMATCH")
         name = row.name if row.kind == "gear" else f"{row.name} (N)"
         floating = ", ".join(row.combination.floating) if row.kind == "gear" else ""
         print(f"  {name:>6}  {' '.join(row.engaged):<16} {row.dof:>3}  {_fmt_ratio(row.ratio):>9}  {step:>6}  "
               f"{pub:<16} {floating}".rstrip())
     if table.spread:
         print(f"\n  overall spread {table.spread:.3f}")
+    if findings:
+        print(f"\n  {len(findings)} published ratio(s) not reproduced:")
+        for d in findings:
+            print("  " + d.format().replace("\n", "\n  "))
     if args.gears_only:
-        return 0
+        return status
     declared = {frozenset(r.engaged) for r in table.gears}
     print(f"\n  all {len(table.combinations)} combinations of engaged elements (* = declared):")
     print(f"  {'engaged':<24} {'DOF':>3}  {'ratio':>9}  kind")
@@ -92,7 +111,7 @@ def cmd_ratios(args) -> int:
         kind = c.kind + (f" ({c.detail})" if c.detail else "") + (
             f" (floating: {', '.join(c.floating)})" if c.floating else "")
         print(f" {mark}{' '.join(c.engaged) or '(none)':<24} {c.dof:>3}  {_fmt_ratio(c.ratio):>9}  {kind}")
-    return 0
+    return status
 
 
 def cmd_graph(args) -> int:

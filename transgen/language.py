@@ -254,6 +254,7 @@ TEETH = Quantity(1, 100_000, sign=">0", integer=True)
 RADIUS = Quantity(1e-4, 100.0, "m", ">0")
 CAPACITY = Quantity(sys.float_info.min, 1e8, "N*m", ">=0")
 RATIO = Quantity(1e-6, 1e6)
+RATIO_TOL = Quantity(1e-12, 1e6, sign=">0")
 """Ranges of the numbers of a ``.mech`` file (see README, "Numbers")."""
 
 # Allowed parameters per statement: key -> a Quantity, "name" (a link), or a tuple of allowed words.
@@ -264,7 +265,7 @@ _PARAMS: dict[str, dict[str, object]] = {
     "clutch": {"static": CAPACITY, "dynamic": CAPACITY},
     "brake": {"static": CAPACITY, "dynamic": CAPACITY, "type": ("plate", "band")},
     "oneway": {"free": ("positive", "negative")},
-    "gear": {"ratio": RATIO},
+    "gear": {"ratio": RATIO, "tol": RATIO_TOL, "rounding": ("nearest", "truncated")},
 }
 _REQUIRED: dict[str, tuple[str, ...]] = {
     "link": ("J",),
@@ -352,7 +353,7 @@ def _check_params(stmt: _Statement, report: _Reporter) -> dict[str, object]:
             if isinstance(number, str):
                 report.error(word.span, number)
                 continue
-            values[key] = word.text if stmt.keyword == "gear" and key == "ratio" else number
+            values[key] = word.text if stmt.keyword == "gear" and key in ("ratio", "tol") else number
     for key in _REQUIRED.get(stmt.keyword, ()):
         if key not in stmt.params:
             report.error(stmt.span, f"'{stmt.keyword}' needs {key}=...")
@@ -487,7 +488,14 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str) -> 
             else:
                 if not engaged:  # pragma: no cover - the grammar needs one element
                     report.error(name.span, f"{kw} {name.text} engages no element")
-                gears.append(Gear(name.text, tuple(dict.fromkeys(engaged)), kw, params.get("ratio"), name.span))
+                for key in ("tol", "rounding"):
+                    if key in stmt.params and "ratio" not in stmt.params:
+                        report.error(stmt.params[key + "@key"][0].span, f"{key}= says how ratio= is compared: give ratio=... too")
+                if "tol" in stmt.params and "rounding" in stmt.params:
+                    report.error(stmt.params["rounding@key"][0].span,
+                                 "give tol= (an explicit tolerance) or rounding= (how the ratio was printed), not both")
+                gears.append(Gear(name.text, tuple(dict.fromkeys(engaged)), kw, params.get("ratio"), name.span,
+                                  params.get("tol"), params.get("rounding", "nearest")))
         elif kw == "coordinates":
             if coordinates:
                 report.error(stmt.span, "coordinates are given twice")
@@ -625,6 +633,8 @@ def format_mechanism(m: Mechanism) -> str:
     out += [f"torque {t.name} {t.link}" for t in m.loads]
     for g in m.gears:
         ratio = f" ratio={g.ratio}" if g.ratio is not None else ""
+        ratio += f" tol={g.tolerance}" if g.tolerance is not None else ""
+        ratio += " rounding=truncated" if g.rounding == "truncated" else ""
         out.append(f"{g.kind} {g.name} = {' '.join(g.engaged)}{ratio}")
     for d in m.modes:
         out.append(f"mode {d.name} = {' '.join(d.locked) or 'none'}")

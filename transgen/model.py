@@ -155,7 +155,11 @@ class Gear:
     """A row of the gear table: a named gear (or neutral) and its engaged shift elements.
 
     ``ratio`` is the published input/output speed ratio as written in the file (a string, so
-    that its precision is known), or ``None``.
+    that its precision is known), or ``None``. How it is compared with the computed ratio:
+    ``tolerance`` (``tol=``, an absolute tolerance, as written) when given, else ``rounding``:
+    ``"nearest"`` (the computed ratio rounds to it at its printed precision: within half a unit
+    of its last digit) or ``"truncated"`` (the computed ratio, cut toward zero after its printed
+    digits, gives it: ``|pub| <= |computed| < |pub| + one unit of the last digit``).
     """
 
     name: str
@@ -163,6 +167,8 @@ class Gear:
     kind: Literal["gear", "neutral"] = "gear"
     ratio: str | None = None
     span: Span = _span()
+    tolerance: str | None = None
+    rounding: Literal["nearest", "truncated"] = "nearest"
 
 
 @dataclass(frozen=True)
