@@ -113,3 +113,72 @@ def test_ratios_reports_a_mismatch_with_the_table_and_exit_1(tmp_path, capsys):
 def test_ratios_exit_0_without_mismatch(tmp_path, capsys):
     assert main(["ratios", _write(tmp_path, TRUNC + "gear 1 = BY ratio=-2\n"), "--gears-only"]) == 0
     assert "published ratio" not in capsys.readouterr().out
+
+
+# --- alternative gears -------------------------------------------------------------------------
+
+SIMPSON = """\
+link IN  J=0.10
+link S   J=0.02
+link Rf  J=0.03
+link OUT J=0.20
+link Cr  J=0.04
+planetary front sun=S ring=Rf  carrier=OUT Ns=35 Nr=73
+planetary rear  sun=S ring=OUT carrier=Cr  Ns=35 Nr=73
+clutch FWD IN Rf static=900 dynamic=760
+clutch DIR IN S  static=900 dynamic=760
+brake  B2  S  static=700 dynamic=600 type=band
+brake  BLR Cr static=1500 dynamic=1300
+input IN
+output OUT
+gear 1 = FWD BLR
+gear 2 = FWD B2
+gear 3 = FWD DIR
+gear R = DIR BLR
+"""
+
+
+def test_an_alternative_gear_after_top_gets_no_step_and_no_speed_phase():
+    from transgen.modes import select_modes
+
+    # first gear declared only as the alternative (manual) low, after top gear
+    text = SIMPSON.replace("gear 1 = FWD BLR\n", "") + "gear L = FWD BLR alternative\n"
+    m = parse_mechanism(text)
+    assert [g.alternative for g in m.gears] == [False, False, False, True]
+    table = gear_table(m, all_combinations=False)
+    steps = {r.name: r.step for r in table.gears}
+    assert steps["L"] is None and steps["3"] is None and steps["2"] == pytest.approx(table.gears[0].ratio)
+    assert table.spread == pytest.approx(table.gears[0].ratio)  # 2 over 3 (= 1): L is left out
+    labels = [mode.label for mode in select_modes(m, "default")]
+    assert not any("L" in label.split("speed phase")[-1] for label in labels if "speed phase" in label)
+    assert "alternative gear L" in labels
+    # without the mark, the gear declared after top gear gets a step and a spurious speed phase
+    unmarked = parse_mechanism(text.replace(" alternative", ""))
+    labels = [mode.label for mode in select_modes(unmarked, "default")]
+    assert any("3-L" in label for label in labels)
+
+
+def test_alternative_is_shown_and_round_trips(tmp_path, capsys):
+    text = SIMPSON + "gear L = FWD BLR alternative ratio=2.479\n"
+    m = parse_mechanism(text)
+    assert parse_mechanism(format_mechanism(m)) == m
+    assert main(["ratios", _write(tmp_path, text), "--gears-only"]) == 0
+    out = capsys.readouterr().out
+    assert "L (alt)" in out and "alternative gear" in out
+    assert main(["ratios", _write(tmp_path, text), "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert [g["alternative"] for g in data["gears"]] == [False, False, False, False, True]
+
+
+@pytest.mark.parametrize("extra, message", [
+    ("gear L = FWD alternative alternative", "'alternative' is given twice"),
+    ("neutral N = FWD alternative", "marks a gear row"),
+    ("gear L = alternative", "engages no element"),
+    ("clutch alternative IN OUT static=1 dynamic=1", "reserved word"),
+])
+def test_alternative_misuse(extra, message):
+    from transgen.errors import MechValidationError
+
+    with pytest.raises(MechValidationError) as exc:
+        parse_mechanism(SIMPSON + extra + "\n")
+    assert message in str(exc.value)

@@ -58,6 +58,7 @@ def cmd_check(args) -> int:
         note = ""
         if row.combination.floating:
             note = f"  (floating: {', '.join(row.combination.floating)})"
+        note += "  (alternative)" if row.alternative else ""
         print(f"  {row.kind} {row.name:>4}: {' '.join(row.engaged):<14} ratio {_fmt_ratio(row.ratio)}{note}")
     return 0
 
@@ -92,11 +93,14 @@ def cmd_ratios(args) -> int:
             how = f"~{row.tolerance}" if row.tolerance else (" trunc" if row.rounding == "truncated" else "")
             pub = f"{row.published}{how} " + ("ok" if row.matches_published else "MISMATCH")
         name = row.name if row.kind == "gear" else f"{row.name} (N)"
+        name += " (alt)" if row.alternative else ""
         floating = ", ".join(row.combination.floating) if row.kind == "gear" else ""
         print(f"  {name:>6}  {' '.join(row.engaged):<16} {row.dof:>3}  {_fmt_ratio(row.ratio):>9}  {step:>6}  "
               f"{pub:<16} {floating}".rstrip())
     if table.spread:
         print(f"\n  overall spread {table.spread:.3f}")
+    if any(row.alternative for row in table.gears):
+        print("  (alt): alternative gear, outside the step sequence, the spread and the default speed phases")
     if findings:
         print(f"\n  {len(findings)} published ratio(s) not reproduced:")
         for d in findings:

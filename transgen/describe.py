@@ -47,7 +47,7 @@ def mechanism_to_dict(m: Mechanism) -> dict:
         "output": m.output,
         "torques": [{"name": t.name, "link": t.link, "role": t.role} for t in m.torques],
         "gears": [{"name": g.name, "kind": g.kind, "engaged": list(g.engaged), "ratio": g.ratio,
-                   "tol": g.tolerance, "rounding": g.rounding} for g in m.gears],
+                   "tol": g.tolerance, "rounding": g.rounding, "alternative": g.alternative} for g in m.gears],
         "modes": [{"name": d.name, "locked": list(d.locked)} for d in m.modes],
         "coordinates": list(m.coordinates),
     }

@@ -214,7 +214,7 @@ class GearRow:
     """A declared gear (or neutral) with its computed kinematics.
 
     ``step`` is this gear's ratio over the next forward gear's (``None`` for the last one and for
-    reverse gears and neutrals); ``published`` is the ratio written in the file, compared with
+    reverse gears, alternative gears and neutrals); ``published`` is the ratio written in the file, compared with
     ``tolerance`` (``tol=``) or by ``rounding`` (see :class:`~transgen.model.Gear`).
     """
 
@@ -226,6 +226,7 @@ class GearRow:
     published: str | None = None
     tolerance: str | None = None
     rounding: str = "nearest"
+    alternative: bool = False
 
     @property
     def dof(self) -> int:
@@ -278,8 +279,9 @@ class GearTable:
 
     @property
     def spread(self) -> float | None:
-        """Overall spread: lowest over highest forward ratio."""
-        forward = [r.ratio for r in self.gears if r.kind == "gear" and r.ratio is not None and r.ratio > 0]
+        """Overall spread: lowest over highest forward ratio (alternative gears left out)."""
+        forward = [r.ratio for r in self.gears if r.kind == "gear" and not r.alternative and r.ratio is not None
+                   and r.ratio > 0]
         return max(forward) / min(forward) if len(forward) >= 2 else None
 
     UNITS = {"ratio": "1", "step": "1", "spread": "1", "dof": "1", "published": "1", "published_range": "1"}
@@ -295,7 +297,7 @@ class GearTable:
             "gears": [
                 {"name": r.name, "kind": r.kind, "engaged": list(r.engaged), "dof": r.dof, "ratio": r.ratio,
                  "step": r.step, "published": r.published, "floating": list(r.combination.floating),
-                 "matches_published": r.matches_published, "published_range": list(r.published_range or []) or None}
+                 "alternative": r.alternative, "matches_published": r.matches_published, "published_range": list(r.published_range or []) or None}
                 for r in self.gears
             ],
             "spread": self.spread,
@@ -311,9 +313,10 @@ def gear_table(mech: Mechanism, all_combinations: bool = True) -> GearTable:
     """Analyse the declared gears and (optionally) every combination of engaged elements."""
     g = build_graph(mech)
     rows = [GearRow(gear.name, gear.kind, gear.engaged, analyze(mech, gear.engaged, g), None, gear.ratio,
-                    gear.tolerance, gear.rounding)
+                    gear.tolerance, gear.rounding, gear.alternative)
             for gear in mech.gears]
-    forward = [i for i, r in enumerate(rows) if r.kind == "gear" and r.ratio is not None and r.ratio > 0]
+    forward = [i for i, (r, gear) in enumerate(zip(rows, mech.gears))
+               if r.kind == "gear" and not gear.alternative and r.ratio is not None and r.ratio > 0]
     for i, j in zip(forward, forward[1:]):
         rows[i] = dataclasses.replace(rows[i], step=rows[i].ratio / rows[j].ratio)
     combos = tuple(combinations(mech)) if all_combinations else ()

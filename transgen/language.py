@@ -46,10 +46,14 @@ from .model import (
 
 __all__ = ["parse_mechanism", "load_mechanism", "parse_tree", "grammar_text", "format_mechanism"]
 
+ALTERNATIVE = "alternative"
+"""The word that marks a gear row as an alternative gear (``gear L = K1 B3 alternative``)."""
+
 RESERVED = frozenset(
     {
         "transmission", "link", "planetary", "gears", "clutch", "brake", "oneway", "input",
         "output", "torque", "gear", "neutral", "mode", "coordinates", "none", HOUSING,
+        ALTERNATIVE,
         "T_in", "T_out",  # the input and output torques of every mechanism
     }
 )
@@ -476,6 +480,11 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str) -> 
         elif kw in ("gear", "neutral", "mode"):
             name = words[0]
             table = modes if kw == "mode" else gears
+            flags = [w for w in stmt.elements if w.text == ALTERNATIVE]
+            stmt.elements = [w for w in stmt.elements if w.text != ALTERNATIVE]
+            for w in flags[(1 if kw == "gear" else 0):]:
+                report.error(w.span, f"'{ALTERNATIVE}' marks a gear row ('gear NAME = ELEM ... {ALTERNATIVE}')"
+                             if kw != "gear" else f"'{ALTERNATIVE}' is given twice")
             if any(g.name == name.text for g in table):
                 report.error(name.span, f"duplicate {kw} name '{name.text}'")
             engaged = [w.text for w in stmt.elements]
@@ -486,7 +495,7 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str) -> 
             if kw == "mode":
                 modes.append(ModeDecl(name.text, tuple(dict.fromkeys(engaged)), name.span))
             else:
-                if not engaged:  # pragma: no cover - the grammar needs one element
+                if not engaged:  # the grammar needs one word: only 'gear L = alternative' comes here
                     report.error(name.span, f"{kw} {name.text} engages no element")
                 for key in ("tol", "rounding"):
                     if key in stmt.params and "ratio" not in stmt.params:
@@ -495,7 +504,7 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str) -> 
                     report.error(stmt.params["rounding@key"][0].span,
                                  "give tol= (an explicit tolerance) or rounding= (how the ratio was printed), not both")
                 gears.append(Gear(name.text, tuple(dict.fromkeys(engaged)), kw, params.get("ratio"), name.span,
-                                  params.get("tol"), params.get("rounding", "nearest")))
+                                  params.get("tol"), params.get("rounding", "nearest"), bool(flags)))
         elif kw == "coordinates":
             if coordinates:
                 report.error(stmt.span, "coordinates are given twice")
@@ -635,6 +644,7 @@ def format_mechanism(m: Mechanism) -> str:
         ratio = f" ratio={g.ratio}" if g.ratio is not None else ""
         ratio += f" tol={g.tolerance}" if g.tolerance is not None else ""
         ratio += " rounding=truncated" if g.rounding == "truncated" else ""
+        ratio += f" {ALTERNATIVE}" if g.alternative else ""
         out.append(f"{g.kind} {g.name} = {' '.join(g.engaged)}{ratio}")
     for d in m.modes:
         out.append(f"mode {d.name} = {' '.join(d.locked) or 'none'}")

@@ -169,6 +169,9 @@ class Gear:
     span: Span = _span()
     tolerance: str | None = None
     rounding: Literal["nearest", "truncated"] = "nearest"
+    alternative: bool = False
+    """An alternative gear (a manual low, a second reverse, a 10-speed's extra ratio): in the
+    table, but outside the step sequence, the spread and the default speed-phase modes."""
 
 
 @dataclass(frozen=True)

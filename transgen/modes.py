@@ -7,7 +7,8 @@ torque is an input. :func:`select_modes` chooses which modes to model:
 * ``"default"``: the declared forward gears, then the one-element-less modes a single-swap shift
   between consecutive forward gears passes through (the speed phase), then the neutrals
   (declared with ``neutral``, or else the elements shared by the first gear and a reverse gear),
-  then the reverse gears — for the HT-740 exactly the thesis' seven modes M1-M7;
+  then the reverse gears, then the alternative gears (``gear L = ... alternative``: no speed
+  phase) — for the HT-740 exactly the thesis' seven modes M1-M7;
 * ``"declared"``: the ``mode`` statements of the file (the default when there are any);
 * ``"all"``: every combination of locked elements (also the default of a mechanism without a
   gear table, such as a benchmark chain of clutches).
@@ -126,12 +127,15 @@ def select_modes(mech: Mechanism, which: str = "auto") -> list[Mode]:
         raise ValueError(f"unknown mode selection {which!r}")
     if not any(g.kind == "gear" for g in mech.gears):
         return select_modes(mech, "all")  # no gear table: nothing to choose from
-    forward, reverse = [], []
+    forward, reverse, alternative = [], [], []
     for gear in mech.gears:
         if gear.kind != "gear":
             continue
         ratio = analyze(mech, gear.engaged, g).ratio
-        (reverse if ratio is not None and ratio < 0 else forward).append(gear)
+        if gear.alternative:
+            alternative.append(gear)
+        else:
+            (reverse if ratio is not None and ratio < 0 else forward).append(gear)
     chosen: list[tuple[str, tuple[str, ...]]] = [(f"gear {gear.name}", gear.engaged) for gear in forward]
     for a, b in zip(forward, forward[1:]):
         common = _one_swap_common(a.engaged, b.engaged)
@@ -145,6 +149,7 @@ def select_modes(mech: Mechanism, which: str = "auto") -> list[Mode]:
                 neutrals.append((f"neutral {forward[0].name}-{r.name}", common))
     chosen += neutrals
     chosen += [(f"reverse {gear.name}", gear.engaged) for gear in reverse]
+    chosen += [(f"alternative gear {gear.name}", gear.engaged) for gear in alternative]
     labels: dict[frozenset, list[str]] = {}
     order: list[tuple[str, ...]] = []
     for label, locked in chosen:
