@@ -182,3 +182,70 @@ def test_alternative_misuse(extra, message):
     with pytest.raises(MechValidationError) as exc:
         parse_mechanism(SIMPSON + extra + "\n")
     assert message in str(exc.value)
+
+
+# --- one-way clutch direction under drive ------------------------------------------------------
+
+ZF3HP22 = SIMPSON.replace("input IN", "oneway OWC Cr free=positive\ninput IN").replace(
+    "gear 1 = FWD BLR", "gear 1 = FWD OWC").replace("gear R = DIR BLR", "gear R = DIR BLR")
+
+
+def test_drive_torques_of_a_simpson_first_gear():
+    from transgen.kinematics import gear_ratios
+    from transgen.statics import drive_torques
+
+    m = parse_mechanism(ZF3HP22)
+    ratio = gear_ratios(m)["1"]
+    t = drive_torques(m, ("FWD", "OWC"))
+    # the held rear carrier reacts ratio - 1 input torques; FWD carries the whole input torque
+    assert t["FWD"] == pytest.approx(1.0) and t["OWC"] == pytest.approx(-(ratio - 1.0))
+    assert drive_torques(m, ("FWD",)) is None  # not a one-DOF gear
+
+
+@pytest.mark.parametrize("name", ["zf3hp22_big", "mb722_6_w5a580_2004", "simple2_oneway", "ht740"])
+def test_drive_torques_agree_with_the_simulators_static_balance(name):
+    from transgen.language import load_mechanism
+    from transgen.sim.launch import static_element_torques
+    from transgen.statics import drive_torques
+
+    m = load_mechanism(name)
+    for gear in m.gears:
+        ours = drive_torques(m, gear.engaged)
+        if ours is None:
+            continue
+        theirs = static_element_torques(m, gear.engaged)
+        for label, t in ours.items():
+            assert theirs[label.split("+")[0]] == pytest.approx(t, abs=1e-9), (gear.name, label)
+
+
+def test_a_flipped_oneway_is_an_error_at_its_line(tmp_path, capsys):
+    from transgen.statics import check_oneways
+
+    assert check_oneways(parse_mechanism(ZF3HP22)) == []
+    flipped = ZF3HP22.replace("free=positive", "free=negative")
+    problems = check_oneways(parse_mechanism(flipped, "f.mech"))
+    line = flipped.splitlines().index("oneway OWC Cr free=negative") + 1
+    assert [(d.line, d.column) for d in problems] == [(line, 8)]
+    assert "would overrun" in problems[0].message and "gear 1" in problems[0].message
+    path = _write(tmp_path, flipped)
+    assert main(["check", path]) == 2
+    assert f"{path}:{line}:8: error: one-way clutch OWC (free=negative" in capsys.readouterr().err
+    assert main(["ratios", path]) == 2
+
+
+def test_oneway_beside_an_applied_brake_is_not_flagged():
+    from transgen.statics import check_oneways
+
+    # reverse DIR BLR: the group BLR+OWC holds torque in the one-way clutch's free direction,
+    # which the brake takes
+    m = parse_mechanism(ZF3HP22)
+    assert check_oneways(m) == []
+
+
+def test_every_bundled_mechanism_passes_the_oneway_check():
+    from transgen.language import load_mechanism
+    from transgen.library import bundled_mechanisms
+    from transgen.statics import check_oneways
+
+    for name in bundled_mechanisms():
+        assert check_oneways(load_mechanism(name)) == [], name

@@ -21,12 +21,15 @@ __all__ = ["main", "load_checked"]
 
 
 def load_checked(path: str):
-    """Load a mechanism (a path or a bundled name) and check its declared gears."""
+    """Load a mechanism (a path or a bundled name) and check its declared gears (and the
+    direction of the one-way clutches they engage)."""
     from .kinematics import check_gears
     from .language import load_mechanism
+    from .statics import check_oneways
 
     mech = load_mechanism(path)
     problems = check_gears(mech)
+    problems = problems or check_oneways(mech)
     if problems:
         raise MechValidationError(problems)
     return mech
@@ -70,9 +73,11 @@ def cmd_ratios(args) -> int:
 
     from .kinematics import check_gears, gear_table, published_findings
     from .language import load_mechanism
+    from .statics import check_oneways
 
     mech = load_mechanism(args.file)
     problems = check_gears(mech, published=False)
+    problems = problems or check_oneways(mech)
     if problems:
         raise MechValidationError(problems)
     table = gear_table(mech, all_combinations=not args.gears_only)
