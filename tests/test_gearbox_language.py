@@ -249,3 +249,47 @@ def test_every_bundled_mechanism_passes_the_oneway_check():
 
     for name in bundled_mechanisms():
         assert check_oneways(load_mechanism(name)) == [], name
+
+
+# --- the default neutral with more than two DOF ------------------------------------------------
+
+def test_neutral_with_three_dof_is_modelled():
+    from transgen.language import load_mechanism
+    from transgen.modes import mode_models, neutral_note
+
+    for name, locked, dof in (("zf3hp22_big", (), 3), ("mb722_6_w5a580_2004", ("F1",), 3)):
+        m = load_mechanism(name)
+        models = {mm.mode.label: mm for mm in mode_models(m)}
+        neutral = [mm for label, mm in models.items() if label.startswith("neutral")]
+        assert len(neutral) == 1, name
+        assert neutral[0].locked == locked and neutral[0].dof == dof and neutral[0].kind == "neutral"
+        assert neutral[0].equations is not None and neutral[0].problem == ""
+        assert neutral_note(m) == ""
+
+
+def test_state_space_grows_to_the_neutrals_dof():
+    from transgen.language import load_mechanism
+    from transgen.statespace import state_space
+
+    ss = state_space(load_mechanism("zf3hp22_big"))
+    assert len(ss.coordinates) == 3
+
+
+def test_no_default_neutral_is_explained(tmp_path, capsys):
+    from transgen.modes import neutral_note
+
+    no_reverse = SIMPSON.replace("gear R = DIR BLR\n", "")
+    assert "no reverse gear" in neutral_note(parse_mechanism(no_reverse))
+    massless = SIMPSON.replace("link IN  J=0.10", "link IN  J=0")  # with FWD and DIR open, IN is loose
+    note = neutral_note(parse_mechanism(massless))
+    assert "share BLR" in note and "massless" in note and "neutral N = " in note
+    path = _write(tmp_path, massless)
+    assert main(["modes", path]) == 0
+    assert "note: no neutral is modelled" in capsys.readouterr().out
+    assert main(["modes", path, "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["notes"] == [note]
+    from transgen.schemas import validate
+    validate(data)
+    declared = parse_mechanism(massless + "neutral N = BLR FWD\n")
+    assert neutral_note(declared) == ""

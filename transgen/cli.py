@@ -155,6 +155,8 @@ def cmd_modes(args) -> int:
         notes = [m["label"]] * bool(m["label"]) + [f"{'+'.join(grp)} in parallel" for grp in m["parallel"]]
         extra = "; ".join(notes) + (f"  !! {m['problem']}" if m["problem"] else "")
         print(f"  {m['name']:<5} {' '.join(m['locked']) or '(none)':<18} {m['dof']:>3}  {m['kind']:<8} {extra}")
+    for note in report["notes"]:
+        print(f"  note: {note}")
     diag = report["diagnosis"]
     if diag["combinations"] == diag["of"]:
         print(f"\n  static diagnosis over all {diag['combinations']} combinations:")

@@ -5,7 +5,7 @@ from .equations import diagnose_singular, locking_groups
 from .graph import build_graph
 from .kinematics import analyze, engaged_combinations
 from .model import Mechanism
-from .modes import mode_models
+from .modes import mode_models, neutral_note
 
 __all__ = ["mechanism_to_dict", "modes_report"]
 
@@ -81,6 +81,7 @@ def modes_report(mech: Mechanism, which: str = "auto") -> dict:
              "parallel": [list(grp.members) for grp in m.parallel]}
             for m in models
         ],
+        "notes": [note for note in [neutral_note(mech) if which != "all" else ""] if note],
         "diagnosis": {"combinations": len(combos), "of": 2 ** len(mech.element_names),
                       "max_engaged": max(map(len, combos), default=0), "tie_ups": tie_ups, "non_unique_torques": non_unique,
                       "undetermined_massless": massless,
