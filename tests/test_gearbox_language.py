@@ -293,3 +293,135 @@ def test_no_default_neutral_is_explained(tmp_path, capsys):
     validate(data)
     declared = parse_mechanism(massless + "neutral N = BLR FWD\n")
     assert neutral_note(declared) == ""
+
+
+# --- stepped-pinion planetary --------------------------------------------------------------------
+
+STEP_BASE = """\
+link S  J=0.1
+link S2 J=0.05
+link R  J=0.2
+link R1 J=0.15
+link C  J=0.3
+brake BR R static=1 dynamic=1
+brake BS S static=1 dynamic=1
+brake BS2 S2 static=1 dynamic=1
+clutch K S C static=1 dynamic=1
+input S
+output C
+"""
+
+
+def _stepped(line: str):
+    return parse_mechanism(STEP_BASE + line + "\n")
+
+
+def test_stepped_sun_and_ring_ratio_from_the_pinion_relation():
+    from fractions import Fraction
+
+    from transgen.kinematics import analyze
+
+    ns, nr, np1, np2 = 30, 70, 20, 25
+    m = _stepped(f"stepped P carrier=C sun1=S Ns1={ns} ring2=R Nr2={nr} Np1={np1} Np2={np2}")
+    # ring held: (w_s - w_c)*Ns/Np1 = -(w_p - w_c) and -w_c*Nr/Np2 = w_p - w_c
+    assert analyze(m, ("BR",)).ratio == pytest.approx(float(1 + Fraction(nr * np1, ns * np2)), rel=1e-12)
+    assert analyze(m, ("K",)).ratio == pytest.approx(1.0)
+    # equal steps: the simple planetary
+    simple = parse_mechanism(STEP_BASE + f"planetary P sun=S ring=R carrier=C Ns={ns} Nr={nr}\n")
+    same = _stepped(f"stepped P carrier=C sun1=S Ns1={ns} ring2=R Nr2={nr} Np1=20 Np2=20")
+    assert analyze(same, ("BR",)).ratio == pytest.approx(analyze(simple, ("BR",)).ratio, rel=1e-12)
+
+
+def test_stepped_two_suns_and_one_sun_two_rings():
+    from transgen.kinematics import analyze
+
+    # two suns on a stepped pinion (a stepped Ravigneaux-like set): sun2 held, sun1 input
+    m = _stepped("stepped P carrier=C sun1=S Ns1=24 sun2=S2 Ns2=36 Np1=30 Np2=18")
+    # (w1 - wc)*24/30 = (0 - wc)*36/18  ->  w1/wc = 1 - 2.5 = -1.5
+    assert analyze(m, ("BS2",)).ratio == pytest.approx(-1.5, rel=1e-12)
+    # one sun, two rings on the two steps: three members, two constraints, one DOF left with a brake
+    m3 = _stepped("stepped P carrier=C sun1=S Ns1=30 ring1=R1 Nr1=80 ring2=R Nr2=70 Np1=25 Np2=20")
+    assert len([n for n, d in __import__("transgen.graph", fromlist=["x"]).build_graph(m3).nodes(data=True)
+                if d["kind"] == "stepped"]) == 2
+    assert analyze(m3, ("BR",)).ratio == pytest.approx(1 + 70 * 25 / (30 * 20), rel=1e-12)
+    assert analyze(m3, ()).dof == 3  # S, R1, R, C with two constraints, and the unconnected S2
+
+
+def test_stepped_torques_conserve_power_and_match_the_lever():
+    from transgen.statics import drive_torques
+
+    text = STEP_BASE.replace("link S2 J=0.05\n", "").replace("link R1 J=0.15\n", "").replace(
+        "brake BS2 S2 static=1 dynamic=1\n", "")
+    m = parse_mechanism(text + "stepped P carrier=C sun1=S Ns1=30 ring2=R Nr2=70 Np1=20 Np2=25\n")
+    ratio = 1 + 70 * 20 / (30 * 25)
+    t = drive_torques(m, ("BR",))
+    # the brake holds the output torque less the input torque (static, massless)
+    assert abs(t["BR"]) == pytest.approx(ratio - 1.0, rel=1e-9)
+
+
+def test_stepped_symbolic_matrices_evaluate_to_the_numeric_ones():
+    import numpy as np
+    import sympy
+
+    from transgen.equations import assemble, solve, symbols_of
+    from transgen.graph import build_graph
+
+    m = _stepped("stepped P carrier=C sun1=S Ns1=30 ring2=R Nr2=70 Np1=20 Np2=25")
+    g = build_graph(m)
+    for locked in ((), ("BR",)):
+        num = solve(assemble(g, locked), g)
+        sym = solve(assemble(g, locked, symbolic=True), g)
+        values = {sympy.Symbol(k, positive=True): v for k, v in
+                  {**{k: v for _, d in g.nodes(data=True) for k, v in d.get("params", {}).items()},
+                   **{f"J_{n}": d["J"] for n, d in g.nodes(data=True) if d["kind"] == "link"}}.items()}
+        assert set(map(str, symbols_of(g))) >= {"Np1_P", "Np2_P", "Ns1_P", "Nr2_P"}
+        evaluated = np.array(sym.G.xreplace(values).evalf(), dtype=float)
+        assert np.allclose(evaluated, num.G, atol=1e-9)
+
+
+def test_stepped_round_trip_check_json_and_drawing(tmp_path, capsys):
+    m = _stepped("stepped P carrier=C sun1=S Ns1=30 ring2=R Nr2=70 Np1=20 Np2=25")
+    assert parse_mechanism(format_mechanism(m)) == m
+    path = _write(tmp_path, format_mechanism(m) + "gear 1 = BR\n")
+    assert main(["check", path, "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["stepped"][0]["members"][1] == {"role": "ring2", "link": "R", "teeth": 70}
+    assert main(["graph", path, "-o", str(tmp_path / "g.dot")]) == 0
+    assert "stepped pinion" in (tmp_path / "g.dot").read_text()
+    assert main(["graph", path, "-o", str(tmp_path / "g.png")]) == 0
+
+
+@pytest.mark.parametrize("line, message", [
+    ("stepped P carrier=C sun1=S Ns1=30 Np1=20", "needs two to four central gears"),
+    ("stepped P carrier=C sun1=S ring2=R Nr2=70 Np1=20 Np2=25", "sun1= needs its tooth count Ns1="),
+    ("stepped P carrier=C sun1=S Ns1=30 ring2=R Nr2=70 Np1=20", "needs Np2="),
+    ("stepped P carrier=C sun1=S Ns1=30 ring1=R Nr1=70 Np1=20 Np2=25", "no sun or ring meshes step 2"),
+    ("stepped P carrier=C sun1=S Ns1=30 ring2=R Nr2=20 Np1=20 Np2=25", "must exceed the teeth of pinion step 2"),
+    ("stepped P carrier=S sun1=S Ns1=30 ring2=R Nr2=70 Np1=20 Np2=25", "used twice"),
+    ("stepped P carrier=C sun1=S Ns1=30 sun2=S2 Ns2=45 Np1=20 Np2=30", "would turn together"),
+    ("stepped P sun1=S Ns1=30 ring2=R Nr2=70 Np1=20 Np2=25", "needs carrier="),
+    ("stepped P carrier=C sun1=Q Ns1=30 ring2=R Nr2=70 Np1=20 Np2=25", "unknown link 'Q'"),
+    ("stepped P carrier=C sun1=S Ns1=30 ring2=R Nr2=70 Np1=20 Np2=25 Ns3=4", "unknown parameter 'Ns3'"),
+    ("stepped P carrier=C sun1=S Nr1=30 ring2=R Nr2=70 Np1=20 Np2=25", "give ring1=LINK too"),
+])
+def test_stepped_errors(line, message):
+    from transgen.errors import MechValidationError
+
+    with pytest.raises(MechValidationError) as exc:
+        _stepped(line)
+    assert message in str(exc.value)
+
+
+def test_mb7g_tronic_reproduces_the_published_ratios():
+    from transgen.language import load_mechanism
+
+    m = load_mechanism("mb7g_tronic")
+    table = gear_table(m, all_combinations=False)
+    published = {"1": 4.377, "2": 2.859, "3": 1.921, "4": 1.368, "5": 1.0, "6": 0.820, "7": 0.728,
+                 "R1": -3.416, "R2": -2.231}
+    assert {r.name: round(r.ratio, 3) for r in table.gears} == published
+    assert all(r.matches_published for r in table.gears)
+    assert check_gears(m) == []
+    # R2 (comfort reverse) is an alternative gear; the spread is 1st over 7th
+    assert [r.name for r in table.gears if r.alternative] == ["R2"]
+    assert table.spread == pytest.approx(table.gears[0].ratio / table.gears[6].ratio)

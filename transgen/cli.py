@@ -90,7 +90,7 @@ def cmd_ratios(args) -> int:
         return status
     print(f"{mech.name}: input {mech.input}, output {mech.output} (ratio = input speed / output speed)")
     print()
-    print(f"  {'gear':>6}  {'engaged':<16} {'DOF':>3}  {'ratio':>9}  {'step':>6}  {'published':<16} floating")
+    print(f"  {'gear':>8}  {'engaged':<16} {'DOF':>3}  {'ratio':>9}  {'step':>6}  {'published':<16} floating")
     for row in table.gears:
         step = f"{row.step:.3f}" if row.step else ""
         pub = ""
@@ -100,7 +100,7 @@ def cmd_ratios(args) -> int:
         name = row.name if row.kind == "gear" else f"{row.name} (N)"
         name += " (alt)" if row.alternative else ""
         floating = ", ".join(row.combination.floating) if row.kind == "gear" else ""
-        print(f"  {name:>6}  {' '.join(row.engaged):<16} {row.dof:>3}  {_fmt_ratio(row.ratio):>9}  {step:>6}  "
+        print(f"  {name:>8}  {' '.join(row.engaged):<16} {row.dof:>3}  {_fmt_ratio(row.ratio):>9}  {step:>6}  "
               f"{pub:<16} {floating}".rstrip())
     if table.spread:
         print(f"\n  overall spread {table.spread:.3f}")

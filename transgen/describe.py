@@ -29,6 +29,11 @@ def mechanism_to_dict(m: Mechanism) -> dict:
         "name": m.name,
         "source": m.source,
         "links": [{"name": k.name, "J": k.inertia} for k in m.links],
+        "stepped": [
+            {"name": sp.name, "carrier": sp.carrier, "Np1": sp.np1, "Np2": sp.np2,
+             "members": [{"role": role, "link": link, "teeth": teeth} for role, link, teeth in sp.members]}
+            for sp in m.stepped
+        ],
         "planetaries": [
             {"name": p.name, "type": "double-pinion" if p.pinions == 2 else "simple", "sun": p.sun, "ring": p.ring,
              "carrier": p.carrier, "Ns": p.n_sun, "Nr": p.n_ring}

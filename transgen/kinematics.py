@@ -26,7 +26,7 @@ import networkx as nx
 import numpy as np
 
 from .errors import CombinationLimitWarning, Diagnostic
-from .graph import build_graph, coefficient, element_nodes, link_nodes, transformer_ports
+from .graph import TRANSFORMER_KINDS, build_graph, coefficient, element_nodes, link_nodes, transformer_ports
 from .model import HOUSING, Mechanism
 
 __all__ = [
@@ -77,7 +77,7 @@ def constraints(g: nx.DiGraph, locked=(), values: dict | None = None) -> list[Co
     values = _values(g) if values is None else values
     rows = []
     for node, data in g.nodes(data=True):
-        if data["kind"] in ("planetary", "gearpair"):
+        if data["kind"] in TRANSFORMER_KINDS:
             coeffs = {link: coefficient(terms, values) for link, _, terms in transformer_ports(g, node) if link != HOUSING}
             rows.append(Constraint(node, "transformer", coeffs))
     for name in locked:

@@ -40,8 +40,10 @@ from .model import (
     Mechanism,
     ModeDecl,
     Planetary,
+    STEPPED_MEMBERS,
     ShiftElement,
     Span,
+    SteppedPlanetary,
 )
 
 __all__ = ["parse_mechanism", "load_mechanism", "parse_tree", "grammar_text", "format_mechanism"]
@@ -53,7 +55,7 @@ RESERVED = frozenset(
     {
         "transmission", "link", "planetary", "gears", "clutch", "brake", "oneway", "input",
         "output", "torque", "gear", "neutral", "mode", "coordinates", "none", HOUSING,
-        ALTERNATIVE,
+        ALTERNATIVE, "stepped", "dog",
         "T_in", "T_out",  # the input and output torques of every mechanism
     }
 )
@@ -270,6 +272,8 @@ _PARAMS: dict[str, dict[str, object]] = {
     "brake": {"static": CAPACITY, "dynamic": CAPACITY, "type": ("plate", "band")},
     "oneway": {"free": ("positive", "negative")},
     "gear": {"ratio": RATIO, "tol": RATIO_TOL, "rounding": ("nearest", "truncated")},
+    "stepped": {"carrier": "name", "sun1": "name", "sun2": "name", "ring1": "name", "ring2": "name",
+                "Ns1": TEETH, "Ns2": TEETH, "Nr1": TEETH, "Nr2": TEETH, "Np1": TEETH, "Np2": TEETH},
 }
 _REQUIRED: dict[str, tuple[str, ...]] = {
     "link": ("J",),
@@ -277,6 +281,7 @@ _REQUIRED: dict[str, tuple[str, ...]] = {
     "clutch": ("static", "dynamic"),
     "brake": ("static", "dynamic"),
     "oneway": ("free",),
+    "stepped": ("carrier",),
 }
 _NOT_FINITE = frozenset({"nan", "inf", "infinity"})
 
@@ -384,7 +389,7 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str) -> 
 
     title = ""
     links: list[Link] = []
-    planetaries, pairs, elements, loads = [], [], [], []
+    planetaries, pairs, elements, loads, stepped = [], [], [], [], []
     gears: list[Gear] = []
     modes: list[ModeDecl] = []
     coordinates: list[_Word] = []
@@ -419,6 +424,10 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str) -> 
                 report.error(stmt.params["Nr"][0].span, f"planetary {name.text}: ring teeth Nr={nr} must exceed sun teeth Ns={ns}")
             if ok and None not in members and ns is not None and nr is not None and len(set(texts)) == 3 and nr > ns:
                 planetaries.append(Planetary(name.text, texts[0], texts[1], texts[2], ns, nr, int(params.get("pinions", "1")), name.span))
+        elif kw == "stepped":
+            item = _stepped(stmt, params, report, link_refs)
+            if declare(words[0], "stepped planetary") and item is not None:
+                stepped.append(item)
         elif kw == "gears":
             name, w1, w2 = words
             ok = declare(name, "gear pair")
@@ -555,9 +564,64 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str) -> 
         gears=tuple(gears),
         modes=tuple(modes),
         coordinates=tuple(coord_texts),
+        stepped=tuple(stepped),
         source=filename,
         text=report.text,
     )
+
+
+def _stepped(stmt: _Statement, params: dict, report: _Reporter, link_refs: list) -> SteppedPlanetary | None:
+    """The stepped-pinion planetary of a ``stepped`` statement, or ``None`` after reporting why not."""
+    name = stmt.words[0].text
+    before = len(report.diagnostics)
+    carrier = params.get("carrier")
+    if carrier is not None:
+        link_refs.append((carrier, True))
+    members = []
+    for role in STEPPED_MEMBERS:
+        teeth = ("Ns" if role.startswith("sun") else "Nr") + role[-1]
+        if role in params:
+            link_refs.append((params[role], True))
+            if teeth not in stmt.params:
+                report.error(params[role].span, f"stepped {name}: {role}= needs its tooth count {teeth}=...")
+            elif teeth in params:
+                members.append((role, params[role], params[teeth]))
+        elif teeth in stmt.params:
+            report.error(stmt.params[teeth + "@key"][0].span, f"stepped {name}: {teeth}= is the tooth count of {role}: "
+                                                              f"give {role}=LINK too")
+    if len(members) + sum(1 for r in STEPPED_MEMBERS if r in params and r not in (m[0] for m in members)) < 2:
+        report.error(stmt.span, f"stepped {name} needs two to four central gears: sun1=, sun2=, ring1=, ring2= "
+                                f"(the digit is the pinion step they mesh)")
+    for step in ("1", "2"):
+        used = any(role.endswith(step) for role in STEPPED_MEMBERS if role in params)
+        key = f"Np{step}"
+        if used and key not in stmt.params:
+            report.error(stmt.span, f"stepped {name} needs {key}=... (the teeth of pinion step {step})")
+        elif key in stmt.params and not used:
+            report.error(stmt.params[key + "@key"][0].span, f"stepped {name}: {key}= but no sun or ring meshes step {step}")
+    words = ([carrier] if carrier is not None else []) + [m[1] for m in members]
+    texts = [w.text for w in words]
+    for w in words:
+        if texts.count(w.text) > 1 and w is words[texts.index(w.text)]:
+            report.error(w.span, f"stepped {name}: '{w.text}' is used twice (carrier and central gears are different links)")
+    np = {"1": params.get("Np1"), "2": params.get("Np2")}
+    for role, link, teeth in members:
+        step = np[role[-1]]
+        if role.startswith("ring") and step is not None and teeth <= step:
+            report.error(link.span, f"stepped {name}: {role} teeth {teeth} must exceed the teeth of pinion step "
+                                    f"{role[-1]} (Np{role[-1]}={step}) that mesh inside it")
+    speeds = {}
+    for role, link, teeth in members:
+        if np[role[-1]] is not None:
+            key = (role.startswith("ring"), teeth * np["2" if role.endswith("1") else "1"] if None not in np.values() else teeth)
+            if key in speeds:
+                report.error(link.span, f"stepped {name}: {role} and {speeds[key]} would turn together (same ratio to "
+                                        f"the pinion): one constraint too few; use one link")
+            speeds[key] = role
+    if len(report.diagnostics) > before or carrier is None:
+        return None
+    return SteppedPlanetary(name, carrier.text, tuple((r, w.text, t) for r, w, t in members),
+                            params.get("Np1"), params.get("Np2"), stmt.words[0].span)
 
 
 def parse_mechanism(text: str, filename: str = "<string>") -> Mechanism:
@@ -626,6 +690,11 @@ def format_mechanism(m: Mechanism) -> str:
     for p in m.planetaries:
         pin = " pinions=2" if p.pinions == 2 else ""
         out.append(f"planetary {p.name} sun={p.sun} ring={p.ring} carrier={p.carrier} Ns={p.n_sun} Nr={p.n_ring}{pin}")
+    for sp in m.stepped:
+        members = " ".join(f"{role}={link} {'Ns' if role.startswith('sun') else 'Nr'}{role[-1]}={teeth}"
+                           for role, link, teeth in sp.members)
+        steps = "".join(f" Np{k}={n}" for k, n in (("1", sp.np1), ("2", sp.np2)) if n is not None)
+        out.append(f"stepped {sp.name} carrier={sp.carrier} {members}{steps}")
     for g in m.gear_pairs:
         k1, k2 = ("N1", "N2") if g.by == "teeth" else ("r1", "r2")
         v1, v2 = (int(g.n1), int(g.n2)) if g.by == "teeth" else (_number(g.n1), _number(g.n2))

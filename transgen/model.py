@@ -25,6 +25,8 @@ __all__ = [
     "Span",
     "Link",
     "Planetary",
+    "SteppedPlanetary",
+    "STEPPED_MEMBERS",
     "GearPair",
     "ShiftElement",
     "ExternalTorque",
@@ -80,6 +82,37 @@ class Planetary:
     def members(self) -> tuple[str, str, str]:
         """(sun, ring, carrier)."""
         return (self.sun, self.ring, self.carrier)
+
+
+STEPPED_MEMBERS = ("sun1", "sun2", "ring1", "ring2")
+"""The members a stepped-pinion planetary can have: a sun or a ring on pinion step 1 or 2."""
+
+
+@dataclass(frozen=True)
+class SteppedPlanetary:
+    """A planetary with stepped (or long) pinions: one carrier whose pinions have two steps of
+    ``np1`` and ``np2`` teeth, and two to four central gears, each meshing one step: ``members``
+    is a tuple of ``(role, link, teeth)`` with ``role`` in :data:`STEPPED_MEMBERS` (``sun2``: a
+    sun meshing step 2; ``ring1``: a ring meshing step 1).
+
+    Each member ``X`` on step ``k`` obeys ``(w_X - w_c) * N_X / Np_k = sigma_X * (w_p - w_c)``
+    (``w_p`` the pinion speed, ``sigma`` -1 for a sun, +1 for a ring); eliminating ``w_p``
+    between the first member ``A`` and each other member ``B`` gives the constraints
+    ``sigma_A*N_A*Np_b*w_A - sigma_B*N_B*Np_a*w_B = (sigma_A*N_A*Np_b - sigma_B*N_B*Np_a)*w_c``.
+    A sun on step 1 and a ring on step 2: ``Ns*Np2*w_s + Nr*Np1*w_r = (Ns*Np2 + Nr*Np1)*w_c``;
+    with ``Np1 = Np2`` the simple planetary.
+    """
+
+    name: str
+    carrier: str
+    members: tuple[tuple[str, str, int], ...]
+    np1: int | None = None
+    np2: int | None = None
+    span: Span = _span()
+
+    def step_teeth(self, role: str) -> int:
+        """Teeth of the pinion step the member ``role`` meshes."""
+        return self.np1 if role.endswith("1") else self.np2
 
 
 @dataclass(frozen=True)
@@ -198,6 +231,7 @@ class Mechanism:
     gears: tuple[Gear, ...] = ()
     modes: tuple[ModeDecl, ...] = ()
     coordinates: tuple[str, ...] = ()
+    stepped: tuple[SteppedPlanetary, ...] = ()
     source: str = field(default="<string>", compare=False)
     text: str = field(default="", compare=False, repr=False)
 

@@ -21,6 +21,7 @@ _DOT_NODE = {
     "link": 'shape=box, style="rounded,filled", fillcolor="#dbe9f6"',
     "planetary": 'shape=box, style=filled, fillcolor="#fdf1cf"',
     "gearpair": 'shape=box, style=filled, fillcolor="#fdf1cf"',
+    "stepped": 'shape=box, style=filled, fillcolor="#fdf1cf"',
     "clutch": 'shape=box, style=filled, fillcolor="#f7dede"',
     "brake": 'shape=box, style=filled, fillcolor="#f7dede"',
     "oneway": 'shape=box, style=filled, fillcolor="#efe0f5"',

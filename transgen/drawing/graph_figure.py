@@ -18,6 +18,7 @@ _COLORS = {
     "link": ("#dbe9f6", "#2b5d8a"),
     "planetary": ("#fdf1cf", "#8a6d1c"),
     "gearpair": ("#fdf1cf", "#8a6d1c"),
+    "stepped": ("#fdf1cf", "#8a6d1c"),
     "clutch": ("#f7dede", "#8a2b2b"),
     "brake": ("#f7dede", "#8a2b2b"),
     "oneway": ("#efe0f5", "#5d2b8a"),
