@@ -13,6 +13,7 @@ node ``kind``             meaning
                           gears (``sun1``, ``ring2``, ...) and ``carrier``
 ``"clutch"``/``"brake"``  a switched element between two junctions: a flow source (equal speeds)
 ``"oneway"``              when locked, an effort source (slipping torque) when unlocked
+``"dog"``                 a dog clutch or brake: a flow source when locked, no effort when open
 ``"source"``              an external torque (effort source): ``T_in``, ``T_out``, named loads
 ========================  =====================================================================
 
@@ -123,7 +124,7 @@ def link_nodes(g: nx.DiGraph) -> list[str]:
 
 def element_nodes(g: nx.DiGraph) -> list[str]:
     """Shift elements in declaration order."""
-    return [n for n, d in g.nodes(data=True) if d["kind"] in ("clutch", "brake", "oneway")]
+    return [n for n, d in g.nodes(data=True) if d["kind"] in ("clutch", "brake", "oneway", "dog")]
 
 
 def transformer_ports(g: nx.DiGraph, node: str) -> list[tuple[str, str, tuple]]:

@@ -271,6 +271,7 @@ _PARAMS: dict[str, dict[str, object]] = {
     "clutch": {"static": CAPACITY, "dynamic": CAPACITY},
     "brake": {"static": CAPACITY, "dynamic": CAPACITY, "type": ("plate", "band")},
     "oneway": {"free": ("positive", "negative")},
+    "dog": {"static": CAPACITY},
     "gear": {"ratio": RATIO, "tol": RATIO_TOL, "rounding": ("nearest", "truncated")},
     "stepped": {"carrier": "name", "sun1": "name", "sun2": "name", "ring1": "name", "ring2": "name",
                 "Ns1": TEETH, "Ns2": TEETH, "Nr1": TEETH, "Nr2": TEETH, "Np1": TEETH, "Np2": TEETH},
@@ -451,9 +452,9 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str) -> 
             if ok and all(k in params for k in keys):
                 pairs.append(GearPair(name.text, w1.text, w2.text, params[keys[0]], params[keys[1]],
                                       "teeth" if by_teeth else "radius", params.get("mesh", "external"), name.span))
-        elif kw in ("clutch", "brake", "oneway"):
+        elif kw in ("clutch", "brake", "oneway", "dog"):
             name = words[0]
-            ok = declare(name, kw if kw != "oneway" else "one-way clutch")
+            ok = declare(name, {"oneway": "one-way clutch", "dog": "dog element"}.get(kw, kw))
             w1 = words[1]
             w2 = words[2] if len(words) > 2 else _Word(HOUSING, stmt.span)
             link_refs.append((w1, False))
@@ -462,9 +463,11 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str) -> 
             if w1.text == w2.text:
                 report.error(w2.span, f"{kw} {name.text} connects '{w1.text}' to itself")
                 ok = False
-            if ok and all(k in params for k in _REQUIRED[kw]):
+            if ok and all(k in params for k in _REQUIRED.get(kw, ())):
                 if kw == "oneway":
                     static, dynamic = float("inf"), 0.0
+                elif kw == "dog":
+                    static, dynamic = float(params.get("static", float("inf"))), 0.0
                 else:
                     static, dynamic = float(params["static"]), float(params["dynamic"])
                     if dynamic > static:
@@ -532,7 +535,7 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str) -> 
                 report.error(ref.span, f"'{ref.text}' is a {what}, not a link")
             else:
                 report.error(ref.span, f"unknown link '{shorten(ref.text)}'{report.suggest(ref.text, link_names)}")
-    element_names = {n for n, (what, _) in declared.items() if what in ("clutch", "brake", "one-way clutch")}
+    element_names = {n for n, (what, _) in declared.items() if what in ("clutch", "brake", "one-way clutch", "dog element")}
     for ref in element_refs:
         if ref.text not in element_names:
             report.error(ref.span, f"unknown shift element '{shorten(ref.text)}'{report.suggest(ref.text, element_names)}")
@@ -705,6 +708,9 @@ def format_mechanism(m: Mechanism) -> str:
         elif e.kind == "brake":
             typ = f" type={e.brake_type}" if e.brake_type else ""
             out.append(f"brake {e.name} {e.link1} static={_number(e.static)} dynamic={_number(e.dynamic)}{typ}")
+        elif e.kind == "dog":
+            static = f" static={_number(e.static)}" if math.isfinite(e.static) else ""
+            out.append(f"dog {e.name} {e.link1} {e.link2}{static}")
         else:
             out.append(f"oneway {e.name} {e.link1} {e.link2} free={e.free}")
     out += [f"input {m.input}", f"output {m.output}"]

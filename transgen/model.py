@@ -143,14 +143,17 @@ class GearPair:
 class ShiftElement:
     """A clutch, brake or one-way clutch between ``link1`` and ``link2``.
 
-    ``kind`` is ``"clutch"``, ``"brake"`` (``link2`` is the housing) or ``"oneway"``.
+    ``kind`` is ``"clutch"``, ``"brake"`` (``link2`` is the housing), ``"oneway"`` or ``"dog"``
+    (a dog clutch or, to the housing, a dog brake: open or locked only; it engages only at
+    synchronous speed and transmits no torque while slipping, ``dynamic = 0``; ``static`` is its
+    holding capacity, infinite unless given, beyond which the simulator stops).
     ``static`` and ``dynamic`` are torque capacities at full apply [N*m] (infinite static
     capacity for a one-way clutch). ``free`` is the sign of the slip ``w1 - w2`` in which a
     one-way clutch overruns (``"positive"`` or ``"negative"``); it locks against the other sign.
     """
 
     name: str
-    kind: Literal["clutch", "brake", "oneway"]
+    kind: Literal["clutch", "brake", "oneway", "dog"]
     link1: str
     link2: str
     static: float

@@ -11,7 +11,7 @@ import textwrap
 
 import networkx as nx
 
-ELEMENT_KINDS = ("clutch", "brake", "oneway")
+ELEMENT_KINDS = ("clutch", "brake", "oneway", "dog")
 TRANSFORMER_KINDS = ("planetary", "gearpair", "stepped")
 
 _MODE_COLORS = {"gear": "#dbe9f6", "speed": "#fdf1cf", "neutral": "#e4e4e4", "reverse": "#f7dede"}

@@ -25,6 +25,7 @@ _DOT_NODE = {
     "clutch": 'shape=box, style=filled, fillcolor="#f7dede"',
     "brake": 'shape=box, style=filled, fillcolor="#f7dede"',
     "oneway": 'shape=box, style=filled, fillcolor="#efe0f5"',
+    "dog": 'shape=box, style=filled, fillcolor="#e0f0e0"',
     "housing": 'shape=box, style="rounded,filled", fillcolor="#e4e4e4"',
     "source": 'shape=box, style="rounded,dashed"',
 }

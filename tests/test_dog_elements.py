@@ -1,0 +1,143 @@
+"""Dog clutches and dog brakes (``dog NAME LINK1 [LINK2] [static=...]``): open or locked only,
+engaging only at synchronous speed, no slipping torque; in the language, the gear table, the
+modes, the STD and the simulator's mode decision."""
+from __future__ import annotations
+
+import math
+import textwrap
+
+import numpy as np
+import pytest
+
+from transgen.errors import MechValidationError
+from transgen.kinematics import analyze
+from transgen.language import format_mechanism, parse_mechanism
+
+DOG = """\
+transmission "dog test"
+link A J=0.5
+link B J=2.0
+dog D A B
+clutch C A B static=100 dynamic=80
+input A
+output B
+"""
+
+
+def test_dog_parses_as_an_element_without_slipping_torque():
+    m = parse_mechanism(DOG + "dog DB B static=500\n")
+    d, db = m.element("D"), m.element("DB")
+    assert (d.kind, d.link2, d.static, d.dynamic) == ("dog", "B", math.inf, 0.0)
+    assert (db.kind, db.link2, db.static) == ("dog", "housing", 500.0)
+    assert parse_mechanism(format_mechanism(m)) == m
+    assert analyze(m, ("D",)).ratio == pytest.approx(1.0)
+    assert analyze(m, ("DB",)).kind == "other"
+
+
+@pytest.mark.parametrize("extra, message", [
+    ("dog D2 A B dynamic=5", "unknown parameter 'dynamic' for 'dog'"),
+    ("dog D2 A B static=-5", "must not be negative"),
+    ("dog D2 A A", "connects 'A' to itself"),
+    ("dog C A B", "duplicate name 'C'"),
+    ("gear 1 = DX", "unknown shift element 'DX'"),
+])
+def test_dog_errors(extra, message):
+    with pytest.raises(MechValidationError) as exc:
+        parse_mechanism(DOG + extra + "\n")
+    assert message in str(exc.value)
+
+
+def test_dogs_in_gears_modes_and_std():
+    from transgen.modes import mode_models
+    from transgen.std import state_transition_diagram
+
+    m = parse_mechanism(DOG + "dog DB B\ngear 1 = D\n")
+    models = mode_models(m, "all")
+    assert all(mm.problem == "" for mm in models if mm.kind != "tie-up")
+    std = state_transition_diagram(m)
+    conditions = {t.element: t.condition for t in std.transitions}
+    assert "slip of DB reaches 0 (synchronous) while DB is engaged" in conditions["DB"]
+    unlock = [t.condition for t in std.transitions if t.event == "unlock" and t.element == "D"]
+    assert unlock and "DB" not in unlock[0] and "is disengaged" in unlock[0]
+
+
+def _run(tmp_path, mech: str, scenario: str):
+    from transgen.sim.scenario import load_scenario
+
+    (tmp_path / "dog.mech").write_text(mech)
+    path = tmp_path / "s.toml"
+    path.write_text('mechanism = "dog.mech"\n' + textwrap.dedent(scenario))
+    return load_scenario(path).run()
+
+
+def test_an_engaged_dog_waits_for_synchronism_then_locks(tmp_path):
+    # A driven from rest by 20 N*m, B turning at 10 rad/s: the dog is engaged from the start but
+    # transmits nothing until A catches up (w_A = 40 t: t = 0.25 s), then locks
+    r = _run(tmp_path, DOG, """
+        [simulation]
+        t_end = 1.0
+        [initial]
+        speeds = { A = 0.0, B = 10.0 }
+        [input]
+        type = "torque"
+        torque = 20.0
+        [driveline]
+        output_torque = 0.0
+        [elements.D]
+        apply = 1.0
+        [elements.C]
+        apply = 0.0
+        """)
+    assert r.success, r.message
+    locks = [e for e in r.events if e.kind == "lock"]
+    assert [e.elements for e in locks] == [("D",)] and locks[0].t == pytest.approx(0.25, abs=1e-6)
+    s, t = r.signals, r.time
+    before, after = t < 0.249, t > 0.251
+    assert np.all(s["t_D"][before] == 0.0) and np.allclose(s["w_B"][before], 10.0)
+    assert np.allclose(s["t_D"][after], 20.0 * 2.0 / 2.5)  # B's share of the input torque
+    assert np.allclose(s["w_A"][after], s["w_B"][after])
+
+
+def test_dog_engaged_at_synchronism_behind_a_friction_clutch_takes_over(tmp_path):
+    r = _run(tmp_path, DOG, """
+        [simulation]
+        t_end = 3.0
+        [initial]
+        speeds = { A = 0.0, B = 0.0 }
+        [input]
+        type = "torque"
+        torque = 30.0
+        [driveline]
+        output_torque = 5.0
+        [elements.C]
+        apply = { type = "table", t = [0.0, 0.5, 0.6, 2.0, 2.1], value = [0.0, 0.0, 1.0, 1.0, 0.0] }
+        [elements.D]
+        apply = { type = "table", t = [0.0, 1.5, 1.501], value = [0.0, 0.0, 1.0] }
+        """)
+    assert r.success, r.message
+    assert [(e.kind, e.elements) for e in r.events if e.kind != "start"] == [
+        ("lock", ("C",)), ("lock", ("D",)), ("unlock", ("C",))]
+    k = int(np.searchsorted(r.time, 2.5))
+    assert r.signals["t_C"][k] == 0.0 and r.signals["t_D"][k] == pytest.approx(25.0)
+
+
+def test_a_dog_over_its_static_capacity_stops_the_run(tmp_path):
+    r = _run(tmp_path, DOG.replace("dog D A B", "dog D A B static=10"), """
+        [simulation]
+        t_end = 2.0
+        [initial]
+        speeds = { A = 0.0, B = 0.0 }
+        [input]
+        type = "torque"
+        torque = { type = "table", t = [0.0, 1.0, 1.1, 2.0], value = [5.0, 5.0, 60.0, 60.0] }
+        [driveline]
+        output_torque = 0.0
+        [elements.D]
+        apply = 1.0
+        [elements.C]
+        apply = 0.0
+        """)
+    assert not r.success
+    assert "dog element D would have to hold more than its static capacity 10 N*m" in r.message
+    # it stopped where the locked torque reached 10 N*m (B's share 2/2.5 of the input torque)
+    assert r.time[-1] == pytest.approx(1.0 + 0.1 * (12.5 - 5.0) / 55.0, abs=1e-4)
