@@ -141,3 +141,22 @@ def test_a_dog_over_its_static_capacity_stops_the_run(tmp_path):
     assert "dog element D would have to hold more than its static capacity 10 N*m" in r.message
     # it stopped where the locked torque reached 10 N*m (B's share 2/2.5 of the input torque)
     assert r.time[-1] == pytest.approx(1.0 + 0.1 * (12.5 - 5.0) / 55.0, abs=1e-4)
+
+
+def test_the_compliant_model_refuses_dogs(tmp_path):
+    from transgen.errors import SimulationError
+    from transgen.sim.scenario import load_scenario
+
+    (tmp_path / "dog.mech").write_text(DOG)
+    path = tmp_path / "s.toml"
+    path.write_text('mechanism = "dog.mech"\n[simulation]\nt_end = 0.1\nmodel = "compliant"\n[initial]\n'
+                    'speeds = { A = 0.0, B = 0.0 }\n[input]\ntype = "torque"\ntorque = 1.0\n[driveline]\n'
+                    'output_torque = 0.0\n[elements.D]\napply = 0.0\n[elements.C]\napply = 0.0\n')
+    try:
+        r = load_scenario(path).run()
+    except SimulationError as exc:
+        message = str(exc)
+    else:
+        assert not r.success
+        message = r.message
+    assert "compliant clutch model has no dog elements (D" in message
