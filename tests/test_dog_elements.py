@@ -160,3 +160,19 @@ def test_the_compliant_model_refuses_dogs(tmp_path):
         assert not r.success
         message = r.message
     assert "compliant clutch model has no dog elements (D" in message
+
+
+def test_zf9hp48_reproduces_the_published_ratios_with_its_dogs():
+    from transgen.kinematics import check_gears, gear_table
+    from transgen.language import load_mechanism
+    from transgen.statics import check_oneways
+
+    m = load_mechanism("zf9hp48")
+    assert [e.name for e in m.elements if e.kind == "dog"] == ["A", "F"]
+    assert m.element("F").link2 == "housing" and m.element("A").static == math.inf
+    table = gear_table(m, all_combinations=False)
+    published = {"1": 4.700, "2": 2.842, "3": 1.909, "4": 1.382, "5": 1.000, "6": 0.808, "7": 0.699,
+                 "8": 0.580, "9": 0.479, "R": -3.805}
+    assert {r.name: round(r.ratio, 3) for r in table.gears} == published
+    assert all(r.matches_published for r in table.gears) and check_gears(m) == [] and check_oneways(m) == []
+    assert table.spread == pytest.approx(9.816, abs=5e-4)  # W9HP: nominal span 9.808 from rounded ratios
