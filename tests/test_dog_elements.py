@@ -176,3 +176,31 @@ def test_zf9hp48_reproduces_the_published_ratios_with_its_dogs():
     assert {r.name: round(r.ratio, 3) for r in table.gears} == published
     assert all(r.matches_published for r in table.gears) and check_gears(m) == [] and check_oneways(m) == []
     assert table.spread == pytest.approx(9.816, abs=5e-4)  # W9HP: nominal span 9.808 from rounded ratios
+
+
+def test_dog_capacity_is_a_settable_parameter_and_unlimited_is_null():
+    from transgen.language import load_mechanism
+    from transgen.parameters import mechanism_parameters, with_parameter
+
+    m = load_mechanism("zf9hp48")
+    params = mechanism_parameters(m)
+    assert params["A.static"] is None and params["B.static"] > 0
+    changed = with_parameter(m, "A", "static", 900.0)
+    assert changed.element("A").static == 900.0 and changed.element("A").kind == "dog"
+
+
+def test_zf9hp48_launch_through_the_dog_shifts(tmp_path):
+    """The derived launch scenario runs the 9HP from rest through 1-2-3-4-5: its dog brake F holds
+    in 1st to 4th and is released in the 4-5 shift, when B takes over."""
+    from transgen.language import load_mechanism
+    from transgen.sim.launch import launch_scenario
+    from transgen.sim.scenario import load_scenario
+
+    path = tmp_path / "zf9.toml"
+    path.write_text(launch_scenario(load_mechanism("zf9hp48"), mechanism_ref="zf9hp48"))
+    r = load_scenario(path, {"simulation.t_end": 16.0, "simulation.output_dt": 0.05}).run()
+    assert r.success, r.message
+    events = [(e.kind, e.elements) for e in r.events if e.kind in ("lock", "unlock")]
+    assert events == [("unlock", ("D",)), ("lock", ("C",)), ("unlock", ("C",)), ("lock", ("B",)),
+                      ("unlock", ("B",)), ("lock", ("E",)), ("unlock", ("F",)), ("lock", ("B",))]
+    assert np.all(r.signals["locked_A"] == 1.0)  # the dog clutch A holds throughout 1st-5th

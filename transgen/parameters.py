@@ -50,11 +50,13 @@ def _params(keyword: str, obj) -> dict:
 
 
 def mechanism_parameters(m: Mechanism) -> dict[str, object]:
-    """``"NAME.PARAM"`` -> current value of every parameter of ``m`` (SI units)."""
+    """``"NAME.PARAM"`` -> current value of every parameter of ``m`` (SI units); ``None`` where the
+    file leaves it to its default (a dog's unlimited ``static``)."""
     out = {}
     for name, keyword, obj in _statements(m):
         for key in _params(keyword, obj):
-            out[f"{name}.{key}"] = getattr(obj, _FIELDS[key])
+            value = getattr(obj, _FIELDS[key])
+            out[f"{name}.{key}"] = None if value == float("inf") else value
     return out
 
 
