@@ -425,3 +425,20 @@ def test_mb7g_tronic_reproduces_the_published_ratios():
     # R2 (comfort reverse) is an alternative gear; the spread is 1st over 7th
     assert [r.name for r in table.gears if r.alternative] == ["R2"]
     assert table.spread == pytest.approx(table.gears[0].ratio / table.gears[6].ratio)
+
+
+def test_stepped_teeth_are_settable_parameters():
+    from transgen.kinematics import analyze
+    from transgen.parameters import ParameterError, mechanism_parameters, with_parameter
+
+    m = _stepped("stepped P carrier=C sun1=S Ns1=30 ring2=R Nr2=70 Np1=20 Np2=25")
+    params = mechanism_parameters(m)
+    assert {k: v for k, v in params.items() if k.startswith("P.")} == {"P.Ns1": 30, "P.Nr2": 70, "P.Np1": 20,
+                                                                      "P.Np2": 25}
+    changed = with_parameter(m, "P", "Np2", 20)
+    assert analyze(changed, ("BR",)).ratio == pytest.approx(1 + 70 / 30)
+    assert with_parameter(m, "P", "Nr2", 80).stepped[0].members[1] == ("ring2", "R", 80)
+    with pytest.raises(ParameterError, match="has no parameter 'Ns2'"):
+        with_parameter(m, "P", "Ns2", 30)
+    with pytest.raises(ParameterError, match="must exceed the teeth of pinion step 2"):
+        with_parameter(m, "P", "Np2", 90)
