@@ -386,6 +386,10 @@ def test_stepped_round_trip_check_json_and_drawing(tmp_path, capsys):
     assert main(["check", path, "--json"]) == 0
     data = json.loads(capsys.readouterr().out)
     assert data["stepped"][0]["members"][1] == {"role": "ring2", "link": "R", "teeth": 70}
+    from transgen.schemas import validate
+    validate(data)
+    assert main(["check", path]) == 0
+    assert "(and 1 stepped-pinion)" in capsys.readouterr().out
     assert main(["graph", path, "-o", str(tmp_path / "g.dot")]) == 0
     assert "stepped pinion" in (tmp_path / "g.dot").read_text()
     assert main(["graph", path, "-o", str(tmp_path / "g.png")]) == 0

@@ -53,7 +53,8 @@ def cmd_check(args) -> int:
 
     table = gear_table(mech, all_combinations=False)
     print(f"{mech.source}: ok — {mech.name}")
-    print(f"  {len(mech.links)} links, {len(mech.planetaries)} planetary gearsets, {len(mech.gear_pairs)} gear pairs, "
+    stepped = f" (and {len(mech.stepped)} stepped-pinion)" if mech.stepped else ""
+    print(f"  {len(mech.links)} links, {len(mech.planetaries)} planetary gearsets{stepped}, {len(mech.gear_pairs)} gear pairs, "
           f"{len(mech.elements)} shift elements ({', '.join(e.name for e in mech.elements)})")
     print(f"  input {mech.input}, output {mech.output}; {sum(1 for g in mech.gears if g.kind == 'gear')} gears, "
           f"{len(mech.neutrals)} neutral(s)")
