@@ -1,7 +1,8 @@
 """The ``transgen`` command line: a thin layer over the Python API.
 
 Exit codes: 0 success, 1 failure (a run that could not complete, an output that could not be
-written), 2 bad input (a ``.mech`` or scenario file with errors, invalid options or coordinates).
+written; ``ratios``: a declared ``ratio=`` the mechanism does not reproduce, the table printed in
+full), 2 bad input (a ``.mech`` or scenario file with errors, invalid options or coordinates).
 Errors are printed without a traceback.
 """
 from __future__ import annotations
