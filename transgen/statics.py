@@ -18,7 +18,7 @@ from __future__ import annotations
 import networkx as nx
 import numpy as np
 
-from .equations import assemble, complete_locked, diagnose_singular
+from .equations import assemble, complete_locked, diagnose_singular, locked_constraints
 from .errors import Diagnostic
 from .graph import build_graph
 from .kinematics import analyze
@@ -71,8 +71,7 @@ def check_oneways(mech: Mechanism) -> list[Diagnostic]:
         torques = drive_torques(mech, gear.engaged, g)
         if torques is None:
             continue
-        eq_groups = assemble(g, complete_locked(g, gear.engaged)).groups
-        for grp in eq_groups:
+        for grp in locked_constraints(g, complete_locked(g, gear.engaged)):
             if not all(kinds[e].kind == "oneway" for e in grp.members):
                 continue  # a friction element beside it holds either way
             for member, sign in zip(grp.members, grp.signs):
