@@ -204,3 +204,12 @@ def test_zf9hp48_launch_through_the_dog_shifts(tmp_path):
     assert events == [("unlock", ("D",)), ("lock", ("C",)), ("unlock", ("C",)), ("lock", ("B",)),
                       ("unlock", ("B",)), ("lock", ("E",)), ("unlock", ("F",)), ("lock", ("B",))]
     assert np.all(r.signals["locked_A"] == 1.0)  # the dog clutch A holds throughout 1st-5th
+
+
+def test_std_holding_range_of_a_dog_beside_a_clutch():
+    from transgen.std import state_transition_diagram
+
+    m = parse_mechanism(DOG + "gear 1 = C D\n")
+    std = state_transition_diagram(m)
+    both = [t for t in std.transitions if t.element == "D+C" or t.element == "C+D"]
+    assert both and "[-inf, inf]" in both[0].condition

@@ -139,6 +139,8 @@ def _holding_range(mech: Mechanism, group: LockingGroup, held: tuple[str, ...]) 
     # a one-way clutch free in +slip (in the group's direction) locks against -: holds t <= 0
     locks = {-(1 if mech.element(x).free == "positive" else -1) * sign[x] for x in held if x not in friction}
     cap = " + ".join(f"static_{x}" for x in friction)
+    if any(mech.element(x).kind == "dog" and mech.element(x).static == float("inf") for x in friction):
+        locks = {1, -1}  # an engaged dog without a capacity limit holds any torque
     hi = "inf" if 1 in locks else (cap or "0")
     lo = "-inf" if -1 in locks else (f"-({cap})" if len(friction) > 1 else f"-{cap}" if cap else "0")
     return f"[{lo}, {hi}]"
