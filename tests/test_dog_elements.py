@@ -213,3 +213,41 @@ def test_std_holding_range_of_a_dog_beside_a_clutch():
     std = state_transition_diagram(m)
     both = [t for t in std.transitions if t.element == "D+C" or t.element == "C+D"]
     assert both and "[-inf, inf]" in both[0].condition
+
+
+def test_zf9hp48_power_on_downshift_engages_the_dog_brake_at_synchronism(tmp_path):
+    """5-4 under drive torque: B lets go, the input speeds up, and the dog brake F, engaged from the
+    start of the shift, transmits nothing until the common sun 3/4 it holds comes to rest; then it
+    locks (no torque at nonzero slip, no slip after)."""
+    from transgen.sim.scenario import load_scenario
+
+    path = tmp_path / "down.toml"
+    path.write_text(textwrap.dedent("""
+        mechanism = "zf9hp48"
+        [simulation]
+        t_end = 3.0
+        [initial]
+        gear = "5"
+        speeds = { OUT = 150.0 }
+        [input]
+        type = "torque"
+        torque = 60.0
+        [driveline]
+        output_inertia = 5.0
+        stiffness = 8000.0
+        damping = 150.0
+        [shifts]
+        events = [ { t = 1.0, from = "5", to = "4" } ]
+        """))
+    r = load_scenario(path).run()
+    assert r.success, r.message
+    events = [(e.kind, e.elements) for e in r.events if e.kind in ("lock", "unlock")]
+    assert events == [("unlock", ("B",)), ("lock", ("F",))]
+    t_lock = next(e.t for e in r.events if e.kind == "lock")
+    s, t = r.signals, r.time
+    engaged_slipping = (s["apply_F"] > 0) & (t < t_lock)
+    assert engaged_slipping.any() and np.all(s["t_F"][engaged_slipping] == 0.0)
+    assert np.all(np.abs(s["slip_F"][engaged_slipping]) > 0)
+    after = t > t_lock + 1e-6
+    assert np.allclose(s["slip_F"][after], 0.0, atol=1e-6) and np.all(s["locked_F"][after] == 1.0)
+    assert np.all(np.abs(s["t_F"][after][-10:]) > 1.0)  # it carries the 4th-gear reaction
