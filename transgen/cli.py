@@ -1,7 +1,8 @@
 """The ``transgen`` command line: a thin layer over the Python API.
 
 Exit codes: 0 success, 1 failure (a run that could not complete, an output that could not be
-written), 2 bad input (a ``.mech`` or scenario file with errors, invalid options or coordinates).
+written; ``ratios``: a declared ``ratio=`` the mechanism does not reproduce, the table printed in
+full), 2 bad input (a ``.mech`` or scenario file with errors, invalid options or coordinates).
 Errors are printed without a traceback.
 """
 from __future__ import annotations
@@ -21,12 +22,15 @@ __all__ = ["main", "load_checked"]
 
 
 def load_checked(path: str):
-    """Load a mechanism (a path or a bundled name) and check its declared gears."""
+    """Load a mechanism (a path or a bundled name) and check its declared gears (and the
+    direction of the one-way clutches they engage)."""
     from .kinematics import check_gears
     from .language import load_mechanism
+    from .statics import check_oneways
 
     mech = load_mechanism(path)
     problems = check_gears(mech)
+    problems = problems or check_oneways(mech)
     if problems:
         raise MechValidationError(problems)
     return mech
@@ -50,7 +54,8 @@ def cmd_check(args) -> int:
 
     table = gear_table(mech, all_combinations=False)
     print(f"{mech.source}: ok — {mech.name}")
-    print(f"  {len(mech.links)} links, {len(mech.planetaries)} planetary gearsets, {len(mech.gear_pairs)} gear pairs, "
+    stepped = f" (and {len(mech.stepped)} stepped-pinion)" if mech.stepped else ""
+    print(f"  {len(mech.links)} links, {len(mech.planetaries)} planetary gearsets{stepped}, {len(mech.gear_pairs)} gear pairs, "
           f"{len(mech.elements)} shift elements ({', '.join(e.name for e in mech.elements)})")
     print(f"  input {mech.input}, output {mech.output}; {sum(1 for g in mech.gears if g.kind == 'gear')} gears, "
           f"{len(mech.neutrals)} neutral(s)")
@@ -58,30 +63,57 @@ def cmd_check(args) -> int:
         note = ""
         if row.combination.floating:
             note = f"  (floating: {', '.join(row.combination.floating)})"
+        note += "  (alternative)" if row.alternative else ""
         print(f"  {row.kind} {row.name:>4}: {' '.join(row.engaged):<14} ratio {_fmt_ratio(row.ratio)}{note}")
     return 0
 
 
 def cmd_ratios(args) -> int:
-    from .kinematics import gear_table
+    """Exit 1 when a declared ``ratio=`` is not reproduced (the table is printed in full and each
+    mismatch reported as a finding); 2 for bad input, including gears that tie up."""
+    import dataclasses
 
-    mech = load_checked(args.file)
+    from .kinematics import check_gears, gear_table, published_findings
+    from .language import load_mechanism
+    from .statics import check_oneways
+
+    mech = load_mechanism(args.file)
+    problems = check_gears(mech, published=False)
+    problems = problems or check_oneways(mech)
+    if problems:
+        raise MechValidationError(problems)
     table = gear_table(mech, all_combinations=not args.gears_only)
+    findings = [dataclasses.replace(d, severity="warning") for d in published_findings(mech, table)]
+    status = 1 if findings else 0
     if args.json:
-        print_document("transgen.ratios/1", table.to_dict(), table.UNITS)
-        return 0
+        data = table.to_dict()
+        data["findings"] = [{"line": d.line, "column": d.column, "message": d.message} for d in findings]
+        print_document("transgen.ratios/1", data, table.UNITS)
+        return status
     print(f"{mech.name}: input {mech.input}, output {mech.output} (ratio = input speed / output speed)")
     print()
-    print(f"  {'gear':>6}  {'engaged':<16} {'DOF':>3}  {'ratio':>9}  {'step':>6}  published")
+    print(f"  {'gear':>8}  {'engaged':<16} {'DOF':>3}  {'ratio':>9}  {'step':>6}  {'published':<16} floating")
     for row in table.gears:
         step = f"{row.step:.3f}" if row.step else ""
-        pub = (row.published + (" ok" if row.matches_published else " MISMATCH")) if row.published else ""
+        pub = ""
+        if row.published:
+            how = f"~{row.tolerance}" if row.tolerance else (" trunc" if row.rounding == "truncated" else "")
+            pub = f"{row.published}{how} " + ("ok" if row.matches_published else "MISMATCH")
         name = row.name if row.kind == "gear" else f"{row.name} (N)"
-        print(f"  {name:>6}  {' '.join(row.engaged):<16} {row.dof:>3}  {_fmt_ratio(row.ratio):>9}  {step:>6}  {pub}")
+        name += " (alt)" if row.alternative else ""
+        floating = ", ".join(row.combination.floating) if row.kind == "gear" else ""
+        print(f"  {name:>8}  {' '.join(row.engaged):<16} {row.dof:>3}  {_fmt_ratio(row.ratio):>9}  {step:>6}  "
+              f"{pub:<16} {floating}".rstrip())
     if table.spread:
         print(f"\n  overall spread {table.spread:.3f}")
+    if any(row.alternative for row in table.gears):
+        print("  (alt): alternative gear, outside the step sequence, the spread and the default speed phases")
+    if findings:
+        print(f"\n  {len(findings)} published ratio(s) not reproduced:")
+        for d in findings:
+            print("  " + d.format().replace("\n", "\n  "))
     if args.gears_only:
-        return 0
+        return status
     declared = {frozenset(r.engaged) for r in table.gears}
     print(f"\n  all {len(table.combinations)} combinations of engaged elements (* = declared):")
     print(f"  {'engaged':<24} {'DOF':>3}  {'ratio':>9}  kind")
@@ -90,7 +122,7 @@ def cmd_ratios(args) -> int:
         kind = c.kind + (f" ({c.detail})" if c.detail else "") + (
             f" (floating: {', '.join(c.floating)})" if c.floating else "")
         print(f" {mark}{' '.join(c.engaged) or '(none)':<24} {c.dof:>3}  {_fmt_ratio(c.ratio):>9}  {kind}")
-    return 0
+    return status
 
 
 def cmd_graph(args) -> int:
@@ -150,6 +182,8 @@ def cmd_modes(args) -> int:
         notes = [m["label"]] * bool(m["label"]) + [f"{'+'.join(grp)} in parallel" for grp in m["parallel"]]
         extra = "; ".join(notes) + (f"  !! {m['problem']}" if m["problem"] else "")
         print(f"  {m['name']:<5} {' '.join(m['locked']) or '(none)':<18} {m['dof']:>3}  {m['kind']:<8} {extra}")
+    for note in report["notes"]:
+        print(f"  note: {note}")
     diag = report["diagnosis"]
     if diag["combinations"] == diag["of"]:
         print(f"\n  static diagnosis over all {diag['combinations']} combinations:")

@@ -5,7 +5,7 @@ from .equations import diagnose_singular, locking_groups
 from .graph import build_graph
 from .kinematics import analyze, engaged_combinations
 from .model import Mechanism
-from .modes import mode_models
+from .modes import mode_models, neutral_note
 
 __all__ = ["mechanism_to_dict", "modes_report"]
 
@@ -29,6 +29,11 @@ def mechanism_to_dict(m: Mechanism) -> dict:
         "name": m.name,
         "source": m.source,
         "links": [{"name": k.name, "J": k.inertia} for k in m.links],
+        "stepped": [
+            {"name": sp.name, "carrier": sp.carrier, "Np1": sp.np1, "Np2": sp.np2,
+             "members": [{"role": role, "link": link, "teeth": teeth} for role, link, teeth in sp.members]}
+            for sp in m.stepped
+        ],
         "planetaries": [
             {"name": p.name, "type": "double-pinion" if p.pinions == 2 else "simple", "sun": p.sun, "ring": p.ring,
              "carrier": p.carrier, "Ns": p.n_sun, "Nr": p.n_ring, "eta0": p.eta0}
@@ -47,7 +52,8 @@ def mechanism_to_dict(m: Mechanism) -> dict:
         "input": m.input,
         "output": m.output,
         "torques": [{"name": t.name, "link": t.link, "role": t.role} for t in m.torques],
-        "gears": [{"name": g.name, "kind": g.kind, "engaged": list(g.engaged), "ratio": g.ratio} for g in m.gears],
+        "gears": [{"name": g.name, "kind": g.kind, "engaged": list(g.engaged), "ratio": g.ratio,
+                   "tol": g.tolerance, "rounding": g.rounding, "alternative": g.alternative} for g in m.gears],
         "modes": [{"name": d.name, "locked": list(d.locked)} for d in m.modes],
         "coordinates": list(m.coordinates),
     }
@@ -81,6 +87,7 @@ def modes_report(mech: Mechanism, which: str = "auto") -> dict:
              "parallel": [list(grp.members) for grp in m.parallel]}
             for m in models
         ],
+        "notes": [note for note in [neutral_note(mech) if which != "all" else ""] if note],
         "diagnosis": {"combinations": len(combos), "of": 2 ** len(mech.element_names),
                       "max_engaged": max(map(len, combos), default=0), "tie_ups": tie_ups, "non_unique_torques": non_unique,
                       "undetermined_massless": massless,
