@@ -300,6 +300,11 @@ class Driveline(Component):
     ``i`` and wheel radius ``r``; the road load at the wheels is rolling resistance
     ``f_r*m*g*cos(grade)`` (fading in below 0.1 m/s so the vehicle can stand), aerodynamic drag
     ``0.5*rho*cd_a*v^2`` and grade ``m*g*sin(grade)``; ``v = omega_v*r/i``.
+
+    With a vehicle (``mass > 0``) the signals include ``vehicle_accel`` [m/s^2], the vehicle's
+    longitudinal acceleration from its force balance ``(T_out - road)/J_v * r/i`` (exact at every
+    sample; the comfort figures of the shift report use it). Without a vehicle mass there is no
+    vehicle acceleration (the speeds are those of an output inertia).
     """
 
     output: int
@@ -315,6 +320,7 @@ class Driveline(Component):
     grade: float = 0.0
     name: str = "driveline"
     state_names: tuple[str, ...] = ("theta_ds", "omega_v")
+    signal_units = {"vehicle_accel": "m/s^2"}
 
     def __post_init__(self):
         self.J_v = self.J_out + self.mass * self.wheel_radius ** 2 / self.final_drive ** 2
@@ -366,11 +372,18 @@ class Driveline(Component):
         theta, omega_v = X
         shaft = self.stiffness * theta + self.damping * (W[self.output] - omega_v)
         v = self._speed(omega_v)
+        road = self.road_torque(omega_v)
         signals = {"T_out": shaft, "theta_ds": theta, "omega_v": omega_v, "vehicle_speed": v,
-                   "vehicle_speed_mph": v / 0.44704, "road_torque": self.road_torque(omega_v)}
+                   "vehicle_speed_mph": v / 0.44704, "road_torque": road}
+        if self.mass > 0:
+            signals["vehicle_accel"] = self._speed((shaft - road) / self.J_v)
         return {"T_out": shaft}, signals, self.energy(X, W)
 
     def signals(self, t, x, w):
         v = self._speed(x[1])
-        return {"T_out": self.shaft_torque(x, w), "theta_ds": x[0], "omega_v": x[1], "vehicle_speed": v,
-                "vehicle_speed_mph": v / 0.44704, "road_torque": self.road_torque(x[1])}
+        shaft, road = self.shaft_torque(x, w), self.road_torque(x[1])
+        out = {"T_out": shaft, "theta_ds": x[0], "omega_v": x[1], "vehicle_speed": v,
+               "vehicle_speed_mph": v / 0.44704, "road_torque": road}
+        if self.mass > 0:
+            out["vehicle_accel"] = self._speed((shaft - road) / self.J_v)
+        return out
