@@ -92,7 +92,7 @@ Comfort figures (:mod:`transgen.sim.comfort` has the arithmetic):
   (vertical) or ``none`` on request (:func:`shift_report` ``weighting``). The filter runs over the
   whole run, so the window starts with the filter's real state;
 * output torque after the shift: ``output_torque_final`` = its mean over the last
-  ``PRE_WINDOW`` of the window (needs a window reaching 2 * ``PRE_WINDOW`` past the shift end);
+  ``PRE_WINDOW`` of the window (needs a window reaching more than ``PRE_WINDOW`` past the shift end);
   ``torque_overshoot`` = its peak from the inertia phase start to ``window_end`` above that, in %
   of ``|output_torque_final|`` (the shift shock; ``output_torque_overshoot_pct`` compares the peak
   with the pre-shift torque instead); ``settling_time`` = the time from the shift end until it
@@ -366,7 +366,7 @@ def _comfort_figures(result: Result, c: dict | None, ts: float, t_end: float | N
             out.update(jerk_max=float(abs(j[k])), jerk_max_time=float(c["tj"][jw][k]),
                        jerk_peak_to_peak=float(np.max(j) - np.min(j)))
         out["vdv"] = vdv(c["tw"], c["aw"], ts, t_win)
-    if t_end is not None and t_win - t_end >= 2 * PRE_WINDOW:
+    if t_end is not None and t_win - t_end > PRE_WINDOW:
         final = integrate(t, T_out, t_win - PRE_WINDOW, t_win) / PRE_WINDOW
         out["output_torque_final"] = final
         if abs(final) > 1e-9:

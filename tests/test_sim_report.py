@@ -257,6 +257,99 @@ def test_report_text_and_dict(syn):
     assert report_dict(r)["shifts"][0]["name"] == "M1->M2"  # qualities computed when not given
 
 
+# --------------------------------------------------------------------------- comfort figures
+def _with_vehicle(r: Result) -> Result:
+    """The synthetic result with a vehicle acceleration: 1 m/s^2 until 1.1 s, down to 0.5 at
+    1.3 s (jerk -2.5 m/s^3), up to 0.8 at 1.4 s (jerk +3 m/s^3), 0.8 after."""
+    a = np.interp(r.time, [0.0, 1.1, 1.3, 1.4, 2.0], [1.0, 1.0, 0.5, 0.8, 0.8])
+    return Result(r.time, {**r.signals, "vehicle_accel": a}, r.units, r.modes, r.events, r.success, r.message,
+                  r.energy, r.stats, r.meta)
+
+
+def test_synthetic_comfort_closed_form():
+    (q,) = shift_report(_with_vehicle(synthetic()), weighting="none")
+    assert q.window_end == 2.0  # 2 s after the lock at 1.6 s, cut at the end of the run
+    assert q.accel_before == pytest.approx(1.0, rel=1e-12)
+    assert q.accel_after == pytest.approx(0.8, rel=1e-12)
+    assert q.jerk_max == pytest.approx(3.0, rel=1e-6) and 1.3 < q.jerk_max_time < 1.4
+    assert q.jerk_peak_to_peak == pytest.approx(5.5, rel=1e-6)
+    # (integral of a^4 over 1-2 s)^(1/4), piecewise exact: a^4 of a linear piece integrates to
+    # dt * (a1^5 - a0^5) / (5 (a1 - a0))
+    pieces = 0.1 + 0.2 * (1 - 0.5 ** 5) / 2.5 + 0.1 * (0.8 ** 5 - 0.5 ** 5) / 1.5 + 0.6 * 0.8 ** 4
+    assert q.vdv_weighting == "none" and q.vdv == pytest.approx(pieces ** 0.25, rel=1e-6)
+    # T_out: 1500 N*m in the speed phase, 1000 after the lock: final 1000, overshoot 50 %, settled
+    # at the lock (the event's repeated time stamp)
+    assert q.output_torque_final == pytest.approx(1000.0)
+    assert q.torque_overshoot == pytest.approx(50.0)
+    assert q.settling_time == pytest.approx(0.0, abs=1e-12)
+    assert q.lock_counts == {"A": 0, "B": 1} and q.unlock_counts == {"A": 1, "B": 0} and not q.chatter
+    d = q.to_dict()
+    assert d["lock_counts"] == {"A": 0, "B": 1} and d["vdv"] == pytest.approx(pieces ** 0.25, rel=1e-6)
+    # the default weighting is ISO 2631-1 Wd (fore-aft), which attenuates the sub-Hz content
+    (w,) = shift_report(_with_vehicle(synthetic()))
+    assert w.vdv_weighting == "Wd" and 0 < w.vdv < q.vdv
+
+
+def test_synthetic_without_vehicle_has_no_comfort_figures(syn):
+    _, q = syn
+    assert q.accel_before is q.accel_after is q.jerk_max is q.vdv is None
+    assert any("no vehicle" in n for n in q.notes)
+    assert q.torque_overshoot == pytest.approx(50.0)  # the output torque figures need no vehicle
+    with pytest.raises(ValueError, match="unknown frequency weighting"):
+        shift_report(synthetic(), weighting="Wq")
+
+
+def test_synthetic_forced_unlock_while_fully_applied():
+    r = synthetic()
+    sig = dict(r.signals, apply_A=np.ones(len(r.time)))  # A never released: B drives it over its capacity
+    r = Result(r.time, sig, r.units, r.modes, r.events, True, "completed", r.energy, r.stats, r.meta)
+    (q,) = shift_report(r)
+    assert q.forced_unlock and q.forced_unlock_element == "A"
+    assert any("forced to unlock at 1.2500 s while fully applied" in n for n in q.notes)
+    assert "YES - A unlocked while fully applied" in report_text(r, [q])
+
+
+def test_synthetic_chatter_counts():
+    r = synthetic()
+    evs = [r.events[0], Event(1.25, "unlock", ("A",), "M1", "M3"), Event(1.3, "lock", ("A",), "M3", "M1"),
+           Event(1.35, "unlock", ("A",), "M1", "M3"), Event(1.6, "lock", ("B",), "M3", "M2")]
+    r = Result(r.time, r.signals, r.units, r.modes, evs, True, "completed", r.energy, r.stats, r.meta)
+    (q,) = shift_report(r)
+    assert q.lock_counts == {"A": 1, "B": 1} and q.unlock_counts == {"A": 2, "B": 0}
+    assert q.chatter and any("chatter: A locked 1 and unlocked 2 times" in n for n in q.notes)
+    assert q.offgoing_unlock == 1.35
+
+
+def test_vehicle_acceleration_is_the_force_balance():
+    """The driveline's vehicle_accel integrates to the vehicle speed (it is the exact derivative of
+    the speed state, not a differenced signal); a driveline without a vehicle mass has none."""
+    from transgen.sim.scenario import load_scenario
+
+    r = load_scenario("ht740_improved", {"simulation.t_end": 3.0}).run()
+    t, a, v = r.time, r["vehicle_accel"], r["vehicle_speed"]
+    assert r.units["vehicle_accel"] == "m/s^2"
+    for t0, t1 in ((0.5, 1.0), (1.0, 3.0)):
+        assert integrate(t, a, t0, t1) == pytest.approx(np.interp(t1, t, v) - np.interp(t0, t, v), rel=1e-4)
+    assert "vehicle_accel" not in load_scenario("simple2_upshift", {"simulation.t_end": 4.1}).run().signals
+
+
+def test_sweep_rows_carry_the_comfort_scalars():
+    from transgen.sim.scenario import load_scenario
+    from transgen.sim.study.table import column_unit
+    from transgen.sim.study.task import result_scalars
+
+    sc = load_scenario("ht740_improved", {"simulation.t_end": 5.5})
+    row = result_scalars(sc, sc.run())
+    for k in ("accel_before", "accel_after", "jerk_max", "jerk_peak_to_peak", "vdv", "torque_overshoot",
+              "settling_time", "shift_duration", "lock_counts.C4", "unlock_counts.C5", "peak_power.C4"):
+        assert isinstance(row[f"shift1.{k}"], float | int), k
+    assert row["shift1.vdv_weighting"] == "Wd" and row["shift1.chatter"] is False
+    assert row["shift1.forced_unlock"] is False and row["shift1.forced_unlock_element"] is None
+    assert row["shift1.lock_counts.C4"] == 1 and row["shift1.unlock_counts.C5"] == 1
+    assert [column_unit(f"shift1.{k}") for k in ("jerk_max", "vdv", "accel_after", "lock_counts.C4")] == [
+        "m/s^3", "m/s^1.75", "m/s^2", "1"]
+
+
 # --------------------------------------------------------------------------- simple2 1-2 upshift
 def run_simple2(c1=((0, 5.2, 5.3), (1, 1, 0)), c2=((0, 5.0, 5.5), (0, 0, 1))) -> Result:
     """Thesis 3.3.1 simple transmission, 400 N*m input, driveshaft 12000 N*m/rad, 200 N*m*s/rad,
@@ -420,6 +513,19 @@ def test_ht740_thesis_findings():
         assert b.torque_hole < a.torque_hole
         assert b.energy_total < a.energy_total
         assert b.bindup_torque < a.bindup_torque
+        # the improved shifts are smoother: less jerk, smaller vibration dose
+        assert b.jerk_max < a.jerk_max and b.vdv < a.vdv
+    # the 3-4 anomaly: only there is the offgoing C3 forced to unlock while fully applied; the
+    # late releases of the first two shifts (bindup) and every improved shift are ordinary
+    assert [(q.forced_unlock, q.forced_unlock_element) for q in orig] == [(False, None), (False, None), (True, "C3")]
+    assert not any(q.forced_unlock for q in impr)
+    # C3 chatters in the improved 3-4: it slips at its holding pressure, re-locks, slips again
+    assert [q.chatter for q in impr] == [False, False, True] and not any(q.chatter for q in orig)
+    assert (impr[2].unlock_counts["C3"], impr[2].lock_counts["C3"], impr[2].lock_counts["C2"]) == (2, 1, 1)
+    for q in orig + impr:
+        assert q.vdv_weighting == "Wd" and q.vdv > 0 and q.jerk_peak_to_peak >= q.jerk_max > 0
+        assert q.accel_before > q.accel_after > 0  # an upshift: less tractive force in the higher gear
+        assert q.shift_duration == pytest.approx(q.shift_end - q.t_start)
 
 
 def test_oneway_release_downshift_is_inferred():
