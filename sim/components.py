@@ -318,6 +318,7 @@ class Driveline(Component):
     cd_a: float = 0.0
     air_density: float = 1.2
     grade: float = 0.0
+    initial_twist: float = 0.0  # rad, driveshaft twist at the start (see transgen.sim.settle)
     name: str = "driveline"
     state_names: tuple[str, ...] = ("theta_ds", "omega_v")
     signal_units = {"vehicle_accel": "m/s^2"}
@@ -328,7 +329,7 @@ class Driveline(Component):
             raise ValueError("the driveline needs an output inertia or a vehicle mass")
 
     def initial_state(self, w):
-        return np.array([0.0, w[self.output]])
+        return np.array([self.initial_twist, w[self.output]])
 
     def _speed(self, omega_v):
         return omega_v * self.wheel_radius / self.final_drive
