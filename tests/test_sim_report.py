@@ -498,6 +498,11 @@ def test_ht740_thesis_findings():
         qs = shift_report(r, sc.shifts or None)
         assert [(q.oncoming, q.offgoing) for q in qs] == [("C4", "C5"), ("C3", "C4"), ("C2", "C3")]
         assert all(q.completed for q in qs) and energy_balance(r)["passed"]
+        # "All shifts were made when the engine speed reached approximately 1800 revolutions per
+        # minute"; "accelerated from zero speed to approximately 27 miles per hour over twenty seconds"
+        engine = [np.interp(q.t_start, r.time, r["omega_engine"]) * RPM_PER_RAD_S for q in qs]
+        assert all(abs(x - 1800.0) < 0.03 * 1800.0 for x in engine), engine
+        assert abs(r["vehicle_speed_mph"][-1] - 27.0) < 1.5
         return qs
 
     orig, impr = run("ht740_original"), run("ht740_improved")
@@ -513,19 +518,37 @@ def test_ht740_thesis_findings():
         assert b.torque_hole < a.torque_hole
         assert b.energy_total < a.energy_total
         assert b.bindup_torque < a.bindup_torque
-        # the improved shifts are smoother: less jerk, smaller vibration dose
-        assert b.jerk_max < a.jerk_max and b.vdv < a.vdv
+        # the improved shifts give a smaller vibration dose (in the flaring improved 2-3, C4 dropped
+        # to its holding pressure lets go abruptly at 9.02 s, so its peak jerk is not lower:
+        # compared below for the 1-2 and 3-4 only)
+        assert b.vdv < a.vdv
+    assert impr[0].jerk_max < 0.5 * orig[0].jerk_max and impr[2].jerk_max < orig[2].jerk_max
     # the 3-4 anomaly: only there is the offgoing C3 forced to unlock while fully applied; the
     # late releases of the first two shifts (bindup) and every improved shift are ordinary
     assert [(q.forced_unlock, q.forced_unlock_element) for q in orig] == [(False, None), (False, None), (True, "C3")]
     assert not any(q.forced_unlock for q in impr)
-    # C3 chatters in the improved 3-4: it slips at its holding pressure, re-locks, slips again
-    assert [q.chatter for q in impr] == [False, False, True] and not any(q.chatter for q in orig)
-    assert (impr[2].unlock_counts["C3"], impr[2].lock_counts["C3"], impr[2].lock_counts["C2"]) == (2, 1, 1)
+    assert not any(q.chatter for q in orig + impr)
     for q in orig + impr:
         assert q.vdv_weighting == "Wd" and q.vdv > 0 and q.jerk_peak_to_peak >= q.jerk_max > 0
         assert q.accel_before > q.accel_after > 0  # an upshift: less tractive force in the higher gear
         assert q.shift_duration == pytest.approx(q.shift_end - q.t_start)
+
+
+def test_ht740_improved_chatter_at_constant_throttle():
+    """At the constant throttle 0.72 the scenarios had before their shifts were put at 1800 rpm,
+    the improved 3-4 chatters: C3, dropped to its 30 % holding pressure, slips, re-locks and slips
+    again before C2 locks (issue 12: 'C3 locks and unlocks repeatedly in the 3-4')."""
+    from transgen.sim.scenario import load_scenario
+
+    sc = load_scenario("ht740_improved", {"input.throttle_signal": 0.72})
+    r = sc.run()
+    qs = shift_report(r, sc.shifts or None)
+    assert [q.chatter for q in qs] == [False, False, True]
+    q = qs[2]
+    assert (q.unlock_counts["C3"], q.lock_counts["C3"], q.lock_counts["C2"], q.unlock_counts["C2"]) == (2, 1, 1, 0)
+    unlocks = [e.t for e in r.events if e.kind == "unlock" and e.elements == ("C3",)]
+    assert len(unlocks) == 2 and q.offgoing_unlock == unlocks[-1] and not q.forced_unlock
+    assert qs[1].flare_max_rpm == pytest.approx(165.5, abs=1.0)  # the 2-3 flare the issue quotes
 
 
 def test_oneway_release_downshift_is_inferred():
