@@ -36,6 +36,7 @@ import numpy as np
 __all__ = [
     "WEIGHTINGS",
     "FS_WEIGHTING",
+    "check_weighting",
     "weighting_response",
     "weighting_sos",
     "weighted",
@@ -57,9 +58,16 @@ WEIGHTINGS = {
 _Q_BAND = 1.0 / math.sqrt(2.0)
 
 
-def _check(weighting: str) -> dict:
-    if weighting not in WEIGHTINGS:
+def check_weighting(weighting: str) -> str:
+    """``weighting`` if it is one of :data:`WEIGHTINGS` or ``"none"``, else ValueError."""
+    if weighting != "none" and weighting not in WEIGHTINGS:
         raise ValueError(f"unknown frequency weighting {weighting!r} (known: {', '.join(WEIGHTINGS)}, none)")
+    return weighting
+
+
+def _check(weighting: str) -> dict:
+    if check_weighting(weighting) == "none":
+        raise ValueError("the weighting 'none' has no filter")
     return WEIGHTINGS[weighting]
 
 

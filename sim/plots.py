@@ -431,9 +431,9 @@ def plot_all(result: Result, qualities=None, directory=".", formats=("png",), ti
     """Write every plot of :data:`PLOTS` to ``directory`` as ``<prefix><name>.<format>``
     (``speeds.png``, ``slips.png``, ``torques.png``, ``io_torques.png``, ``power.png``,
     ``mode.png``, ``apply.png``) and, without a ``time_window``, the :func:`plot_shift` figure of
-    each shift of ``qualities`` (``shift1.png``, ``shift2.png``, ...), atomically: each file is written to a temporary file in the
-    same directory and renamed over the target (:func:`transgen.export.atomic_path`). Returns the
-    paths written."""
+    each shift of ``qualities`` (``shift1.png``, ``shift2.png``, ...), atomically: each file is
+    written to a temporary file in the same directory and renamed over the target
+    (:func:`transgen.export.atomic_path`). Returns the paths written."""
     from transgen.export import atomic_path
 
     directory = Path(directory)

@@ -119,8 +119,9 @@ def _comfort_rows(q: ShiftQuality) -> list[tuple[str, str]]:
                                          f"m/s^2 after (mean to {q.window_end:.3f} s)"),
                 ("jerk", f"max |jerk| {_f(q.jerk_max, '.2f')} m/s^3 at {_f(q.jerk_max_time)} s, peak-to-peak "
                          f"{_f(q.jerk_peak_to_peak, '.2f')} m/s^3 ({window})"),
-                ("vibration dose value", f"{q.vdv:.4f} m/s^1.75 ({'ISO 2631-1 ' + q.vdv_weighting if q.vdv_weighting != 'none' else 'unweighted'}"
-                                         f", {window})")]
+                ("vibration dose value", f"{q.vdv:.4f} m/s^1.75 ("
+                                         + ("unweighted" if q.vdv_weighting == "none" else f"ISO 2631-1 {q.vdv_weighting}")
+                                         + f", {window})")]
     rows.append(("output torque after", f"{_f(q.output_torque_final, '.1f', 'N*m')} (final), overshoot "
                                         f"{_f(q.torque_overshoot, '.1f', '%')} of it, settles within "
                                         f"{SETTLE_FRACTION:.0%} after {_f(q.settling_time, '.3f', 's')}"))

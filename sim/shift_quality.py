@@ -118,7 +118,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from .result import Result
-from .comfort import WEIGHTINGS, jerk, settling_time, vdv, weighted
+from .comfort import check_weighting, jerk, settling_time, vdv, weighted
 from .samples import duration_above, integrate, value_at, window
 from .shifts import APPLY_ZERO, Shift, infer_shifts, lock_time, lock_times, shift_name
 
@@ -632,8 +632,7 @@ def shift_report(result: Result, shifts: list[Shift] | None = None, input_link: 
     ``weighting``: the frequency weighting of the acceleration for the VDV, ``"Wd"`` (ISO 2631-1
     fore-aft, the default), ``"Wk"`` (ISO 2631-1 vertical) or ``"none"``.
     """
-    if weighting != "none" and weighting not in WEIGHTINGS:
-        raise ValueError(f"unknown frequency weighting {weighting!r} (known: {', '.join(WEIGHTINGS)}, none)")
+    check_weighting(weighting)
     if len(result.time) < 2:
         return []
     inp, out, notes = _links(result, input_link, output_link)
