@@ -457,6 +457,9 @@ def sample_block(pt: Powertrain, seg: Segment, ts: np.ndarray, ys: np.ndarray, n
     slips = tr.P @ W
     te, torques, power, extra = element_state(W, slips, U)
     U[tr.element_input] += te
+    A = seg.mode.C @ (seg.mode.B @ U)  # link accelerations [rad/s^2], for the components that need them
+    for c, sl in zip(pt.components, layout.slices):
+        out.update(c.sample_rates(ts, ys[sl], W, A))
     for k, name in enumerate(tr.links):
         out[f"w_{name}"] = W[k]
     for i, e in enumerate(tr.elements):

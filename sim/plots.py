@@ -318,7 +318,8 @@ def plot_shift(result: Result, quality, time_window=None, elements=None, weighti
     3. the output torque [N*m] with its pre-shift mean and its final value after the shift;
     4. the vehicle acceleration [m/s^2] and its frequency-weighted form (``weighting``, default
        that of the quality's VDV) - only when the run has a vehicle (``vehicle_accel``);
-    5. the jerk [m/s^3] (secant slopes between unique samples, :func:`transgen.sim.comfort.jerk`).
+    5. the jerk [m/s^3] (the driveline's exact ``vehicle_jerk``; differenced,
+       :func:`transgen.sim.comfort.jerk`, for a result without it).
 
     ``quality``: the :class:`~transgen.sim.shift_quality.ShiftQuality` of the shift."""
     from matplotlib.figure import Figure
@@ -389,7 +390,7 @@ def plot_shift(result: Result, quality, time_window=None, elements=None, weighti
         ax.axhline(0.0, color="0.3", lw=0.8)
         ax.set_ylabel("acceleration [m/s^2]")
         ax = axes[4]
-        tj, j = jerk(t, sig["vehicle_accel"])
+        tj, j = (t, sig["vehicle_jerk"]) if "vehicle_jerk" in sig else jerk(t, sig["vehicle_accel"])
         k = (tj >= tw[0]) & (tj <= tw[1])
         ax.plot(tj[k], j[k], color="tab:olive", lw=1.4, label="jerk")
         ax.axhline(0.0, color="0.3", lw=0.8)

@@ -83,9 +83,12 @@ Comfort figures (:mod:`transgen.sim.comfort` has the arithmetic):
   from the shift end to ``window_end`` (= the change of vehicle speed over that time). A run
   without a vehicle (no vehicle mass, or a prescribed output torque) has none: these, the jerk
   and the VDV are None, with a note;
-* jerk: the acceleration differenced between unique samples (repeated time stamps at events:
-  the value after the event), resolved at the output sampling; ``jerk_max`` = max |jerk| in the
-  window (at ``jerk_max_time``), ``jerk_peak_to_peak`` = max - min;
+* jerk: the driveline's ``vehicle_jerk`` signal, the exact derivative of that force balance
+  (with the output link's acceleration from the transmission; both sides of an event sampled),
+  so the figures do not depend on the output sampling; a result without it has the acceleration
+  differenced between unique samples instead (repeated time stamps at events: the value after
+  the event), resolved only at the output sampling. ``jerk_max`` = max |jerk| in the window (at
+  ``jerk_max_time``), ``jerk_peak_to_peak`` = max - min;
 * vibration dose value ``vdv`` = (integral of a_w^4 dt over the window)^(1/4) [m/s^1.75] of the
   acceleration weighted with ``vdv_weighting``: ISO 2631-1 **Wd** by default (the weighting of
   fore-aft, x-axis vibration of a seated person: the vehicle's longitudinal acceleration), ``Wk``
@@ -338,7 +341,10 @@ def _comfort_signals(result: Result, weighting: str) -> dict | None:
     a = result.signals.get("vehicle_accel")
     if a is None or len(result.time) < 2:
         return None
-    tj, j = jerk(result.time, a)
+    if "vehicle_jerk" in result.signals:  # exact, from the driveline and the output link's acceleration
+        tj, j = result.time, result.signals["vehicle_jerk"]
+    else:  # a result without it (e.g. read from a file): differenced
+        tj, j = jerk(result.time, a)
     tw, aw = weighted(result.time, a, weighting)
     return {"a": a, "tj": tj, "j": j, "tw": tw, "aw": aw, "weighting": weighting}
 
