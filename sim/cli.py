@@ -278,11 +278,17 @@ def _comparison_text(scenario, a, qa, name_b, b, qb) -> str:
     """Side-by-side shift numbers of two runs, and the turbocharger comparison where both have one
     (with both algorithms evaluated on the first run's states)."""
     lines = [f"Comparison: {scenario.title}  vs  {name_b}  (each column: this run, then {name_b})",
-             f"  {'shift':<8} {'torque hole [N*m]':>22} {'bindup [N*m]':>18} {'energy [kJ]':>16} {'flare [rpm]':>16}"]
+             f"  {'shift':<8} {'torque hole [N*m]':>22} {'bindup [N*m]':>18} {'energy [kJ]':>16} {'flare [rpm]':>16}"
+             f" {'max |jerk| [m/s^3]':>19} {'VDV [m/s^1.75]':>16}"]
+
+    def num(v, fmt):
+        return "-" if v is None else format(v, fmt)
+
     for x, y in zip(qa, qb):
         lines.append(f"  {x.name:<8} {x.torque_hole:>10.0f} {y.torque_hole:>11.0f} {x.bindup_torque:>8.0f} "
                      f"{y.bindup_torque:>9.0f} {x.energy_total / 1e3:>7.1f} {y.energy_total / 1e3:>8.1f} "
-                     f"{x.flare_max_rpm:>7.1f} {y.flare_max_rpm:>8.1f}")
+                     f"{x.flare_max_rpm:>7.1f} {y.flare_max_rpm:>8.1f} {num(x.jerk_max, '.1f'):>9} "
+                     f"{num(y.jerk_max, '.1f'):>9} {num(x.vdv, '.3f'):>7} {num(y.vdv, '.3f'):>8}")
     lines.append(f"  energy dissipated [kJ]: {a.energy.get('dissipated', 0) / 1e3:.1f} vs {b.energy.get('dissipated', 0) / 1e3:.1f}")
     if "omega_tc" in a.signals and "omega_tc" in b.signals:
         from .engine.turbo_report import turbo_report

@@ -29,6 +29,10 @@ __all__ = ["simulate_compliant"]
 def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
     """Simulate with the compliant clutch model (see the module docstring)."""
     tr = pt.transmission
+    dogs = [e.name for e in tr.elements if e.kind == "dog"]
+    if dogs:
+        raise SimulationError(f"the compliant clutch model has no dog elements ({', '.join(dogs)}: a dog has no "
+                              f"slipping torque for a spring to load); use the default switching model")
     model = ComponentEvaluator(pt)
     wall = _time.perf_counter()
     try:

@@ -25,6 +25,9 @@ to positions):
                                    times ``ts`` (``X``, ``W``: one column per time); the default
                                    calls the scalar methods at each time, components override it
                                    with array arithmetic
+``sample_rates(ts, X, W, A)``      signals that need the link accelerations ``A`` [rad/s^2]
+                                   too (one column per time), e.g. the vehicle's jerk; ``{}``
+                                   by default
 """
 from __future__ import annotations
 
@@ -109,6 +112,11 @@ class Component:
             rows.append(self.signals(ts[k], x, w))
             energy[k] = self.energy(x, w)
         return torques, {name: np.array([r[name] for r in rows], dtype=float) for name in (rows[0] if rows else ())}, energy
+
+    def sample_rates(self, ts: np.ndarray, X: np.ndarray, W: np.ndarray, A: np.ndarray) -> dict:
+        """Signals that need the link accelerations ``A`` [rad/s^2] besides the states ``X`` and
+        the link speeds ``W`` (one column per time); none by default."""
+        return {}
 
 
 @dataclass
@@ -300,6 +308,15 @@ class Driveline(Component):
     ``i`` and wheel radius ``r``; the road load at the wheels is rolling resistance
     ``f_r*m*g*cos(grade)`` (fading in below 0.1 m/s so the vehicle can stand), aerodynamic drag
     ``0.5*rho*cd_a*v^2`` and grade ``m*g*sin(grade)``; ``v = omega_v*r/i``.
+
+    With a vehicle (``mass > 0``) the signals include ``vehicle_accel`` [m/s^2], the vehicle's
+    longitudinal acceleration from its force balance ``a = (T_out - road)/J_v * r/i``, and
+    ``vehicle_jerk`` [m/s^3], its time derivative
+    ``(k*(w_out - omega_v) + c*(alpha_out - alpha_v) - road'(omega_v)*alpha_v)/J_v * r/i`` with the
+    output link's acceleration ``alpha_out`` from the transmission (:meth:`sample_rates`): both
+    exact at every sample (the jerk jumps at a mode change: the two samples of the event show
+    both sides). The comfort figures of the shift report use them. Without a vehicle mass there
+    is no vehicle acceleration (the speeds are those of an output inertia).
     """
 
     output: int
@@ -313,8 +330,10 @@ class Driveline(Component):
     cd_a: float = 0.0
     air_density: float = 1.2
     grade: float = 0.0
+    initial_twist: float = 0.0  # rad, driveshaft twist at the start (see transgen.sim.settle)
     name: str = "driveline"
     state_names: tuple[str, ...] = ("theta_ds", "omega_v")
+    signal_units = {"vehicle_accel": "m/s^2", "vehicle_jerk": "m/s^3"}
 
     def __post_init__(self):
         self.J_v = self.J_out + self.mass * self.wheel_radius ** 2 / self.final_drive ** 2
@@ -322,7 +341,7 @@ class Driveline(Component):
             raise ValueError("the driveline needs an output inertia or a vehicle mass")
 
     def initial_state(self, w):
-        return np.array([0.0, w[self.output]])
+        return np.array([self.initial_twist, w[self.output]])
 
     def _speed(self, omega_v):
         return omega_v * self.wheel_radius / self.final_drive
@@ -336,6 +355,22 @@ class Driveline(Component):
         rolling = self.rolling * mg * math.cos(self.grade) * tanh(v / 0.1)
         force = rolling + 0.5 * self.air_density * self.cd_a * v * abs(v) + mg * math.sin(self.grade)
         return force * self.wheel_radius / self.final_drive
+
+    def road_slope(self, omega_v: np.ndarray) -> np.ndarray:
+        """d(road torque)/d(omega_v) [N*m*s/rad] (the grade term is constant)."""
+        g = self.wheel_radius / self.final_drive
+        v = omega_v * g
+        rolling = self.rolling * self.mass * GRAVITY * math.cos(self.grade) / 0.1 / np.cosh(v / 0.1) ** 2
+        return (rolling + self.air_density * self.cd_a * np.abs(v)) * g * g
+
+    def sample_rates(self, ts, X, W, A):
+        if self.mass <= 0:
+            return {}
+        theta, omega_v = X
+        slip = W[self.output] - omega_v
+        alpha_v = (self.stiffness * theta + self.damping * slip - self.road_torque(omega_v)) / self.J_v
+        d_shaft = self.stiffness * slip + self.damping * (A[self.output] - alpha_v)
+        return {"vehicle_jerk": self._speed((d_shaft - self.road_slope(omega_v) * alpha_v) / self.J_v)}
 
     def shaft_torque(self, x, w) -> float:
         return self.stiffness * x[0] + self.damping * (w[self.output] - x[1])
@@ -366,11 +401,18 @@ class Driveline(Component):
         theta, omega_v = X
         shaft = self.stiffness * theta + self.damping * (W[self.output] - omega_v)
         v = self._speed(omega_v)
+        road = self.road_torque(omega_v)
         signals = {"T_out": shaft, "theta_ds": theta, "omega_v": omega_v, "vehicle_speed": v,
-                   "vehicle_speed_mph": v / 0.44704, "road_torque": self.road_torque(omega_v)}
+                   "vehicle_speed_mph": v / 0.44704, "road_torque": road}
+        if self.mass > 0:
+            signals["vehicle_accel"] = self._speed((shaft - road) / self.J_v)
         return {"T_out": shaft}, signals, self.energy(X, W)
 
     def signals(self, t, x, w):
         v = self._speed(x[1])
-        return {"T_out": self.shaft_torque(x, w), "theta_ds": x[0], "omega_v": x[1], "vehicle_speed": v,
-                "vehicle_speed_mph": v / 0.44704, "road_torque": self.road_torque(x[1])}
+        shaft, road = self.shaft_torque(x, w), self.road_torque(x[1])
+        out = {"T_out": shaft, "theta_ds": x[0], "omega_v": x[1], "vehicle_speed": v,
+               "vehicle_speed_mph": v / 0.44704, "road_torque": road}
+        if self.mass > 0:
+            out["vehicle_accel"] = self._speed((shaft - road) / self.J_v)
+        return out

@@ -416,7 +416,8 @@ def collect(pt: Powertrain, options: SolverOptions, recorder: Recorder, events: 
     if recorder.monitor is not None:
         stats["invariants"] = recorder.monitor.summary()
     meta = {"mechanism": tr.mech.name, "model": options.model, "links": list(tr.links), "elements": e_names,
-            "mode_names": order, "coordinates": list(tr.coordinates)}
+            "mode_names": order, "coordinates": list(tr.coordinates),
+            "static_capacity": {e.name: e.static for e in tr.elements if e.kind != "oneway"}}
     return Result(time_arr, arrays, units, spans, events, success, message, energy, stats, meta)
 
 
@@ -456,6 +457,9 @@ def sample_block(pt: Powertrain, seg: Segment, ts: np.ndarray, ys: np.ndarray, n
     slips = tr.P @ W
     te, torques, power, extra = element_state(W, slips, U)
     U[tr.element_input] += te
+    A = seg.mode.C @ (seg.mode.B @ U)  # link accelerations [rad/s^2], for the components that need them
+    for c, sl in zip(pt.components, layout.slices):
+        out.update(c.sample_rates(ts, ys[sl], W, A))
     for k, name in enumerate(tr.links):
         out[f"w_{name}"] = W[k]
     for i, e in enumerate(tr.elements):

@@ -300,7 +300,7 @@ def _forward_gears(mech: Mechanism) -> list[ForwardGear]:
     g = build_graph(mech)
     out = []
     for gear in mech.gears:
-        if gear.kind != "gear":
+        if gear.kind != "gear" or gear.alternative:  # a manual low or extra ratio: not in the launch
             continue
         combo = analyze(mech, gear.engaged, g)
         if combo.dof != 1 or combo.ratio is None or not combo.ratio > 0:

@@ -84,12 +84,16 @@ class InvariantMonitor:
         for i, e in enumerate(self.tr.elements):
             slip, torque = block[f"slip_{e.name}"], block[f"t_{e.name}"]
             if i in locked:
+                if e.kind == "dog" and not np.isfinite(e.static):
+                    continue  # unlimited teeth: no holding limit to check
                 if e.kind == "oneway":
                     excess = e.free * torque
                     limit = np.full(n, _TORQUE_RTOL * max(1.0, torque_scale))
                     what = "a locked one-way clutch transmits against its locking direction"
                 else:
-                    capacity = e.static * block[f"apply_{e.name}"]
+                    apply = block[f"apply_{e.name}"]
+                    capacity = (np.where(apply > 0, e.static, 0.0) if e.kind == "dog"  # full teeth capacity
+                                else e.static * apply)
                     excess = np.abs(torque) - capacity
                     limit = np.full(n, _TORQUE_RTOL * max(e.static, torque_scale))
                     what = "the locked torque exceeds the holding limit T_static*apply"

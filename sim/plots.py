@@ -18,8 +18,12 @@ Matplotlib is imported only inside the functions and only its object API is used
 * :func:`plot_power` - power dissipated per element [kW];
 * :func:`plot_mode` - mode of operation (step plot, mode names and locked elements as ticks);
 * :func:`plot_apply` - apply fractions of the shift elements [-];
-* :func:`plot_all` - all of the above written to files; :func:`compare` - one signal of several
-  runs overlaid.
+* :func:`plot_shift` - one shift zoomed on its own time window (phases shaded, events marked):
+  input speed with the old and new gears' synchronous speeds, the torques of the elements that
+  take part with their holding-capacity envelopes ``+-T_static*apply``, the output torque, the
+  vehicle acceleration (raw and frequency-weighted) and the jerk;
+* :func:`plot_all` - all of the above written to files (one ``shiftN`` figure per shift);
+  :func:`compare` - one signal of several runs overlaid.
 """
 from __future__ import annotations
 
@@ -37,6 +41,8 @@ __all__ = [
     "plot_power",
     "plot_mode",
     "plot_apply",
+    "plot_shift",
+    "shift_window",
     "plot_all",
     "compare",
     "PLOTS",
@@ -277,6 +283,139 @@ def plot_apply(result: Result, qualities=None, ax=None, elements=None, time_wind
     return fig
 
 
+def shift_window(result: Result, quality) -> tuple[float, float]:
+    """The time window [s] of :func:`plot_shift`: from a little before the shift command to a
+    while after the shift (and the offgoing element's dissipation) ends - a margin of 15 % of
+    the shift's span (at least 0.1 s) before and of 50 % (at least 0.5 s) after, within the run."""
+    t = result.time
+    end = max(quality.shift_end, quality.dissipation_end)
+    span = max(end - quality.t_start, 1e-3)
+    return (max(float(t[0]), quality.t_start - max(0.15 * span, 0.1)),
+            min(float(t[-1]), end + max(0.5 * span, 0.5)))
+
+
+def _events_in(ax, result: Result, time_window, label: bool):
+    """Thin vertical lines at the lock/unlock events in the window (labelled on top when ``label``)."""
+    for e in result.events:
+        if e.kind == "start" or not (time_window[0] <= e.t <= time_window[1]):
+            continue
+        ax.axvline(e.t, color="0.35", lw=0.7, ls=(0, (4, 3)), zorder=1)
+        if label:
+            ax.annotate(f"{'+'.join(e.elements)} {e.kind}", (e.t, 1.0), xycoords=("data", "axes fraction"),
+                        rotation=90, va="top", ha="right", fontsize="x-small", color="0.25")
+
+
+def plot_shift(result: Result, quality, time_window=None, elements=None, weighting: str | None = None):
+    """One shift zoomed on its own time window (:func:`shift_window` unless ``time_window``): a
+    figure of stacked panels sharing the time axis, the torque and inertia phases shaded and the
+    lock/unlock events marked in each.
+
+    1. input link speed [rpm] (and the engine speed when the run has one), with the synchronous
+       speeds of the old and the new gear (output speed x the speed ratio before / after);
+    2. the torques of the shift's elements [N*m] - the oncoming and offgoing elements and any other
+       that locks or unlocks in the window, or ``elements`` - each with its holding-capacity
+       envelope ``+-T_static*apply`` (dotted, from ``meta["static_capacity"]``);
+    3. the output torque [N*m] with its pre-shift mean and its final value after the shift;
+    4. the vehicle acceleration [m/s^2] and its frequency-weighted form (``weighting``, default
+       that of the quality's VDV) - only when the run has a vehicle (``vehicle_accel``);
+    5. the jerk [m/s^3] (the driveline's exact ``vehicle_jerk``; differenced,
+       :func:`transgen.sim.comfort.jerk`, for a result without it).
+
+    ``quality``: the :class:`~transgen.sim.shift_quality.ShiftQuality` of the shift."""
+    from matplotlib.figure import Figure
+
+    from .comfort import jerk, weighted
+
+    q = quality
+    tw = tuple(time_window) if time_window is not None else shift_window(result, q)
+    t, sig, meta = result.time, result.signals, result.meta or {}
+    vehicle = "vehicle_accel" in sig
+    n = 5 if vehicle else 3
+    fig = Figure(figsize=(10.0, 2.3 * n + 0.8), dpi=DPI, layout="constrained")
+    axes = fig.subplots(n, 1, sharex=True)
+    m = _mask(result, tw)
+    tm = t[m]
+
+    # 1 speeds
+    ax = axes[0]
+    inp, out = q.input_link, q.output_link
+    ax.plot(tm, sig[f"w_{inp}"][m] * RPM_PER_RAD_S, color="tab:blue", lw=2.0, label=f"{inp} (input)")
+    if "omega_engine" in sig:
+        ax.plot(tm, sig["omega_engine"][m] * RPM_PER_RAD_S, color="tab:gray", lw=1.4, label="engine")
+    for r_, lab, ls in ((q.ratio_before, "old gear", "--"), (q.ratio_after, "new gear", ":")):
+        if r_ is not None and f"w_{out}" in sig:
+            ax.plot(tm, sig[f"w_{out}"][m] * r_ * RPM_PER_RAD_S, color="tab:green", lw=1.2, ls=ls,
+                    label=f"{lab} synchronous ({out} x {r_:.3g})")
+    ax.set_ylabel("speed [rpm]")
+
+    # 2 element torques and capacity envelopes
+    ax = axes[1]
+    if elements is None:
+        moving = [e for e in q.lock_counts if q.lock_counts.get(e, 0) or q.unlock_counts.get(e, 0)]
+        elements = list(dict.fromkeys([q.oncoming, q.offgoing] + moving))
+    caps = meta.get("static_capacity") or {}
+    biggest = 0.0
+    for e, color in zip(elements, _colors(len(elements))):
+        if f"t_{e}" not in sig:
+            continue
+        biggest = max(biggest, float(np.max(np.abs(sig[f"t_{e}"][m]), initial=0.0)))
+        role = " (on)" if e == q.oncoming else (" (off)" if e == q.offgoing else "")
+        ax.plot(tm, sig[f"t_{e}"][m], color=color, lw=1.8, label=f"{e}{role}")
+        if e in caps and f"apply_{e}" in sig:
+            env = caps[e] * np.maximum(sig[f"apply_{e}"][m], 0.0)
+            ax.plot(tm, env, color=color, lw=1.0, ls=":", label=f"+-{e} static x apply")
+            ax.plot(tm, -env, color=color, lw=1.0, ls=":")
+    ax.axhline(0.0, color="0.3", lw=0.8)
+    if biggest > 0:  # the torques fill the panel; an envelope far above them is cut off
+        ax.set_ylim(-1.5 * biggest, 1.5 * biggest)
+    ax.set_ylabel("element torque [N*m]")
+
+    # 3 output torque
+    ax = axes[2]
+    ax.plot(tm, sig["T_out"][m], color="tab:red", lw=1.8, label="output torque T_out")
+    ax.axhline(q.output_torque_before, color="tab:red", lw=0.9, ls="--", label="before (pre-shift mean)")
+    if q.output_torque_final is not None:
+        ax.axhline(q.output_torque_final, color="tab:purple", lw=0.9, ls=":", label="final (after the shift)")
+    ax.set_ylabel("torque [N*m]")
+
+    # 4, 5 acceleration and jerk
+    if vehicle:
+        ax = axes[3]
+        ax.plot(tm, sig["vehicle_accel"][m], color="tab:orange", lw=1.8, label="vehicle acceleration")
+        wname = weighting or (q.vdv_weighting if q.vdv_weighting != "none" else None)
+        if wname:
+            tu, aw = weighted(t, sig["vehicle_accel"], wname)
+            k = (tu >= tw[0]) & (tu <= tw[1])
+            ax.plot(tu[k], aw[k], color="tab:brown", lw=1.0, label=f"ISO 2631-1 {wname}-weighted")
+        ax.axhline(0.0, color="0.3", lw=0.8)
+        ax.set_ylabel("acceleration [m/s^2]")
+        ax = axes[4]
+        tj, j = (t, sig["vehicle_jerk"]) if "vehicle_jerk" in sig else jerk(t, sig["vehicle_accel"])
+        k = (tj >= tw[0]) & (tj <= tw[1])
+        ax.plot(tj[k], j[k], color="tab:olive", lw=1.4, label="jerk")
+        ax.axhline(0.0, color="0.3", lw=0.8)
+        ax.set_ylabel("jerk [m/s^3]")
+
+    for k, ax in enumerate(axes):
+        handles = _shade(ax, [q], tw)
+        _events_in(ax, result, tw, label=k == 0)
+        ax.grid(True, alpha=0.4)
+        lines, _ = ax.get_legend_handles_labels()
+        ax.legend(handles=lines + (handles if k == 0 else []), loc="center left", bbox_to_anchor=(1.01, 0.5),
+                  fontsize="small")
+    axes[-1].set_xlabel("time [s]")
+    axes[-1].set_xlim(*tw)
+    figs = [f"torque hole {q.torque_hole_pct:.1f} %" if q.torque_hole_pct is not None else "",
+            f"flare {q.flare_max_rpm:.0f} rpm" if q.flare else "",
+            "bindup" if q.bindup else "", f"forced unlock {q.forced_unlock_element}" if q.forced_unlock else "",
+            "chatter" if q.chatter else "",
+            f"max |jerk| {q.jerk_max:.1f} m/s^3" if q.jerk_max is not None else "",
+            f"VDV {q.vdv:.3f} m/s^1.75 ({q.vdv_weighting})" if q.vdv is not None else ""]
+    axes[0].set_title(_title(result, f"Shift {q.name}: {q.oncoming} on, {q.offgoing} off") + "\n"
+                      + ", ".join(x for x in figs if x), fontsize="medium")
+    return fig
+
+
 PLOTS = {
     "speeds": plot_speeds,
     "slips": plot_slips,
@@ -292,15 +431,18 @@ def plot_all(result: Result, qualities=None, directory=".", formats=("png",), ti
              prefix: str = "") -> list[Path]:
     """Write every plot of :data:`PLOTS` to ``directory`` as ``<prefix><name>.<format>``
     (``speeds.png``, ``slips.png``, ``torques.png``, ``io_torques.png``, ``power.png``,
-    ``mode.png``, ``apply.png``), atomically: each file is written to a temporary file in the
-    same directory and renamed over the target (:func:`transgen.export.atomic_path`). Returns the
-    paths written."""
+    ``mode.png``, ``apply.png``) and, without a ``time_window``, the :func:`plot_shift` figure of
+    each shift of ``qualities`` (``shift1.png``, ``shift2.png``, ...), atomically: each file is
+    written to a temporary file in the same directory and renamed over the target
+    (:func:`transgen.export.atomic_path`). Returns the paths written."""
     from transgen.export import atomic_path
 
     directory = Path(directory)
     paths = []
-    for name, func in PLOTS.items():
-        fig = func(result, qualities, time_window=time_window)
+    figures = [(name, func(result, qualities, time_window=time_window)) for name, func in PLOTS.items()]
+    if time_window is None:
+        figures += [(f"shift{k}", plot_shift(result, q)) for k, q in enumerate(qualities or (), start=1)]
+    for name, fig in figures:
         for fmt in formats:
             path = directory / f"{prefix}{name}.{fmt}"
             with atomic_path(path, suffix=f".{fmt}") as tmp:

@@ -1,7 +1,8 @@
 """The shift-quality report of a simulation result: readable text and a JSON-ready dict.
 
 The public entry point of the shift analysis: :func:`shift_report` measures every shift (torque
-and inertia phase, torque hole, bindup, flare, element energies; the definitions are in
+and inertia phase, torque hole, bindup, flare, element energies, comfort: acceleration, jerk,
+VDV, overshoot, settling, lock/unlock counts; the definitions are in
 :mod:`transgen.sim.shift_quality`), :func:`infer_shifts` finds the shifts when none are given
 (:mod:`transgen.sim.shifts`), :func:`energy_balance` checks the run's energy balance, and
 :func:`report_text` / :func:`report_dict` put the shift numbers, the energy balance and the run
@@ -14,7 +15,8 @@ import math
 
 from .result import Result
 from .shift_quality import (BINDUP_FRACTION, FLARE_FRACTION, ONSET_FRACTION, OVERLAP_FRACTION, OVERLAP_MIN,
-                            PRE_WINDOW, RAMP_TOL, RATIO_TOL, RPM_PER_RAD_S, ShiftQuality, jsonable, shift_report)
+                            POST_WINDOW, PRE_WINDOW, RAMP_TOL, RATIO_TOL, RPM_PER_RAD_S, SETTLE_FRACTION, ShiftQuality,
+                            jsonable, shift_report)
 from .shifts import Shift, infer_shifts
 
 __all__ = [
@@ -88,11 +90,12 @@ def _shift_text(q: ShiftQuality) -> str:
         ("offgoing after lock", f"{q.offgoing} slipped {q.offgoing_drag_after_lock:.3f} s after {q.oncoming} "
                                 f"locked, {q.offgoing_energy_after_lock:.1f} J (dissipation ends at "
                                 f"{q.dissipation_end:.3f} s)"),
-        ("forced unlock", (f"YES - {q.offgoing} torque reversed against the slipping or locked {q.oncoming} "
-                           f"for {q.forced_duration:.3f} s: {q.offgoing} forced to unlock by {q.oncoming}"
+        ("forced unlock", (f"YES - {q.forced_unlock_element} unlocked while fully applied and slipped: forced by "
+                           f"{q.oncoming} over its static capacity (reversed overlap {q.forced_duration:.3f} s)"
                            if q.forced_unlock else
                            f"no (reversed overlap {q.forced_duration * 1e3:.1f} ms)")),
     ]
+    kv += _comfort_rows(q)
     for k, v in kv:
         lines.append(f"  {k:<24}{v}")
     lines.append(f"  {'element':<10}{'energy [J]':>14}{'peak power [W]':>17}   "
@@ -104,6 +107,28 @@ def _shift_text(q: ShiftQuality) -> str:
     for n in q.notes:
         lines.append(f"  note: {n}")
     return "\n".join(lines)
+
+
+def _comfort_rows(q: ShiftQuality) -> list[tuple[str, str]]:
+    """The comfort figures of a shift as (label, text) rows."""
+    window = f"{q.t_start:.3f}-{q.window_end:.3f} s"
+    if q.vdv is None:
+        rows = [("vehicle acceleration", "- (no vehicle in the run)")]
+    else:
+        rows = [("vehicle acceleration", f"{_f(q.accel_before, '.3f')} m/s^2 before -> {_f(q.accel_after, '.3f')} "
+                                         f"m/s^2 after (mean to {q.window_end:.3f} s)"),
+                ("jerk", f"max |jerk| {_f(q.jerk_max, '.2f')} m/s^3 at {_f(q.jerk_max_time)} s, peak-to-peak "
+                         f"{_f(q.jerk_peak_to_peak, '.2f')} m/s^3 ({window})"),
+                ("vibration dose value", f"{q.vdv:.4f} m/s^1.75 ("
+                                         + ("unweighted" if q.vdv_weighting == "none" else f"ISO 2631-1 {q.vdv_weighting}")
+                                         + f", {window})")]
+    rows.append(("output torque after", f"{_f(q.output_torque_final, '.1f', 'N*m')} (final), overshoot "
+                                        f"{_f(q.torque_overshoot, '.1f', '%')} of it, settles within "
+                                        f"{SETTLE_FRACTION:.0%} after {_f(q.settling_time, '.3f', 's')}"))
+    changes = ", ".join(f"{e} {q.lock_counts.get(e, 0)}/{q.unlock_counts.get(e, 0)}" for e in q.lock_counts
+                        if q.lock_counts.get(e, 0) or q.unlock_counts.get(e, 0)) or "none"
+    rows.append(("locks/unlocks", f"{changes} ({window}); chatter: {'YES' if q.chatter else 'no'}"))
+    return rows
 
 
 def _invariants_text(summary: dict | None) -> list[str]:
@@ -182,7 +207,7 @@ def report_dict(result: Result, qualities: list[ShiftQuality] | None = None) -> 
         "thresholds": {"pre_window_s": PRE_WINDOW, "onset_fraction": ONSET_FRACTION, "ratio_tol": RATIO_TOL,
                        "bindup_fraction": BINDUP_FRACTION, "flare_fraction": FLARE_FRACTION,
                        "ramp_tol": RAMP_TOL, "overlap_fraction": OVERLAP_FRACTION, "overlap_min_s": OVERLAP_MIN,
-                       "energy_tol": ENERGY_TOL},
+                       "energy_tol": ENERGY_TOL, "post_window_s": POST_WINDOW, "settle_fraction": SETTLE_FRACTION},
         "shifts": [q.to_dict() for q in qualities],
         "energy_balance": energy_balance(result),
         "stats": dict(result.stats or {}),

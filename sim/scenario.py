@@ -349,6 +349,7 @@ def _build(data: dict, source: Source, path: Path, overrides=None, access: FileA
     out_t = r.table(data, ("output",), S.OUTPUT_KEYS)
     outputs = r.names(out_t, ("output",), "signals")
     pt = Powertrain(tr, components, w0, controllers)
+    _settle_driveshaft(r, init_t, pt, init_locked, float(options.t_start))
     from .assembly import check_scenario_causality
 
     check_scenario_causality(r, pt)  # thesis 2.4: an algebraic loop in the assembly is refused before the run
@@ -384,6 +385,28 @@ def output_signals(pt: Powertrain) -> list[str]:
         _, signals, _ = c.sample(np.zeros(1), x.reshape(-1, 1), w.reshape(-1, 1))
         names += list(signals)
     return list(dict.fromkeys(names))
+
+
+def _settle_driveshaft(r: Reader, init_t: dict, pt: Powertrain, locked: list[str], t0: float) -> None:
+    """``[initial] driveshaft``: ``"unwound"`` (the default, no twist at the start) or
+    ``"settled"`` (wound to the torque of steady acceleration, :mod:`transgen.sim.settle`)."""
+    keys = ("initial", "driveshaft")
+    start = r.text(init_t, ("initial",), "driveshaft", "unwound")
+    if start not in ("unwound", "settled"):
+        raise r.error(keys, f"driveshaft must be 'unwound' or 'settled', not {shown(start)}")
+    if start == "unwound":
+        return
+    from .settle import settled_driveshaft_torque
+
+    driveline = next((c for c in pt.components if isinstance(c, Driveline)), None)
+    if driveline is None:
+        raise r.error(keys, "a settled driveshaft needs a [driveline] with a stiffness")
+    tr = pt.transmission
+    try:
+        torque = settled_driveshaft_torque(pt, frozenset(tr.element_index[x] for x in locked), t0)
+    except (ModeError, ValueError) as exc:
+        raise r.error(keys, f"cannot settle the driveshaft: {exc}") from None
+    driveline.initial_twist = torque / driveline.stiffness
 
 
 def _gear(r: Reader, value, keys, gears: dict) -> str:

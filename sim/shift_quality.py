@@ -64,8 +64,46 @@ oncoming apply when shifts are inferred):
   oncoming one** (the 3-4 anomaly of Fig. 3.18) when it dissipates above the threshold with its
   torque reversed (the oncoming element drives it against its pre-shift torque) while the
   oncoming element dissipates too or is already locked, for longer than ``OVERLAP_MIN`` (5 ms):
-  ``forced_duration``, ``forced_unlock``. ``offgoing_energy_share`` is the offgoing
-  element's part of the energy the elements dissipate during the shift, in %.
+  ``forced_duration``. That also happens in an ordinary late release (bindup while the apply
+  falls). ``forced_unlock`` is the anomaly itself: an element locked at ``t_start`` unlocks in the
+  comfort window while still **fully applied** (its apply within ``RAMP_TOL`` of its value at
+  ``t_start``: its release has not begun) and then slips dissipating (power above
+  ``OVERLAP_FRACTION`` of the shift's peak element power; a one-way clutch overrunning
+  dissipates nothing) - the torque it had to carry exceeded its static capacity;
+  ``forced_unlock_element`` names it. ``offgoing_energy_share`` is the offgoing element's part of
+  the energy the elements dissipate during the shift, in %.
+
+Comfort figures (:mod:`transgen.sim.comfort` has the arithmetic):
+
+* comfort window: ``[t_start, window_end]``, ``window_end`` = ``POST_WINDOW`` (2 s) after the
+  shift end, at least the dissipation end, at most the next shift's ``t_start`` or the end of
+  the run (the end of the run for a shift not completed);
+* vehicle acceleration: the ``vehicle_accel`` signal of the driveline (its force balance, exact
+  at every sample); ``accel_before`` its mean over the pre-shift window, ``accel_after`` its mean
+  from the shift end to ``window_end`` (= the change of vehicle speed over that time). A run
+  without a vehicle (no vehicle mass, or a prescribed output torque) has none: these, the jerk
+  and the VDV are None, with a note;
+* jerk: the driveline's ``vehicle_jerk`` signal, the exact derivative of that force balance
+  (with the output link's acceleration from the transmission; both sides of an event sampled),
+  so the figures do not depend on the output sampling; a result without it has the acceleration
+  differenced between unique samples instead (repeated time stamps at events: the value after
+  the event), resolved only at the output sampling. ``jerk_max`` = max |jerk| in the window (at
+  ``jerk_max_time``), ``jerk_peak_to_peak`` = max - min;
+* vibration dose value ``vdv`` = (integral of a_w^4 dt over the window)^(1/4) [m/s^1.75] of the
+  acceleration weighted with ``vdv_weighting``: ISO 2631-1 **Wd** by default (the weighting of
+  fore-aft, x-axis vibration of a seated person: the vehicle's longitudinal acceleration), ``Wk``
+  (vertical) or ``none`` on request (:func:`shift_report` ``weighting``). The filter runs over the
+  whole run, so the window starts with the filter's real state;
+* output torque after the shift: ``output_torque_final`` = its mean over the last
+  ``PRE_WINDOW`` of the window (needs a window reaching more than ``PRE_WINDOW`` past the shift end);
+  ``torque_overshoot`` = its peak from the inertia phase start to ``window_end`` above that, in %
+  of ``|output_torque_final|`` (the shift shock; ``output_torque_overshoot_pct`` compares the peak
+  with the pre-shift torque instead); ``settling_time`` = the time from the shift end until it
+  stays within ``SETTLE_FRACTION`` (5 %) of ``output_torque_final`` (None if it is still outside
+  in the last ``PRE_WINDOW``);
+* ``lock_counts`` / ``unlock_counts``: per element, its locks and unlocks in the window;
+  ``chatter``: an element changed its lock state more than once there (it unlocked and
+  re-locked, or an oncoming element unlocked after it had locked).
 
 The input and output links are ``meta["input_link"]`` / ``meta["output_link"]`` when the run
 recorded them, else the arguments of :func:`shift_report`, else the first two generalized
@@ -83,6 +121,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from .result import Result
+from .comfort import check_weighting, jerk, settling_time, vdv, weighted
 from .samples import duration_above, integrate, value_at, window
 from .shifts import APPLY_ZERO, Shift, infer_shifts, lock_time, lock_times, shift_name
 
@@ -107,6 +146,9 @@ FLARE_MIN = 0.1  # rad/s
 RAMP_TOL = 1e-4  # relative, apply at its final value
 OVERLAP_FRACTION = 0.01  # of the shift's peak element power
 OVERLAP_MIN = 0.005  # s
+POST_WINDOW = 2.0  # s after the shift end in the comfort window
+SETTLE_FRACTION = 0.05  # of |final output torque|: the settling band
+VDV_WEIGHTING = "Wd"  # ISO 2631-1 weighting of the longitudinal (x) acceleration
 
 
 @dataclass(frozen=True)
@@ -169,6 +211,22 @@ class ShiftQuality:
     offgoing_energy_share: float  # % of the element energy of the shift
     offgoing_drag_after_lock: float  # s the offgoing element dissipated after the oncoming locked
     offgoing_energy_after_lock: float  # J
+    forced_unlock_element: str | None  # the element(s) forced to unlock while fully applied (comma-separated)
+    # comfort: the window [t_start, window_end] (the shift and its settling, see the module doc)
+    window_end: float
+    accel_before: float | None  # m/s^2, mean vehicle acceleration over the pre-shift window
+    accel_after: float | None  # m/s^2, mean from the shift end to window_end
+    jerk_max: float | None  # m/s^3, max |jerk| in the window
+    jerk_max_time: float | None
+    jerk_peak_to_peak: float | None  # m/s^3, max jerk - min jerk in the window
+    vdv: float | None  # m/s^1.75, vibration dose value of the weighted acceleration over the window
+    vdv_weighting: str  # "Wd" (ISO 2631-1, fore-aft), "Wk" (ISO 2631-1, vertical) or "none"
+    output_torque_final: float | None  # N*m, mean over the last PRE_WINDOW of the window
+    torque_overshoot: float | None  # % of |output_torque_final|: output torque peak above it
+    settling_time: float | None  # s after the shift end until T_out stays within 5 % of its final value
+    lock_counts: dict = field(hash=False)  # element -> locks in the window
+    unlock_counts: dict = field(hash=False)  # element -> unlocks in the window
+    chatter: bool  # an element changed its lock state more than once in the window
     # energy
     energy: dict = field(hash=False)  # element -> J dissipated from t_start to dissipation_end
     peak_power: dict = field(hash=False)  # element -> W
@@ -184,14 +242,16 @@ _S = ("t_start torque_phase_start torque_phase_end torque_phase_duration inertia
       "inertia_phase_duration shift_end shift_duration dissipation_end offgoing_unlock oncoming_lock "
       "output_torque_min_time output_torque_max_time bindup_duration flare_time oncoming_ramp_end "
       "speed_phase_overrun both_dissipating_duration forced_duration offgoing_drag_after_lock pre_window_s "
-      "overlap_min_s").split()
+      "overlap_min_s window_end jerk_max_time settling_time post_window_s").split()
 _NM = "output_torque_before output_torque_min torque_hole output_torque_max bindup_torque offgoing_torque_before " \
-      "offgoing_torque_at_unlock".split()
+      "offgoing_torque_at_unlock output_torque_final".split()
 SHIFT_UNITS = ({k: "s" for k in _S} | {k: "N*m" for k in _NM}
                | {"ratio_before": "1", "ratio_after": "1", "torque_hole_pct": "%", "output_torque_overshoot_pct": "%",
                   "flare_max": "rad/s", "flare_max_rpm": "rpm", "oncoming_apply_final": "1",
                   "offgoing_energy_share": "%", "offgoing_energy_after_lock": "J", "energy": "J",
-                  "peak_power": "W", "energy_total": "J"})
+                  "peak_power": "W", "energy_total": "J", "accel_before": "m/s^2", "accel_after": "m/s^2",
+                  "jerk_max": "m/s^3", "jerk_peak_to_peak": "m/s^3", "vdv": "m/s^1.75", "torque_overshoot": "%",
+                  "lock_counts": "1", "unlock_counts": "1", "settle_fraction": "1"})
 """Units of the numeric fields of :class:`ShiftQuality` (``energy`` and ``peak_power``: per
 element) and of the report's time thresholds."""
 
@@ -251,8 +311,86 @@ def _pre_mean(t: np.ndarray, y: np.ndarray, t_start: float) -> float:
     return integrate(t, y, t0, t_start) / (t_start - t0)
 
 
+def _forced_unlocks(result: Result, elements: list[str], ts: float, t_win: float, unlocks: dict,
+                    p_ref: float) -> list[tuple[str, float, float]]:
+    """``(element, unlock time, apply)`` of the elements locked at ``ts`` that unlock in the window
+    while still fully applied (apply within ``RAMP_TOL`` of its value at ``ts``, above zero) and
+    then slip dissipating (power above ``OVERLAP_FRACTION`` of ``p_ref``): driven over their
+    static capacity, not released (a one-way clutch overrunning dissipates nothing)."""
+    t, sig = result.time, result.signals
+    out = []
+    for e in elements:
+        a, p, lk = sig.get(f"apply_{e}"), sig.get(f"P_{e}"), sig.get(f"locked_{e}")
+        if a is None or p is None or not unlocks.get(e) or (lk is not None and value_at(t, lk, ts, "left") < 0.5):
+            continue
+        a0 = value_at(t, a, ts, "left")
+        for t_u in unlocks[e]:
+            a_u = value_at(t, a, t_u, "left")
+            if a0 <= APPLY_ZERO or a_u < a0 * (1.0 - RAMP_TOL):
+                continue
+            after = window(t, t_u, t_win)
+            if len(after) and p_ref > 0 and float(np.max(p[after])) > OVERLAP_FRACTION * p_ref:
+                out.append((e, t_u, a_u))
+                break
+    return out
+
+
+def _comfort_signals(result: Result, weighting: str) -> dict | None:
+    """The vehicle acceleration, its jerk and its frequency-weighted form over the whole run
+    (``None`` when the run has no vehicle: no ``vehicle_accel`` signal)."""
+    a = result.signals.get("vehicle_accel")
+    if a is None or len(result.time) < 2:
+        return None
+    if "vehicle_jerk" in result.signals:  # exact, from the driveline and the output link's acceleration
+        tj, j = result.time, result.signals["vehicle_jerk"]
+    else:  # a result without it (e.g. read from a file): differenced
+        tj, j = jerk(result.time, a)
+    tw, aw = weighted(result.time, a, weighting)
+    return {"a": a, "tj": tj, "j": j, "tw": tw, "aw": aw, "weighting": weighting}
+
+
+def _comfort_figures(result: Result, c: dict | None, ts: float, t_end: float | None, t_win: float,
+                     peak_from: float, notes: list[str]) -> dict:
+    """Acceleration, jerk, VDV, overshoot and settling of one shift (see the module doc)."""
+    t, T_out = result.time, result.signals["T_out"]
+    out = dict(accel_before=None, accel_after=None, jerk_max=None, jerk_max_time=None, jerk_peak_to_peak=None,
+               vdv=None, vdv_weighting=c["weighting"] if c else "none", output_torque_final=None,
+               torque_overshoot=None, settling_time=None)
+    if c is None:
+        notes.append("no vehicle in the run (no vehicle_accel signal): no acceleration, jerk or VDV")
+    else:
+        a = c["a"]
+        t0 = max(float(t[0]), ts - PRE_WINDOW)
+        if ts > t0:
+            out["accel_before"] = integrate(t, a, t0, ts) / (ts - t0)
+        if t_end is not None and t_win > t_end:
+            out["accel_after"] = integrate(t, a, t_end, t_win) / (t_win - t_end)
+        jw = np.nonzero((c["tj"] >= ts) & (c["tj"] <= t_win))[0]
+        if len(jw):
+            j = c["j"][jw]
+            k = int(np.argmax(np.abs(j)))
+            out.update(jerk_max=float(abs(j[k])), jerk_max_time=float(c["tj"][jw][k]),
+                       jerk_peak_to_peak=float(np.max(j) - np.min(j)))
+        out["vdv"] = vdv(c["tw"], c["aw"], ts, t_win)
+    if t_end is not None and t_win - t_end > PRE_WINDOW:
+        final = integrate(t, T_out, t_win - PRE_WINDOW, t_win) / PRE_WINDOW
+        out["output_torque_final"] = final
+        if abs(final) > 1e-9:
+            sign = 1.0 if final > 0 else -1.0
+            seg = T_out[window(t, peak_from, t_win)]
+            if len(seg):
+                out["torque_overshoot"] = 100.0 * max(0.0, float(np.max(sign * seg)) - abs(final)) / abs(final)
+            settle = settling_time(t, T_out, t_end, t_win, final, SETTLE_FRACTION * abs(final))
+            if settle is not None and t_end + settle > t_win - PRE_WINDOW:
+                notes.append(f"the output torque did not settle within {SETTLE_FRACTION:.0%} of its final value "
+                             f"before {t_win:.3f} s")
+                settle = None
+            out["settling_time"] = settle
+    return out
+
+
 def _analyse(result: Result, shift: Shift, inp: str, out: str, link_notes: list[str],
-             limit: float | None = None) -> ShiftQuality:
+             limit: float | None = None, comfort_signals: dict | None = None) -> ShiftQuality:
     t = result.time
     sig = result.signals
     t_run_end = float(t[-1])
@@ -438,17 +576,36 @@ def _analyse(result: Result, shift: Shift, inp: str, out: str, link_notes: list[
         if t_diss > t_end:
             dw = window(t, t_end, t_diss)
             drag = duration_above(t[dw], p_off[dw] - th)
-    forced = forced_dur > OVERLAP_MIN
     total = sum(energy.values())
     off_share = 100.0 * energy.get(off, 0.0) / total if total > 0 else 0.0
-    if forced:
-        notes.append(f"{off} slipped and dissipated with its torque reversed against {on} (slipping or locked) "
-                     f"for {forced_dur:.3g} s: {off} was forced to unlock by {on} ({off_share:.2g} % of the energy)")
-    elif both > OVERLAP_MIN:
+
+    # the comfort window: the shift, its dissipation and up to POST_WINDOW of settling
+    t_win = max(t_diss, min(limit, t_end + POST_WINDOW)) if completed else t_run_end
+    locks = {e: lock_times(result, e, ts, t_win, locks=True) for e in elements}
+    unlocks_all = {e: lock_times(result, e, ts, t_win, locks=False) for e in elements}
+    lock_counts = {e: len(v) for e, v in locks.items()}
+    unlock_counts = {e: len(v) for e, v in unlocks_all.items()}
+    chattering = [e for e in elements if lock_counts[e] + unlock_counts[e] > 1]
+    for e in chattering:
+        notes.append(f"chatter: {e} locked {lock_counts[e]} and unlocked {unlock_counts[e]} times in "
+                     f"{ts:.3f}-{t_win:.3f} s")
+    forced_elements = _forced_unlocks(result, elements, ts, t_win, unlocks_all, p_ref)
+    forced = bool(forced_elements)
+    for e, t_u, a in forced_elements:
+        notes.append(f"{e} was forced to unlock at {t_u:.4f} s while fully applied (apply {a:.3g}, its release "
+                     f"not begun) and slipped dissipating: the torque it had to carry exceeded its static capacity "
+                     f"({off_share:.2g} % of the element energy in {off})")
+    if not forced and forced_dur > OVERLAP_MIN:
+        notes.append(f"{off} slipped and dissipated with its torque reversed against {on} for {forced_dur:.3g} s "
+                     f"while it was being released (a late release: bindup), not a forced unlock")
+    elif not forced and both > OVERLAP_MIN:
         notes.append(f"{on} and {off} slipped and dissipated together for {both:.3g} s with {off} slipping "
                      f"its normal way (released while still applied)")
     if drag > OVERLAP_MIN:
         notes.append(f"{off} went on slipping for {drag:.3g} s after {on} locked ({drag_energy:.4g} J)")
+
+    comfort = _comfort_figures(result, comfort_signals, ts, t_end if completed else None, t_win,
+                               sp_start if sp_start is not None else first, notes)
 
     return ShiftQuality(
         name=shift.name or shift_name(result, on, ts), oncoming=on, offgoing=off, t_start=ts,
@@ -468,15 +625,20 @@ def _analyse(result: Result, shift: Shift, inp: str, out: str, link_notes: list[
         speed_phase_overrun=overrun, both_dissipating_duration=both, forced_duration=forced_dur,
         forced_unlock=bool(forced), offgoing_energy_share=off_share, offgoing_drag_after_lock=drag,
         offgoing_energy_after_lock=drag_energy,
+        forced_unlock_element=",".join(e for e, _, _ in forced_elements) or None, window_end=t_win, **comfort,
+        lock_counts=lock_counts, unlock_counts=unlock_counts, chatter=bool(chattering),
         energy=energy, peak_power=peak, energy_total=float(sum(energy.values())), notes=tuple(notes))
 
 
 def shift_report(result: Result, shifts: list[Shift] | None = None, input_link: str | None = None,
-                 output_link: str | None = None) -> list[ShiftQuality]:
+                 output_link: str | None = None, weighting: str = VDV_WEIGHTING) -> list[ShiftQuality]:
     """Shift quality of every shift in ``result`` (``shifts``, or :func:`infer_shifts`).
 
     ``input_link`` / ``output_link``: used when the result's ``meta`` does not name them.
+    ``weighting``: the frequency weighting of the acceleration for the VDV, ``"Wd"`` (ISO 2631-1
+    fore-aft, the default), ``"Wk"`` (ISO 2631-1 vertical) or ``"none"``.
     """
+    check_weighting(weighting)
     if len(result.time) < 2:
         return []
     inp, out, notes = _links(result, input_link, output_link)
@@ -484,8 +646,9 @@ def shift_report(result: Result, shifts: list[Shift] | None = None, input_link: 
         lockup = set(result.meta.get("lockup", ()))  # converter lock-up apply/release is no gear shift
         shifts = [s for s in infer_shifts(result) if s.oncoming not in lockup and s.offgoing not in lockup]
     starts = sorted(float(s.t_start) for s in shifts)
+    comfort = _comfort_signals(result, weighting) if shifts else None
     out_list = []
     for s in shifts:
         nxt = [x for x in starts if x > float(s.t_start)]
-        out_list.append(_analyse(result, s, inp, out, notes, nxt[0] if nxt else None))
+        out_list.append(_analyse(result, s, inp, out, notes, nxt[0] if nxt else None, comfort))
     return out_list

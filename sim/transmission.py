@@ -9,7 +9,12 @@ of the STD and are computed on demand (and cached) for any other mode the run re
 Shift elements (sign convention of :mod:`transgen.model`: slip ``w1 - w2``, torque from link1 to
 link2): a slipping friction element transmits ``T_dyn * apply * friction(|slip|) * gain *
 sign(slip)``; it can hold ``|t| <= T_static * apply`` when locked. A one-way clutch overruns in its
-``free`` direction with no torque and locks against the other.
+``free`` direction with no torque and locks against the other. A dog element (``kind="dog"``) is
+open or locked: engaged (apply > 0) while slipping it transmits nothing and waits for synchronism
+— it locks when its slip passes through zero, and locked it cannot slip (at zero slip an engaged
+dog's only option is to lock); it holds up to its full ``T_static`` whatever the apply level, and
+a torque beyond that while engaged stops the run with a :class:`SimulationError` (a dog cannot
+slip under load); released (apply 0) it unlocks.
 
 Elements in parallel (the same two links: :func:`transgen.equations.locking_groups`, e.g. the
 3HP22's low/reverse brake beside its one-way clutch on the rear carrier, or a freewheel beside an
@@ -25,7 +30,7 @@ when its torque leaves that range.
 is not): the friction elements carry the group's torque first, shared in proportion to their
 static capacities ``T_static*apply`` (each at the same fraction of its own limit), up to their
 combined capacity; the one-way clutches that lock in the torque's direction carry the rest,
-shared equally. Why: a one-way clutch (sprag or roller) wedges only after a small relative
+shared equally, and so do the dog elements in either direction. Why: a one-way clutch (sprag or roller) wedges only after a small relative
 rotation (its engagement lash), while a clamped friction pack holds from standstill, so in the
 rigid limit the friction elements take the torque until they would slip and the one-way clutch
 takes what exceeds them. Every member's torque stays within its own limit, a one-way clutch's
@@ -106,6 +111,8 @@ class ElementConfig:
         return self.apply.value(t + APPLY_LOOKAHEAD * max(1.0, abs(t))) > APPLY_THRESHOLD
 
     def holding_margin(self, t: float, torque: float) -> float:
+        if self.kind == "dog" and self.static_capacity(t) == float("inf"):
+            return 1.0  # unlimited: holds any torque while engaged
         """How far the torque [N*m] of the element, locked, is inside its holding limit (>= 0: it
         holds): ``T_static * apply - |t|`` for a friction element, ``-free * t`` for a one-way clutch,
         each with the round-off allowance that the mode decision accepts (so that a lock decided
@@ -115,11 +122,13 @@ class ElementConfig:
         return self.static_capacity(t) * (1.0 + 1e-9) + 1e-9 - abs(torque)
 
     def static_capacity(self, t: float) -> float:
+        if self.kind == "dog":  # engaged teeth hold their full capacity; released, nothing
+            return self.static if self.apply_at(t) > APPLY_THRESHOLD else 0.0
         return float("inf") if self.kind == "oneway" else self.static * self.apply_at(t)
 
     def signed_capacity(self, direction: int, capacity: str = "dynamic") -> float:
         """Capacity [N*m] times the band-brake gain, signed by ``direction``; 0 for none."""
-        if self.kind == "oneway" or direction == 0:
+        if self.kind in ("oneway", "dog") or direction == 0:  # a slipping dog transmits nothing
             return 0.0
         base = self.static if capacity == "static" else self.dynamic
         if self.energizing and direction == self.energizing:
@@ -387,14 +396,17 @@ class Transmission:
             if len(members) == 1:
                 out[members[0]] = tau
                 continue
-            friction = [(i, sgn) for i, sgn in zip(members, signs) if self.elements[i].kind != "oneway"]
+            friction = [(i, sgn) for i, sgn in zip(members, signs) if self.elements[i].kind not in ("oneway", "dog")]
             oneway = [(i, sgn) for i, sgn in zip(members, signs) if self.elements[i].kind == "oneway"]
+            dogs = [(i, sgn) for i, sgn in zip(members, signs) if self.elements[i].kind == "dog"]
             caps = [self.elements[i].static * self.elements[i].apply_over(ts) for i, _ in friction]
             total = np.sum(caps, axis=0) if caps else np.zeros(len(ts))
             carried = np.clip(tau, -total, total)
             rest = tau - carried
             for direction in (1, -1):
-                carriers = [(i, sgn) for i, sgn in oneway if -self.elements[i].free * sgn == direction]
+                # the one-way members locking in this direction and the dogs (teeth, like a sprag, take
+                # load only after their lash: the friction members carry first)
+                carriers = [(i, sgn) for i, sgn in oneway if -self.elements[i].free * sgn == direction] + dogs
                 part = np.where(rest * direction > 0, rest, 0.0)
                 for i, sgn in carriers:
                     out[i] += sgn * part / len(carriers)
@@ -461,12 +473,19 @@ class Transmission:
         decided for them (and for their group).
         """
         forced = forced or {}
+        for i in forced:
+            e = self.elements[i]
+            if e.kind == "dog" and e.apply_at(t) > APPLY_THRESHOLD:
+                raise SimulationError(f"t={t:.6g} s: dog element {e.name} would have to hold more than its static "
+                                      f"capacity {e.static:g} N*m while engaged: a dog cannot slip under load")
         slips = self.P @ w
         zero = []  # (members, signs, members that can transmit, choices) of the groups at zero slip
         for members, signs in self.groups:
             capable = tuple(i for i in members if self.elements[i].applied_after(t))
             if capable and abs(slips[members[0]]) <= slip_tol:
-                zero.append((members, signs, capable, self._choices(members, signs, forced)))
+                # an engaged dog at zero slip locks: its teeth are in mesh, it has no slipping state
+                dog = any(self.elements[i].kind == "dog" for i in capable)
+                zero.append((members, signs, capable, (0,) if dog else self._choices(members, signs, forced)))
         deciding = {i for z in zero for i in z[0]}
         released = [i for i in range(len(self.elements)) if abs(slips[i]) <= slip_tol and i not in deciding]
         base_dir = np.sign(slips).astype(int)

@@ -228,7 +228,7 @@ def test_a_scenario_loads_from_texts_alone(tmp_path):
 def test_scenario_keys_list_values_known_keys_and_mechanism_parameters():
     keys = scenario_keys("ht740_improved")
     assert keys["driveline.vehicle_mass"] == 36000.0
-    assert keys["input.throttle_signal"] == 0.72
+    assert keys["input.throttle_signal"] == {"type": "table", "t": [0.0, 5.5, 7.0], "value": [0.61, 0.61, 0.83]}
     assert keys["elements.C4.apply"]["type"] == "table"
     assert keys["mech.L1.J"] == 0.25 and keys["mech.P2.Nr"] == 136 and keys["mech.C4.static"] == 2900.0
     assert "auto_shift.upshift_rpm" in keys and keys["auto_shift.upshift_rpm"] is None

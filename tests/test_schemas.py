@@ -26,6 +26,11 @@ COMMANDS = [
     (["matrices", "ht740", "--list-coordinates", "--json"], "transgen.coordinates/1"),
     (["std", "simple2", "--json"], "transgen.std/1"),
     (["list", "--json"], "transgen.list/1"),
+    (["powerflow", "zf8hp70", "--json"], "transgen.powerflow/1"),
+    (["powerflow", "hsw_ravigneaux4", "--input-rpm", "6000", "--max-slip-rpm", "8000", "--design-torque", "400",
+      "--json"], "transgen.powerflow/1"),
+    (["powerflow", "mb722_6_w5a580_2004", "--coast", "--json"], "transgen.powerflow/1"),
+    (["lever", "zf8hp70", "--json"], "transgen.lever/1"),
     (["simulate", "--list", "--json"], "transgen.scenarios/1"),
     (["simulate", "simple2_upshift", "--json"], "transgen.simulate/1"),
     (["simulate", "simple2_upshift", "--compare-model", "compliant", "--json"], "transgen.simulate/1"),
@@ -113,7 +118,7 @@ def test_the_json_matrices_file_is_the_printed_document(tmp_path, capsys):
 
 
 def test_every_shipped_schema_is_a_valid_schema_and_used():
-    used = {schema for _, schema in COMMANDS} | {"transgen.signals/1"}
+    used = {schema for _, schema in COMMANDS} | {"transgen.signals/1"} | SYNTHESIS_SCHEMAS
     assert set(schema_names()) == used
     for path in SCHEMA_DIR.glob("*.json"):
         jsonschema.Draft202012Validator.check_schema(load_schema(path))
@@ -138,3 +143,28 @@ def test_documents_only_for_shipped_schemas():
     with pytest.raises(ValueError, match="not a transgen schema name"):
         schema_path("modes")
     assert schema_path("transgen.modes/1") == SCHEMA_DIR / "modes.json"
+
+
+SYNTHESIS_SCHEMAS = {"transgen.synthesis_teeth/1", "transgen.synthesis_table/1"}
+
+
+def test_synthesis_outputs_are_valid_documents(capsys, tmp_path):
+    """``synthesize teeth`` needs a file with unknown teeth (none is bundled: every other command
+    refuses them), ``synthesize table`` one without a gear table."""
+    import re
+
+    from transgen.library import bundled_path
+
+    text = bundled_path("zf8hp70.mech").read_text()
+    unknown = tmp_path / "unknown.mech"
+    unknown.write_text(re.sub(r"Ns=23 Nr=85", "Ns=? Nr=?", text))
+    no_table = tmp_path / "no_table.mech"
+    no_table.write_text("\n".join(line for line in text.split("\n") if not line.startswith("gear ")))
+    for argv, schema in ((["synthesize", "teeth", str(unknown), "--json"], "transgen.synthesis_teeth/1"),
+                         (["synthesize", "table", str(no_table), "--forward", "8", "--json"],
+                          "transgen.synthesis_table/1")):
+        assert main(argv) == 0
+        doc = json.loads(capsys.readouterr().out)
+        assert doc["schema"] == schema
+        validate(doc)
+        assert _missing_units(doc) == []

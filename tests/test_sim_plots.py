@@ -1,5 +1,6 @@
 """Result plots: every plot returns a labelled Figure with the shift phases shaded, plot_all writes
 its files atomically, compare overlays runs."""
+import numpy as np
 import pytest
 
 pytest.importorskip("matplotlib")
@@ -7,7 +8,7 @@ pytest.importorskip("matplotlib")
 from matplotlib.figure import Figure  # noqa: E402
 
 from transgen.sim.plots import (PLOTS, compare, plot_all, plot_apply, plot_io_torques, plot_mode,  # noqa: E402
-                                plot_power, plot_slips, plot_speeds, plot_torques)
+                                plot_power, plot_shift, plot_slips, plot_speeds, plot_torques, shift_window)
 from transgen.sim.report import shift_report  # noqa: E402
 
 
@@ -102,7 +103,7 @@ def test_plot_all_writes_files_atomically(s2, tmp_path):
     r, qs = s2
     out = tmp_path / "plots"
     paths = plot_all(r, qs, out, formats=("png", "svg"))
-    assert sorted(p.name for p in paths) == sorted(f"{n}.{f}" for n in NAMES for f in ("png", "svg"))
+    assert sorted(p.name for p in paths) == sorted(f"{n}.{f}" for n in NAMES + ["shift1"] for f in ("png", "svg"))
     assert sorted(p.name for p in out.iterdir()) == sorted(p.name for p in paths)  # no temp files left
     for p in paths:
         assert p.stat().st_size > 1000
@@ -139,3 +140,40 @@ def test_synthetic_plots():
     qs = shift_report(r)
     for func in FUNCS:
         assert isinstance(func(r, qs), Figure)
+
+
+def test_shift_figure_zooms_on_the_shift(s2):
+    """simple2 has no vehicle mass: speeds, element torques and output torque only."""
+    r, (q,) = s2
+    t0, t1 = shift_window(r, q)
+    assert t0 < q.t_start and t1 > q.shift_end and t1 - t0 < 2.0  # not the whole 4 s run
+    fig = plot_shift(r, q)
+    assert len(fig.axes) == 3
+    assert fig.axes[-1].get_xlim() == pytest.approx((t0, t1)) and fig.axes[-1].get_xlabel() == "time [s]"
+    for ax in fig.axes:
+        assert len(ax.patches) >= 2 and "[" in ax.get_ylabel()  # phases shaded, units
+    labels = [line.get_label() for line in fig.axes[1].get_lines()]
+    assert [x for x in labels if not x.startswith("_")] == ["C2 (on)", "+-C2 static x apply", "C1 (off)",
+                                                            "+-C1 static x apply"]
+    # the envelope is static capacity x apply (C2: 2000 N*m, thesis Table 3.1)
+    env = fig.axes[1].get_lines()[1]
+    x, y = env.get_xdata(), env.get_ydata()
+    assert y == pytest.approx(2000.0 * np.interp(x, r.time, r["apply_C2"]), rel=1e-9)
+    assert "torque hole" in fig.axes[0].get_title()
+
+
+def test_shift_figure_with_vehicle_has_acceleration_and_jerk(tmp_path):
+    from transgen.sim.scenario import load_scenario
+
+    sc = load_scenario("ht740_improved", {"simulation.t_end": 5.5})
+    r = sc.run()
+    (q,) = shift_report(r, sc.shifts or None)
+    fig = plot_shift(r, q)
+    assert [ax.get_ylabel() for ax in fig.axes] == ["speed [rpm]", "element torque [N*m]", "torque [N*m]",
+                                                    "acceleration [m/s^2]", "jerk [m/s^3]"]
+    assert [line.get_label() for line in fig.axes[3].get_lines()][:2] == ["vehicle acceleration",
+                                                                         "ISO 2631-1 Wd-weighted"]
+    jerk_line = fig.axes[4].get_lines()[0]
+    assert max(abs(jerk_line.get_ydata())) == pytest.approx(q.jerk_max, rel=1e-9)
+    paths = plot_all(r, [q], tmp_path)
+    assert (tmp_path / "shift1.png").stat().st_size > 10000 and len(paths) == len(NAMES) + 1

@@ -341,3 +341,50 @@ def test_signal_upper_bounds_hold_on_every_interval():
             a, b = np.sort(rng.uniform(-1.0, 4.0, 2))
             assert max(s.value(t) for t in np.linspace(a, b, 400)) <= s.upper_bound(a, b) + 1e-12, (s, a, b)
     assert Table((0, 1, 2), (0, 0, 1)).upper_bound(0.0, 1.0) == 0.0      # not applied: left out
+
+
+def test_simple2_scenario_reproduces_the_thesis_phase_times(simple2_run):
+    """Thesis 3.3.1: torque phase from 5.0 s, speed phase 5.24-5.63 s. The run starts settled,
+    so the output torque before the shift is the steady first-gear value and the torque hole is
+    that of the ratio change (C1 released onto its torque reversal), not bindup."""
+    from transgen.sim.report import shift_report
+
+    r = simple2_run
+    (q,) = shift_report(r)
+    assert q.torque_phase_start == pytest.approx(5.0, abs=1e-9)
+    assert q.inertia_phase_start == pytest.approx(5.24, abs=0.005)
+    assert q.inertia_phase_end == pytest.approx(5.63, abs=0.005)
+    pre = (r.time >= 4.0) & (r.time <= 5.0)
+    # steady acceleration in first gear: T_in * r1 * J_out / (J_out + J_Lo + J_Li * r1^2)
+    steady = 400.0 * (20 / 3) * 100.0 / (100.0 + 1.0 + 2.9 * (20 / 3) ** 2)
+    assert np.ptp(r["T_out"][pre]) < 1e-6 * steady and r["T_out"][pre].mean() == pytest.approx(steady, rel=1e-9)
+    assert q.bindup_torque < 0.02 * 1000.0  # reversed torque under 2 % of C1's static capacity
+    assert 20.0 < q.torque_hole_pct < 35.0 and not q.flare
+
+
+def test_settled_driveshaft_start(tmp_path):
+    """[initial] driveshaft = "settled": the twist of steady acceleration, also with a road load
+    (grade and rolling resistance); "unwound" (the default) starts at zero twist; bad values
+    and a settled start without a driveline are errors naming the key."""
+    text = BASE.replace('speeds = { Li = 100.0 }', 'speeds = { Li = 100.0 }\ndriveshaft = "{start}"') + """
+[driveline]
+stiffness = 8000.0
+damping = 50.0
+output_inertia = 2.0
+vehicle_mass = 1500.0
+wheel_radius = 0.3
+final_drive = 3.0
+rolling_resistance = 0.01
+grade_percent = 3.0
+"""
+    settled = load_scenario(_scenario(tmp_path, text.replace("{start}", "settled"))).run()
+    assert settled.success, settled.message
+    t_out = settled["T_out"]
+    assert np.ptp(t_out) < 1e-6 * abs(t_out.mean())  # no ringing: the road load is constant (no aero)
+    unwound = load_scenario(_scenario(tmp_path, text.replace("{start}", "unwound"))).run()
+    assert abs(unwound["T_out"][0]) < 1e-6 and np.ptp(unwound["T_out"]) > 0.5 * abs(t_out.mean())
+    with pytest.raises(ScenarioError, match=r"s.toml:\d+:\d+: error: driveshaft must be 'unwound' or 'settled'"):
+        load_scenario(_scenario(tmp_path, text.replace("{start}", "wound")))
+    with pytest.raises(ScenarioError, match="a settled driveshaft needs a \\[driveline\\]"):
+        load_scenario(_scenario(tmp_path, BASE.replace('speeds = { Li = 100.0 }',
+                                                       'speeds = { Li = 100.0 }\ndriveshaft = "settled"')))

@@ -25,6 +25,7 @@ if TYPE_CHECKING:  # the names below are loaded on first use (see __getattr__)
     from .language import format_mechanism, load_mechanism, parse_mechanism
     from .library import bundled_mechanisms
     from .model import HOUSING, Mechanism
+    from .powerflow import power_flow
 
 __version__ = "0.1.0"
 
@@ -36,6 +37,7 @@ _LAZY = {
     "format_mechanism": "language", "load_mechanism": "language", "parse_mechanism": "language",
     "bundled_mechanisms": "library",
     "HOUSING": "model", "Mechanism": "model",
+    "power_flow": "powerflow",
 }
 
 
@@ -72,4 +74,5 @@ __all__ = [
     "bundled_mechanisms",
     "HOUSING",
     "Mechanism",
+    "power_flow",
 ]

@@ -1,7 +1,8 @@
 """The ``transgen`` command line: a thin layer over the Python API.
 
 Exit codes: 0 success, 1 failure (a run that could not complete, an output that could not be
-written), 2 bad input (a ``.mech`` or scenario file with errors, invalid options or coordinates).
+written; ``ratios``: a declared ``ratio=`` the mechanism does not reproduce, the table printed in
+full), 2 bad input (a ``.mech`` or scenario file with errors, invalid options or coordinates).
 Errors are printed without a traceback.
 """
 from __future__ import annotations
@@ -21,12 +22,15 @@ __all__ = ["main", "load_checked"]
 
 
 def load_checked(path: str):
-    """Load a mechanism (a path or a bundled name) and check its declared gears."""
+    """Load a mechanism (a path or a bundled name) and check its declared gears (and the
+    direction of the one-way clutches they engage)."""
     from .kinematics import check_gears
     from .language import load_mechanism
+    from .statics import check_oneways
 
     mech = load_mechanism(path)
     problems = check_gears(mech)
+    problems = problems or check_oneways(mech)
     if problems:
         raise MechValidationError(problems)
     return mech
@@ -50,7 +54,8 @@ def cmd_check(args) -> int:
 
     table = gear_table(mech, all_combinations=False)
     print(f"{mech.source}: ok — {mech.name}")
-    print(f"  {len(mech.links)} links, {len(mech.planetaries)} planetary gearsets, {len(mech.gear_pairs)} gear pairs, "
+    stepped = f" (and {len(mech.stepped)} stepped-pinion)" if mech.stepped else ""
+    print(f"  {len(mech.links)} links, {len(mech.planetaries)} planetary gearsets{stepped}, {len(mech.gear_pairs)} gear pairs, "
           f"{len(mech.elements)} shift elements ({', '.join(e.name for e in mech.elements)})")
     print(f"  input {mech.input}, output {mech.output}; {sum(1 for g in mech.gears if g.kind == 'gear')} gears, "
           f"{len(mech.neutrals)} neutral(s)")
@@ -58,30 +63,57 @@ def cmd_check(args) -> int:
         note = ""
         if row.combination.floating:
             note = f"  (floating: {', '.join(row.combination.floating)})"
+        note += "  (alternative)" if row.alternative else ""
         print(f"  {row.kind} {row.name:>4}: {' '.join(row.engaged):<14} ratio {_fmt_ratio(row.ratio)}{note}")
     return 0
 
 
 def cmd_ratios(args) -> int:
-    from .kinematics import gear_table
+    """Exit 1 when a declared ``ratio=`` is not reproduced (the table is printed in full and each
+    mismatch reported as a finding); 2 for bad input, including gears that tie up."""
+    import dataclasses
 
-    mech = load_checked(args.file)
+    from .kinematics import check_gears, gear_table, published_findings
+    from .language import load_mechanism
+    from .statics import check_oneways
+
+    mech = load_mechanism(args.file)
+    problems = check_gears(mech, published=False)
+    problems = problems or check_oneways(mech)
+    if problems:
+        raise MechValidationError(problems)
     table = gear_table(mech, all_combinations=not args.gears_only)
+    findings = [dataclasses.replace(d, severity="warning") for d in published_findings(mech, table)]
+    status = 1 if findings else 0
     if args.json:
-        print_document("transgen.ratios/1", table.to_dict(), table.UNITS)
-        return 0
+        data = table.to_dict()
+        data["findings"] = [{"line": d.line, "column": d.column, "message": d.message} for d in findings]
+        print_document("transgen.ratios/1", data, table.UNITS)
+        return status
     print(f"{mech.name}: input {mech.input}, output {mech.output} (ratio = input speed / output speed)")
     print()
-    print(f"  {'gear':>6}  {'engaged':<16} {'DOF':>3}  {'ratio':>9}  {'step':>6}  published")
+    print(f"  {'gear':>8}  {'engaged':<16} {'DOF':>3}  {'ratio':>9}  {'step':>6}  {'published':<16} floating")
     for row in table.gears:
         step = f"{row.step:.3f}" if row.step else ""
-        pub = (row.published + (" ok" if row.matches_published else " MISMATCH")) if row.published else ""
+        pub = ""
+        if row.published:
+            how = f"~{row.tolerance}" if row.tolerance else (" trunc" if row.rounding == "truncated" else "")
+            pub = f"{row.published}{how} " + ("ok" if row.matches_published else "MISMATCH")
         name = row.name if row.kind == "gear" else f"{row.name} (N)"
-        print(f"  {name:>6}  {' '.join(row.engaged):<16} {row.dof:>3}  {_fmt_ratio(row.ratio):>9}  {step:>6}  {pub}")
+        name += " (alt)" if row.alternative else ""
+        floating = ", ".join(row.combination.floating) if row.kind == "gear" else ""
+        print(f"  {name:>8}  {' '.join(row.engaged):<16} {row.dof:>3}  {_fmt_ratio(row.ratio):>9}  {step:>6}  "
+              f"{pub:<16} {floating}".rstrip())
     if table.spread:
         print(f"\n  overall spread {table.spread:.3f}")
+    if any(row.alternative for row in table.gears):
+        print("  (alt): alternative gear, outside the step sequence, the spread and the default speed phases")
+    if findings:
+        print(f"\n  {len(findings)} published ratio(s) not reproduced:")
+        for d in findings:
+            print("  " + d.format().replace("\n", "\n  "))
     if args.gears_only:
-        return 0
+        return status
     declared = {frozenset(r.engaged) for r in table.gears}
     print(f"\n  all {len(table.combinations)} combinations of engaged elements (* = declared):")
     print(f"  {'engaged':<24} {'DOF':>3}  {'ratio':>9}  kind")
@@ -90,7 +122,7 @@ def cmd_ratios(args) -> int:
         kind = c.kind + (f" ({c.detail})" if c.detail else "") + (
             f" (floating: {', '.join(c.floating)})" if c.floating else "")
         print(f" {mark}{' '.join(c.engaged) or '(none)':<24} {c.dof:>3}  {_fmt_ratio(c.ratio):>9}  {kind}")
-    return 0
+    return status
 
 
 def cmd_graph(args) -> int:
@@ -111,6 +143,31 @@ def cmd_graph(args) -> int:
     return 0
 
 
+def cmd_lever(args) -> int:
+    from .drawing import FIGURE_FORMATS, draw_levers, draw_speed_chart, save_figure
+    from .drawing.lever import LEVER_UNITS, lever_document
+
+    for out in (args.output, args.chart):
+        if out is not None and Path(out).suffix.lower() not in FIGURE_FORMATS:
+            raise ValueError(f"cannot draw into {out!r}: unknown suffix {Path(out).suffix!r} "
+                             f"(use one of {', '.join(FIGURE_FORMATS)})")
+    if not (args.output or args.chart or args.json):
+        raise ValueError("nothing to do: give -o levers.svg|png|pdf, --chart speeds.png or --json")
+    mech = load_checked(args.file)
+    doc = lever_document(mech, args.gear)  # checks the gears
+    if args.output:
+        save_figure(draw_levers(mech, args.gear), args.output)
+    if args.chart:
+        save_figure(draw_speed_chart(mech, args.gear), args.chart)
+    if args.json:
+        print_document("transgen.lever/1", doc, LEVER_UNITS)
+    else:
+        for out in (args.output, args.chart):
+            if out:
+                print(f"wrote {out}")
+    return 0
+
+
 def cmd_modes(args) -> int:
     from .describe import MODES_UNITS, modes_report
 
@@ -125,6 +182,8 @@ def cmd_modes(args) -> int:
         notes = [m["label"]] * bool(m["label"]) + [f"{'+'.join(grp)} in parallel" for grp in m["parallel"]]
         extra = "; ".join(notes) + (f"  !! {m['problem']}" if m["problem"] else "")
         print(f"  {m['name']:<5} {' '.join(m['locked']) or '(none)':<18} {m['dof']:>3}  {m['kind']:<8} {extra}")
+    for note in report["notes"]:
+        print(f"  note: {note}")
     diag = report["diagnosis"]
     if diag["combinations"] == diag["of"]:
         print(f"\n  static diagnosis over all {diag['combinations']} combinations:")
@@ -220,6 +279,39 @@ def cmd_std(args) -> int:
     return 0
 
 
+def cmd_powerflow(args) -> int:
+    from .powerflow import UNITS, power_flow
+
+    mech = load_checked(args.file)
+    flow = power_flow(mech, eta0=args.eta0, input_rpm=args.input_rpm, max_slip_rpm=args.max_slip_rpm,
+                      eta_pair=args.eta_pair, design_torque=args.design_torque, safety_factor=args.safety_factor,
+                      dynamic_ratio=args.dynamic_ratio, gears=args.gear, coast=args.coast)
+    for g in flow.gears:
+        for w in g.warnings:
+            warnings.warn(f"gear {g.name}: {w}")
+    if args.json:
+        print_document("transgen.powerflow/1", flow.to_dict(), UNITS)
+        return 0
+    from .powerflow import powerflow_text
+
+    print(powerflow_text(flow))
+    return 0
+
+
+def _number_option(low: float, high: float, low_open: bool = True):
+    """An argparse type: a finite number in ``(low, high]`` (``[low, high]`` when not ``low_open``)."""
+    def read(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+        if not (value > low if low_open else value >= low) or not value <= high:  # also refuses nan
+            raise argparse.ArgumentTypeError(f"must be a finite number in {'(' if low_open else '['}{low:g}, {high:g}], "
+                                             f"not {text}")
+        return value
+    return read
+
+
 def cmd_list(args) -> int:
     from .library import bundled_mechanisms
     from .language import load_mechanism
@@ -266,6 +358,19 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("-o", "--output", required=True, help="output file: .png .svg .pdf .dot .graphml")
     s.set_defaults(func=cmd_graph)
 
+    s = sub.add_parser("lever", help="lever diagrams (lever analogy) and the speed chart",
+                       description="Lever diagrams (Benford and Leising's lever analogy): every planetary set a lever "
+                                   "with nodes spaced by the tooth counts, sets sharing two members combined, one "
+                                   "panel per gear with the nodes at their speeds per unit input speed; "
+                                   "--chart: every link's speed in every gear.")
+    s.add_argument("file", metavar="FILE")
+    s.add_argument("--gear", action="append", metavar="G",
+                   help="draw this declared gear (repeatable; default: every gear, after a panel of the levers at rest)")
+    s.add_argument("-o", "--output", help="the lever diagrams: .svg .png .pdf")
+    s.add_argument("--chart", metavar="OUT", help="the speed chart: .svg .png .pdf")
+    s.add_argument("--json", action="store_true", help="the lever geometry and the node speeds of every gear as JSON")
+    s.set_defaults(func=cmd_lever)
+
     s = sub.add_parser("modes", help="modes with locked elements, DOF and kind",
                        description="List the modelled modes (or all combinations) and diagnose tie-ups and non-unique torques.")
     s.add_argument("file", metavar="FILE")
@@ -296,10 +401,39 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--json", action="store_true", help="modes and transitions with conditions as JSON")
     s.set_defaults(func=cmd_std)
 
+    s = sub.add_parser("powerflow", help="power flow, efficiency and element torques per gear",
+                       description="For every declared gear: link speeds, slips of the open elements, torques of the "
+                                   "engaged ones, power through every planetary set (circulating power), torque ratio "
+                                   "and efficiency with mesh losses, and a capacity sizing of the shift elements.")
+    s.add_argument("file", metavar="FILE")
+    s.add_argument("--eta0", type=_number_option(0, 1), metavar="X",
+                   help="standing (carrier-fixed) efficiency of the planetary sets without eta0= in the file, "
+                        "and of the gear pairs without eta= unless --eta-pair is given (default 0.98; 1 = lossless)")
+    s.add_argument("--eta-pair", type=_number_option(0, 1), metavar="X",
+                   help="mesh efficiency of the gear pairs without eta= in the file (default: --eta0 if given, else 0.99)")
+    s.add_argument("--input-rpm", type=_number_option(0, 1e7), metavar="N",
+                   help="input speed [rpm]: slips in rpm, over-speed of the open elements")
+    s.add_argument("--max-slip-rpm", type=_number_option(0, 1e7), metavar="N",
+                   help="slip limit [rpm] of the elements without max_slip_rpm= in the file")
+    s.add_argument("--design-torque", type=_number_option(0, 1e9), metavar="N*m",
+                   help="design input torque [N*m] for the capacity sizing")
+    s.add_argument("--safety-factor", type=_number_option(0, 1e3), default=1.4, metavar="X",
+                   help="suggested static capacity over the largest element torque (default 1.4)")
+    s.add_argument("--dynamic-ratio", type=_number_option(0, 1), default=0.85, metavar="X",
+                   help="suggested dynamic over static capacity (default 0.85)")
+    s.add_argument("--gear", action="append", metavar="NAME", help="only this gear (repeatable; default: every gear)")
+    s.add_argument("--coast", action="store_true",
+                   help="coast (overrun, engine braking): the driveline drives the output, the input absorbs")
+    s.add_argument("--json", action="store_true", help="machine-readable output")
+    s.set_defaults(func=cmd_powerflow)
+
     s = sub.add_parser("list", help="list the bundled mechanisms", description="List the bundled mechanisms.")
     s.add_argument("--json", action="store_true", help="machine-readable output")
     s.set_defaults(func=cmd_list)
 
+    from .synthesis.cli import add_commands as add_synthesis_commands
+
+    add_synthesis_commands(sub)
     _add_sim_commands(sub)
     return p
 

@@ -42,7 +42,7 @@ import networkx as nx
 import numpy as np
 
 from .errors import ModeError
-from .graph import coefficient, element_nodes, link_nodes, transformer_ports
+from .graph import TRANSFORMER_KINDS, coefficient, element_nodes, link_nodes, transformer_ports
 from .kinematics import constraint_matrix, constraints, null_space, numeric_rank
 from .model import HOUSING
 
@@ -182,7 +182,7 @@ def assemble(g: nx.DiGraph, locked=(), symbolic: bool | str = False) -> ModeEqua
     else:
         values = _numeric_values(g)
     links = link_nodes(g)
-    transformers = [n for n, d in g.nodes(data=True) if d["kind"] in ("planetary", "gearpair")]
+    transformers = [n for n, d in g.nodes(data=True) if d["kind"] in TRANSFORMER_KINDS]
     ports = [(t, link, port, terms) for t in transformers for link, port, terms in transformer_ports(g, t)]
     z = (tuple(f"alpha_{k}" for k in links) + tuple(f"t_{grp.label}" for grp in groups)
          + tuple(f"t_{t}.{p}" for t, _, p, _ in ports))

@@ -9,8 +9,11 @@ node ``kind``             meaning
 ``"housing"``             the fixed case: a zero flow source (Sf = 0)
 ``"planetary"``           a multiport transformer (MTF) with ports sun, ring, carrier
 ``"gearpair"``            a two-port transformer (TF) with ports 1, 2
+``"stepped"``             one constraint of a stepped-pinion planetary: ports for two central
+                          gears (``sun1``, ``ring2``, ...) and ``carrier``
 ``"clutch"``/``"brake"``  a switched element between two junctions: a flow source (equal speeds)
 ``"oneway"``              when locked, an effort source (slipping torque) when unlocked
+``"dog"``                 a dog clutch or brake: a flow source when locked, no effort when open
 ``"source"``              an external torque (effort source): ``T_in``, ``T_out``, named loads
 ========================  =====================================================================
 
@@ -26,6 +29,8 @@ read the same graph):
 * simple planetary: ``Ns*w_s + Nr*w_r - (Ns + Nr)*w_c = 0``
 * double-pinion planetary: ``-Ns*w_s + Nr*w_r - (Nr - Ns)*w_c = 0``
 * external gear pair: ``n1*w1 + n2*w2 = 0``; internal: ``n1*w1 - n2*w2 = 0``
+* stepped-pinion planetary, members ``A``, ``B``: ``sA*NA*Npb*wA - sB*NB*Npa*wB - (sA*NA*Npb -
+  sB*NB*Npa)*wc = 0`` (``s`` -1 for a sun, +1 for a ring; ``Npa`` the pinion step ``A`` meshes)
 
 The transformer torques follow from power conservation (eq. 3.36): the torque ``t_k`` a link
 exerts on port ``k`` is proportional to ``c_k``.
@@ -34,9 +39,10 @@ from __future__ import annotations
 
 import networkx as nx
 
-from .model import HOUSING, Mechanism
+from .model import HOUSING, Mechanism, SteppedPlanetary
 
-__all__ = ["build_graph", "transformer_ports", "link_nodes", "element_nodes", "coefficient"]
+__all__ = ["build_graph", "transformer_ports", "link_nodes", "element_nodes", "coefficient", "stepped_nodes",
+           "TRANSFORMER_KINDS"]
 
 
 def _pname(key: str, owner: str) -> str:
@@ -59,6 +65,8 @@ def build_graph(mech: Mechanism) -> nx.DiGraph:
             terms = {"sun": ((-1, ns),), "ring": ((1, nr),), "carrier": ((-1, nr), (1, ns))}
         for port, member in zip(("sun", "ring", "carrier"), p.members):
             g.add_edge(member, p.name, bond="port", port=port, terms=terms[port])
+    for sp in mech.stepped:
+        _add_stepped(g, sp)
     for pair in mech.gear_pairs:
         k1, k2 = ("N1", "N2") if pair.by == "teeth" else ("r1", "r2")
         p1, p2 = _pname(k1, pair.name), _pname(k2, pair.name)
@@ -80,6 +88,35 @@ def build_graph(mech: Mechanism) -> nx.DiGraph:
     return g
 
 
+def stepped_nodes(sp: SteppedPlanetary) -> list[str]:
+    """The transformer nodes of a stepped-pinion planetary: one per constraint, between its first
+    member and each other one (``NAME`` for the first, ``NAME/<role>`` for the others)."""
+    return [sp.name if i == 0 else f"{sp.name}/{role}" for i, (role, _, _) in enumerate(sp.members[1:])]
+
+
+def _add_stepped(g: nx.DiGraph, sp: SteppedPlanetary) -> None:
+    """One three-port transformer per constraint of ``sp`` (see
+    :class:`~transgen.model.SteppedPlanetary`): member ``A`` (the first), member ``B``, carrier,
+    with coefficients ``sigma_A*N_A*Np_b``, ``-sigma_B*N_B*Np_a`` and minus their sum."""
+    def teeth_param(role):
+        return _pname(("Ns" if role.startswith("sun") else "Nr") + role[-1], sp.name)
+
+    params = {teeth_param(role): teeth for role, _, teeth in sp.members}
+    steps = {"1": sp.np1, "2": sp.np2}
+    params.update({_pname(f"Np{k}", sp.name): n for k, n in steps.items() if n is not None})
+    role_a, link_a, _ = sp.members[0]
+    sigma = {"sun": -1, "ring": 1}
+    for node, (role_b, link_b, _) in zip(stepped_nodes(sp), sp.members[1:]):
+        sa, sb = sigma[role_a[:-1]], sigma[role_b[:-1]]
+        na, nb = teeth_param(role_a), teeth_param(role_b)
+        pa, pb = _pname(f"Np{role_a[-1]}", sp.name), _pname(f"Np{role_b[-1]}", sp.name)
+        used = {k: v for k, v in params.items() if k in (na, nb, pa, pb)}
+        g.add_node(node, kind="stepped", params=used, label=f"MTF\n{node}")
+        terms = {role_a: ((sa, na, pb),), role_b: ((-sb, nb, pa),), "carrier": ((-sa, na, pb), (sb, nb, pa))}
+        for port, member in ((role_a, link_a), (role_b, link_b), ("carrier", sp.carrier)):
+            g.add_edge(member, node, bond="port", port=port, terms=terms[port])
+
+
 def link_nodes(g: nx.DiGraph) -> list[str]:
     """Links (1-junctions) in declaration order."""
     return [n for n, d in g.nodes(data=True) if d["kind"] == "link"]
@@ -87,16 +124,28 @@ def link_nodes(g: nx.DiGraph) -> list[str]:
 
 def element_nodes(g: nx.DiGraph) -> list[str]:
     """Shift elements in declaration order."""
-    return [n for n, d in g.nodes(data=True) if d["kind"] in ("clutch", "brake", "oneway")]
+    return [n for n, d in g.nodes(data=True) if d["kind"] in ("clutch", "brake", "oneway", "dog")]
 
 
 def transformer_ports(g: nx.DiGraph, node: str) -> list[tuple[str, str, tuple]]:
     """``(link, port, terms)`` of a transformer node, in port order."""
     ports = [(u, d["port"], d["terms"]) for u, _, d in g.in_edges(node, data=True) if d.get("bond") == "port"]
-    order = {"sun": 0, "ring": 1, "carrier": 2, "1": 0, "2": 1}
-    return sorted(ports, key=lambda p: order[p[1]])
+    return sorted(ports, key=lambda p: _PORT_ORDER[p[1]])
+
+
+_PORT_ORDER = {"sun": 0, "ring": 1, "carrier": 9, "1": 0, "2": 1, "sun1": 2, "sun2": 3, "ring1": 4, "ring2": 5}
+
+TRANSFORMER_KINDS = ("planetary", "gearpair", "stepped")
+"""Node kinds that are transformers: one kinematic constraint each, torques by power conservation."""
 
 
 def coefficient(terms: tuple, values) -> object:
-    """Evaluate a port coefficient ``sum(factor * values[param])`` (numbers or sympy symbols)."""
-    return sum(factor * values[param] for factor, param in terms)
+    """Evaluate a port coefficient ``sum(factor * values[p1] * values[p2] ...)`` over its terms
+    ``(factor, p1, ...)`` (numbers or sympy symbols)."""
+    total = 0
+    for factor, *names in terms:
+        product = factor
+        for name in names:
+            product = product * values[name]
+        total = total + product
+    return total

@@ -16,6 +16,7 @@ Classification of a combination of engaged elements:
 """
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 import warnings
@@ -25,7 +26,7 @@ import networkx as nx
 import numpy as np
 
 from .errors import CombinationLimitWarning, Diagnostic
-from .graph import build_graph, coefficient, element_nodes, link_nodes, transformer_ports
+from .graph import TRANSFORMER_KINDS, build_graph, coefficient, element_nodes, link_nodes, transformer_ports
 from .model import HOUSING, Mechanism
 
 __all__ = [
@@ -44,6 +45,8 @@ __all__ = [
     "GearTable",
     "gear_table",
     "check_gears",
+    "link_speeds",
+    "published_findings",
 ]
 
 RANK_RTOL = 1e-9
@@ -75,7 +78,7 @@ def constraints(g: nx.DiGraph, locked=(), values: dict | None = None) -> list[Co
     values = _values(g) if values is None else values
     rows = []
     for node, data in g.nodes(data=True):
-        if data["kind"] in ("planetary", "gearpair"):
+        if data["kind"] in TRANSFORMER_KINDS:
             coeffs = {link: coefficient(terms, values) for link, _, terms in transformer_ports(g, node) if link != HOUSING}
             rows.append(Constraint(node, "transformer", coeffs))
     for name in locked:
@@ -212,7 +215,8 @@ class GearRow:
     """A declared gear (or neutral) with its computed kinematics.
 
     ``step`` is this gear's ratio over the next forward gear's (``None`` for the last one and for
-    reverse gears and neutrals); ``published`` is the ratio written in the file.
+    reverse gears, alternative gears and neutrals); ``published`` is the ratio written in the file, compared with
+    ``tolerance`` (``tol=``) or by ``rounding`` (see :class:`~transgen.model.Gear`).
     """
 
     name: str
@@ -221,6 +225,9 @@ class GearRow:
     combination: Combination
     step: float | None = None
     published: str | None = None
+    tolerance: str | None = None
+    rounding: str = "nearest"
+    alternative: bool = False
 
     @property
     def dof(self) -> int:
@@ -231,11 +238,29 @@ class GearRow:
         return self.combination.ratio
 
     @property
+    def published_range(self) -> tuple[float, float] | None:
+        """The interval of computed ratios that agree with the published one: ``pub +- tol``;
+        ``pub +- half a unit of its last printed digit`` (rounded); for a truncated one, from
+        ``pub`` to one unit further from zero (cut toward zero after the printed digits)."""
+        if self.published is None:
+            return None
+        pub = float(self.published)
+        if self.tolerance is not None:
+            tol = float(self.tolerance)
+            return (pub - tol, pub + tol)
+        half = _half_unit(self.published)
+        if self.rounding == "truncated":
+            return (pub, pub + 2 * half) if pub > 0 else (pub - 2 * half, pub)
+        return (pub - half, pub + half)
+
+    @property
     def matches_published(self) -> bool | None:
-        """Whether the computed ratio rounds to the published one at its printed precision."""
+        """Whether the computed ratio agrees with the published one (:attr:`published_range`,
+        widened by 1e-12 for round-off)."""
         if self.published is None or self.ratio is None:
             return None
-        return abs(self.ratio - float(self.published)) <= _half_unit(self.published) + 1e-12
+        low, high = self.published_range
+        return low - 1e-12 <= self.ratio <= high + 1e-12
 
 
 def _half_unit(text: str) -> float:
@@ -255,11 +280,12 @@ class GearTable:
 
     @property
     def spread(self) -> float | None:
-        """Overall spread: lowest over highest forward ratio."""
-        forward = [r.ratio for r in self.gears if r.kind == "gear" and r.ratio is not None and r.ratio > 0]
+        """Overall spread: lowest over highest forward ratio (alternative gears left out)."""
+        forward = [r.ratio for r in self.gears if r.kind == "gear" and not r.alternative and r.ratio is not None
+                   and r.ratio > 0]
         return max(forward) / min(forward) if len(forward) >= 2 else None
 
-    UNITS = {"ratio": "1", "step": "1", "spread": "1", "dof": "1", "published": "1"}
+    UNITS = {"ratio": "1", "step": "1", "spread": "1", "dof": "1", "published": "1", "published_range": "1"}
     """Units of the numeric fields of :meth:`to_dict` (ratios: input speed / output speed)."""
 
     def to_dict(self) -> dict:
@@ -271,7 +297,8 @@ class GearTable:
             "output": m.output,
             "gears": [
                 {"name": r.name, "kind": r.kind, "engaged": list(r.engaged), "dof": r.dof, "ratio": r.ratio,
-                 "step": r.step, "published": r.published, "floating": list(r.combination.floating)}
+                 "step": r.step, "published": r.published, "floating": list(r.combination.floating),
+                 "alternative": r.alternative, "matches_published": r.matches_published, "published_range": list(r.published_range or []) or None}
                 for r in self.gears
             ],
             "spread": self.spread,
@@ -286,19 +313,41 @@ class GearTable:
 def gear_table(mech: Mechanism, all_combinations: bool = True) -> GearTable:
     """Analyse the declared gears and (optionally) every combination of engaged elements."""
     g = build_graph(mech)
-    rows = [GearRow(gear.name, gear.kind, gear.engaged, analyze(mech, gear.engaged, g), None, gear.ratio)
+    rows = [GearRow(gear.name, gear.kind, gear.engaged, analyze(mech, gear.engaged, g), None, gear.ratio,
+                    gear.tolerance, gear.rounding, gear.alternative)
             for gear in mech.gears]
-    forward = [i for i, r in enumerate(rows) if r.kind == "gear" and r.ratio is not None and r.ratio > 0]
+    forward = [i for i, (r, gear) in enumerate(zip(rows, mech.gears))
+               if r.kind == "gear" and not gear.alternative and r.ratio is not None and r.ratio > 0]
     for i, j in zip(forward, forward[1:]):
-        rows[i] = GearRow(rows[i].name, rows[i].kind, rows[i].engaged, rows[i].combination,
-                          rows[i].ratio / rows[j].ratio, rows[i].published)
+        rows[i] = dataclasses.replace(rows[i], step=rows[i].ratio / rows[j].ratio)
     combos = tuple(combinations(mech)) if all_combinations else ()
     return GearTable(mech, tuple(rows), combos)
 
 
-def check_gears(mech: Mechanism) -> list[Diagnostic]:
-    """Errors for declared gears that tie up, have no determined ratio, or miss their published
-    ratio, and for neutrals that are not neutral; each located at the gear's name."""
+def _mismatch_message(row: GearRow) -> str:
+    low, high = row.published_range
+    how = (f"tol={row.tolerance}" if row.tolerance is not None else
+           "truncated" if row.rounding == "truncated" else "rounded")
+    return (f"gear {row.name}: computed ratio {row.ratio:.6g} does not match the declared ratio={row.published} "
+            f"({how}: {low:.10g} to {high:.10g})")
+
+
+def published_findings(mech: Mechanism, table: GearTable) -> list[Diagnostic]:
+    """The declared gears whose computed ratio misses the published one, each located at the
+    gear's name (``transgen ratios`` reports them beside the table; ``check`` as errors)."""
+    out = []
+    for row in table.gears:
+        if row.kind == "gear" and row.matches_published is False:
+            gear = mech.gear(row.name)
+            out.append(Diagnostic(mech.source, gear.span.line, gear.span.column, _mismatch_message(row),
+                                  mech.source_line(gear.span.line)))
+    return out
+
+
+def check_gears(mech: Mechanism, published: bool = True) -> list[Diagnostic]:
+    """Errors for declared gears that tie up, have no determined ratio, or (with ``published``)
+    miss their published ratio, and for neutrals that are not neutral; each located at the
+    gear's name."""
     problems = []
     for row in gear_table(mech, all_combinations=False).gears:
         gear = mech.gear(row.name)
@@ -310,8 +359,8 @@ def check_gears(mech: Mechanism) -> list[Diagnostic]:
             elif c.ratio is None:
                 message = (f"gear {row.name} ({' '.join(row.engaged)}) does not determine the input/output ratio "
                            f"({c.dof} degrees of freedom, {c.kind}{': ' + c.detail if c.detail else ''})")
-            elif row.matches_published is False:
-                message = f"gear {row.name}: computed ratio {row.ratio:.6g} does not match the declared ratio={row.published}"
+            elif published and row.matches_published is False:
+                message = _mismatch_message(row)
         elif c.kind != "neutral":
             message = f"neutral {row.name} ({' '.join(row.engaged)}) is not a neutral: it is {c.kind}" + (
                 f" with ratio {c.ratio:.6g}" if c.ratio is not None else "")
@@ -319,3 +368,32 @@ def check_gears(mech: Mechanism) -> list[Diagnostic]:
             line = gear.span.line
             problems.append(Diagnostic(mech.source, line, gear.span.column, message, mech.source_line(line)))
     return problems
+
+
+def link_speeds(mech: Mechanism, engaged=(), graph: nx.DiGraph | None = None) -> dict[str, float | None]:
+    """Speed of every link per unit input speed with the elements ``engaged`` (``w_link / w_in``).
+
+    Links whose speed the input speed does not fix (floating members, or every link but the
+    input in a neutral) get ``None``; the input link gets 1. Raises ``ValueError`` when the
+    combination holds the input (a tie-up, or the input braked).
+    """
+    g = build_graph(mech) if graph is None else graph
+    links = link_nodes(g)
+    a = constraint_matrix(g, engaged)
+    basis = null_space(a, len(links))
+    i_in = links.index(mech.input)
+    v_in = basis[i_in] if basis.shape[1] else np.zeros(0)
+    tol = 1e-9
+    if np.linalg.norm(v_in) <= tol:
+        raise ValueError(f"{' '.join(engaged) or 'no element'} engaged: the input {mech.input} is held, "
+                         f"the link speeds are not proportional to the input speed")
+    # the least-norm motion with unit input speed: A w = 0, w_in = 1 by least squares with one step
+    # of iterative refinement (to about a unit in the last place; basis @ v_in alone is off by
+    # some 1e-14, which shows e.g. as a direct drive's efficiency 1 - 3e-15)
+    m = np.vstack([a, np.eye(len(links))[i_in]])
+    rhs = np.zeros(m.shape[0])
+    rhs[-1] = 1.0
+    w = np.linalg.lstsq(m, rhs, rcond=None)[0]
+    w += np.linalg.lstsq(m, rhs - m @ w, rcond=None)[0]
+    held = null_space(m, len(links))
+    return {name: (None if np.linalg.norm(held[k]) > tol else float(w[k])) for k, name in enumerate(links)}

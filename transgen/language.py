@@ -40,16 +40,22 @@ from .model import (
     Mechanism,
     ModeDecl,
     Planetary,
+    STEPPED_MEMBERS,
     ShiftElement,
     Span,
+    SteppedPlanetary,
 )
 
 __all__ = ["parse_mechanism", "load_mechanism", "parse_tree", "grammar_text", "format_mechanism"]
+
+ALTERNATIVE = "alternative"
+"""The word that marks a gear row as an alternative gear (``gear L = K1 B3 alternative``)."""
 
 RESERVED = frozenset(
     {
         "transmission", "link", "planetary", "gears", "clutch", "brake", "oneway", "input",
         "output", "torque", "gear", "neutral", "mode", "coordinates", "none", HOUSING,
+        ALTERNATIVE, "stepped", "dog",
         "T_in", "T_out",  # the input and output torques of every mechanism
     }
 )
@@ -254,17 +260,25 @@ TEETH = Quantity(1, 100_000, sign=">0", integer=True)
 RADIUS = Quantity(1e-4, 100.0, "m", ">0")
 CAPACITY = Quantity(sys.float_info.min, 1e8, "N*m", ">=0")
 RATIO = Quantity(1e-6, 1e6)
+EFFICIENCY = Quantity(1e-6, 1.0, sign=">0")
+SLIP_SPEED = Quantity(1e-3, 1e6, "rpm", ">0")
+RATIO_TOL = Quantity(1e-12, 1e6, sign=">0")
 """Ranges of the numbers of a ``.mech`` file (see README, "Numbers")."""
 
 # Allowed parameters per statement: key -> a Quantity, "name" (a link), or a tuple of allowed words.
 _PARAMS: dict[str, dict[str, object]] = {
     "link": {"J": INERTIA},
-    "planetary": {"sun": "name", "ring": "name", "carrier": "name", "Ns": TEETH, "Nr": TEETH, "pinions": ("1", "2")},
-    "gears": {"N1": TEETH, "N2": TEETH, "r1": RADIUS, "r2": RADIUS, "mesh": ("external", "internal")},
-    "clutch": {"static": CAPACITY, "dynamic": CAPACITY},
-    "brake": {"static": CAPACITY, "dynamic": CAPACITY, "type": ("plate", "band")},
-    "oneway": {"free": ("positive", "negative")},
-    "gear": {"ratio": RATIO},
+    "planetary": {"sun": "name", "ring": "name", "carrier": "name", "Ns": TEETH, "Nr": TEETH, "pinions": ("1", "2"),
+                  "eta0": EFFICIENCY},
+    "gears": {"N1": TEETH, "N2": TEETH, "r1": RADIUS, "r2": RADIUS, "mesh": ("external", "internal"),
+              "eta": EFFICIENCY},
+    "clutch": {"static": CAPACITY, "dynamic": CAPACITY, "max_slip_rpm": SLIP_SPEED},
+    "brake": {"static": CAPACITY, "dynamic": CAPACITY, "type": ("plate", "band"), "max_slip_rpm": SLIP_SPEED},
+    "oneway": {"free": ("positive", "negative"), "max_slip_rpm": SLIP_SPEED},
+    "dog": {"static": CAPACITY, "max_slip_rpm": SLIP_SPEED},
+    "gear": {"ratio": RATIO, "tol": RATIO_TOL, "rounding": ("nearest", "truncated")},
+    "stepped": {"carrier": "name", "sun1": "name", "sun2": "name", "ring1": "name", "ring2": "name",
+                "Ns1": TEETH, "Ns2": TEETH, "Nr1": TEETH, "Nr2": TEETH, "Np1": TEETH, "Np2": TEETH},
 }
 _REQUIRED: dict[str, tuple[str, ...]] = {
     "link": ("J",),
@@ -272,6 +286,7 @@ _REQUIRED: dict[str, tuple[str, ...]] = {
     "clutch": ("static", "dynamic"),
     "brake": ("static", "dynamic"),
     "oneway": ("free",),
+    "stepped": ("carrier",),
 }
 _NOT_FINITE = frozenset({"nan", "inf", "infinity"})
 
@@ -318,6 +333,24 @@ def read_number(text: str, key: str, quantity: Quantity) -> float | int | str:
     return number
 
 
+@dataclass(frozen=True)
+class _UnknownTeeth:
+    """A tooth count written ``?`` (``bounds`` None) or ``a..b``."""
+
+    word: _Word
+    bounds: tuple[int, int] | None
+
+
+def _unknown_teeth(word: _Word, key: str, report: _Reporter) -> _UnknownTeeth | None:
+    if word.text == "?":
+        return _UnknownTeeth(word, None)
+    low, high = (int(x) for x in word.text.split(".."))
+    if not 1 <= low <= high <= TEETH.high:
+        report.error(word.span, f"{key}={word.text}: a range of tooth counts a..b needs 1 <= a <= b <= {TEETH.high:g}")
+        return None
+    return _UnknownTeeth(word, (low, high))
+
+
 def _check_params(stmt: _Statement, report: _Reporter) -> dict[str, object]:
     """Validate the key=value parameters of a statement; return their converted values."""
     allowed = _PARAMS.get(stmt.keyword, {})
@@ -331,6 +364,15 @@ def _check_params(stmt: _Statement, report: _Reporter) -> dict[str, object]:
             report.error(key_span, f"unknown parameter '{shorten(key)}' for '{stmt.keyword}'{_suggest(key, allowed)} (known: {known})")
             continue
         kind = allowed[key]
+        if not is_number and (word.text == "?" or ".." in word.text):  # no name has these characters
+            if kind is TEETH and stmt.keyword == "planetary":
+                unknown = _unknown_teeth(word, key, report)
+                if unknown is not None:
+                    values[key] = unknown
+            else:
+                report.error(word.span, f"{key} cannot be unknown ('{shorten(word.text)}'): only the tooth counts "
+                                        f"Ns, Nr of a planetary can be written ? or a..b")
+            continue
         if isinstance(kind, tuple):
             if word.text not in kind:
                 report.error(word.span, f"{key} must be one of {', '.join(kind)}, not '{shorten(word.text)}'")
@@ -352,7 +394,7 @@ def _check_params(stmt: _Statement, report: _Reporter) -> dict[str, object]:
             if isinstance(number, str):
                 report.error(word.span, number)
                 continue
-            values[key] = word.text if stmt.keyword == "gear" and key == "ratio" else number
+            values[key] = word.text if stmt.keyword == "gear" and key in ("ratio", "tol") else number
     for key in _REQUIRED.get(stmt.keyword, ()):
         if key not in stmt.params:
             report.error(stmt.span, f"'{stmt.keyword}' needs {key}=...")
@@ -363,7 +405,8 @@ def _check_params(stmt: _Statement, report: _Reporter) -> dict[str, object]:
 # Step 3: names and whole-file rules
 
 
-def _resolve(statements: list[_Statement], report: _Reporter, filename: str) -> Mechanism | None:
+def _resolve(statements: list[_Statement], report: _Reporter, filename: str,
+             unknown_teeth: bool = False) -> Mechanism | None:
     declared: dict[str, tuple[str, Span]] = {}  # link/planetary/gears/element/torque names
 
     def declare(word: _Word, what: str) -> bool:
@@ -379,7 +422,7 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str) -> 
 
     title = ""
     links: list[Link] = []
-    planetaries, pairs, elements, loads = [], [], [], []
+    planetaries, pairs, elements, loads, stepped = [], [], [], [], []
     gears: list[Gear] = []
     modes: list[ModeDecl] = []
     coordinates: list[_Word] = []
@@ -410,10 +453,30 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str) -> 
                 if texts.count(m.text) > 1 and m is present[texts.index(m.text)]:
                     report.error(m.span, f"planetary {name.text}: member '{m.text}' is used twice (sun, ring and carrier must be different links)")
             ns, nr = params.get("Ns"), params.get("Nr")
+            bounds = {}
+            for key in ("Ns", "Nr"):
+                value = params.get(key)
+                if isinstance(value, _UnknownTeeth):
+                    bounds[key] = value.bounds
+                    if not unknown_teeth:
+                        report.error(value.word.span, f"planetary {name.text}: tooth count {key} is unknown "
+                                                      f"({key}={value.word.text}); only 'transgen synthesize teeth' "
+                                                      f"accepts unknown teeth: write a whole number")
+                        ok = False
+            ns, nr = (None if k in bounds else params.get(k) for k in ("Ns", "Nr"))
+            if bounds and "Ns" in params and "Nr" in params and ok and None not in members and len(set(texts)) == 3:
+                planetaries.append(Planetary(name.text, texts[0], texts[1], texts[2], ns, nr,
+                                             int(params.get("pinions", "1")), name.span,
+                                             bounds.get("Ns"), bounds.get("Nr"), eta0=params.get("eta0")))
             if ns is not None and nr is not None and nr <= ns:
                 report.error(stmt.params["Nr"][0].span, f"planetary {name.text}: ring teeth Nr={nr} must exceed sun teeth Ns={ns}")
             if ok and None not in members and ns is not None and nr is not None and len(set(texts)) == 3 and nr > ns:
-                planetaries.append(Planetary(name.text, texts[0], texts[1], texts[2], ns, nr, int(params.get("pinions", "1")), name.span))
+                planetaries.append(Planetary(name.text, texts[0], texts[1], texts[2], ns, nr, int(params.get("pinions", "1")), name.span,
+                                             eta0=params.get("eta0")))
+        elif kw == "stepped":
+            item = _stepped(stmt, params, report, link_refs)
+            if declare(words[0], "stepped planetary") and item is not None:
+                stepped.append(item)
         elif kw == "gears":
             name, w1, w2 = words
             ok = declare(name, "gear pair")
@@ -436,10 +499,11 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str) -> 
                     ok = False
             if ok and all(k in params for k in keys):
                 pairs.append(GearPair(name.text, w1.text, w2.text, params[keys[0]], params[keys[1]],
-                                      "teeth" if by_teeth else "radius", params.get("mesh", "external"), name.span))
-        elif kw in ("clutch", "brake", "oneway"):
+                                      "teeth" if by_teeth else "radius", params.get("mesh", "external"), name.span,
+                                      params.get("eta")))
+        elif kw in ("clutch", "brake", "oneway", "dog"):
             name = words[0]
-            ok = declare(name, kw if kw != "oneway" else "one-way clutch")
+            ok = declare(name, {"oneway": "one-way clutch", "dog": "dog element"}.get(kw, kw))
             w1 = words[1]
             w2 = words[2] if len(words) > 2 else _Word(HOUSING, stmt.span)
             link_refs.append((w1, False))
@@ -448,16 +512,19 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str) -> 
             if w1.text == w2.text:
                 report.error(w2.span, f"{kw} {name.text} connects '{w1.text}' to itself")
                 ok = False
-            if ok and all(k in params for k in _REQUIRED[kw]):
+            if ok and all(k in params for k in _REQUIRED.get(kw, ())):
                 if kw == "oneway":
                     static, dynamic = float("inf"), 0.0
+                elif kw == "dog":
+                    static, dynamic = float(params.get("static", float("inf"))), 0.0
                 else:
                     static, dynamic = float(params["static"]), float(params["dynamic"])
                     if dynamic > static:
                         report.error(stmt.params["dynamic"][0].span,
                                      f"{kw} {name.text}: dynamic capacity {dynamic:g} N*m exceeds static capacity {static:g} N*m")
                 elements.append(ShiftElement(name.text, kw, w1.text, w2.text, static, dynamic,
-                                             params.get("free"), params.get("type"), name.span))
+                                             params.get("free"), params.get("type"), name.span,
+                                             params.get("max_slip_rpm")))
         elif kw == "input":
             inputs.append(words[0])
             link_refs.append((words[0], False))
@@ -475,6 +542,11 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str) -> 
         elif kw in ("gear", "neutral", "mode"):
             name = words[0]
             table = modes if kw == "mode" else gears
+            flags = [w for w in stmt.elements if w.text == ALTERNATIVE]
+            stmt.elements = [w for w in stmt.elements if w.text != ALTERNATIVE]
+            for w in flags[(1 if kw == "gear" else 0):]:
+                report.error(w.span, f"'{ALTERNATIVE}' marks a gear row ('gear NAME = ELEM ... {ALTERNATIVE}')"
+                             if kw != "gear" else f"'{ALTERNATIVE}' is given twice")
             if any(g.name == name.text for g in table):
                 report.error(name.span, f"duplicate {kw} name '{name.text}'")
             engaged = [w.text for w in stmt.elements]
@@ -485,9 +557,16 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str) -> 
             if kw == "mode":
                 modes.append(ModeDecl(name.text, tuple(dict.fromkeys(engaged)), name.span))
             else:
-                if not engaged:  # pragma: no cover - the grammar needs one element
+                if not engaged:  # the grammar needs one word: only 'gear L = alternative' comes here
                     report.error(name.span, f"{kw} {name.text} engages no element")
-                gears.append(Gear(name.text, tuple(dict.fromkeys(engaged)), kw, params.get("ratio"), name.span))
+                for key in ("tol", "rounding"):
+                    if key in stmt.params and "ratio" not in stmt.params:
+                        report.error(stmt.params[key + "@key"][0].span, f"{key}= says how ratio= is compared: give ratio=... too")
+                if "tol" in stmt.params and "rounding" in stmt.params:
+                    report.error(stmt.params["rounding@key"][0].span,
+                                 "give tol= (an explicit tolerance) or rounding= (how the ratio was printed), not both")
+                gears.append(Gear(name.text, tuple(dict.fromkeys(engaged)), kw, params.get("ratio"), name.span,
+                                  params.get("tol"), params.get("rounding", "nearest"), bool(flags)))
         elif kw == "coordinates":
             if coordinates:
                 report.error(stmt.span, "coordinates are given twice")
@@ -506,7 +585,7 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str) -> 
                 report.error(ref.span, f"'{ref.text}' is a {what}, not a link")
             else:
                 report.error(ref.span, f"unknown link '{shorten(ref.text)}'{report.suggest(ref.text, link_names)}")
-    element_names = {n for n, (what, _) in declared.items() if what in ("clutch", "brake", "one-way clutch")}
+    element_names = {n for n, (what, _) in declared.items() if what in ("clutch", "brake", "one-way clutch", "dog element")}
     for ref in element_refs:
         if ref.text not in element_names:
             report.error(ref.span, f"unknown shift element '{shorten(ref.text)}'{report.suggest(ref.text, element_names)}")
@@ -538,13 +617,71 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str) -> 
         gears=tuple(gears),
         modes=tuple(modes),
         coordinates=tuple(coord_texts),
+        stepped=tuple(stepped),
         source=filename,
         text=report.text,
     )
 
 
-def parse_mechanism(text: str, filename: str = "<string>") -> Mechanism:
+def _stepped(stmt: _Statement, params: dict, report: _Reporter, link_refs: list) -> SteppedPlanetary | None:
+    """The stepped-pinion planetary of a ``stepped`` statement, or ``None`` after reporting why not."""
+    name = stmt.words[0].text
+    before = len(report.diagnostics)
+    carrier = params.get("carrier")
+    if carrier is not None:
+        link_refs.append((carrier, True))
+    members = []
+    for role in STEPPED_MEMBERS:
+        teeth = ("Ns" if role.startswith("sun") else "Nr") + role[-1]
+        if role in params:
+            link_refs.append((params[role], True))
+            if teeth not in stmt.params:
+                report.error(params[role].span, f"stepped {name}: {role}= needs its tooth count {teeth}=...")
+            elif teeth in params:
+                members.append((role, params[role], params[teeth]))
+        elif teeth in stmt.params:
+            report.error(stmt.params[teeth + "@key"][0].span, f"stepped {name}: {teeth}= is the tooth count of {role}: "
+                                                              f"give {role}=LINK too")
+    if len(members) + sum(1 for r in STEPPED_MEMBERS if r in params and r not in (m[0] for m in members)) < 2:
+        report.error(stmt.span, f"stepped {name} needs two to four central gears: sun1=, sun2=, ring1=, ring2= "
+                                f"(the digit is the pinion step they mesh)")
+    for step in ("1", "2"):
+        used = any(role.endswith(step) for role in STEPPED_MEMBERS if role in params)
+        key = f"Np{step}"
+        if used and key not in stmt.params:
+            report.error(stmt.span, f"stepped {name} needs {key}=... (the teeth of pinion step {step})")
+        elif key in stmt.params and not used:
+            report.error(stmt.params[key + "@key"][0].span, f"stepped {name}: {key}= but no sun or ring meshes step {step}")
+    words = ([carrier] if carrier is not None else []) + [m[1] for m in members]
+    texts = [w.text for w in words]
+    for w in words:
+        if texts.count(w.text) > 1 and w is words[texts.index(w.text)]:
+            report.error(w.span, f"stepped {name}: '{w.text}' is used twice (carrier and central gears are different links)")
+    np = {"1": params.get("Np1"), "2": params.get("Np2")}
+    for role, link, teeth in members:
+        step = np[role[-1]]
+        if role.startswith("ring") and step is not None and teeth <= step:
+            report.error(link.span, f"stepped {name}: {role} teeth {teeth} must exceed the teeth of pinion step "
+                                    f"{role[-1]} (Np{role[-1]}={step}) that mesh inside it")
+    speeds = {}
+    for role, link, teeth in members:
+        if np[role[-1]] is not None:
+            key = (role.startswith("ring"), teeth * np["2" if role.endswith("1") else "1"] if None not in np.values() else teeth)
+            if key in speeds:
+                report.error(link.span, f"stepped {name}: {role} and {speeds[key]} would turn together (same ratio to "
+                                        f"the pinion): one constraint too few; use one link")
+            speeds[key] = role
+    if len(report.diagnostics) > before or carrier is None:
+        return None
+    return SteppedPlanetary(name, carrier.text, tuple((r, w.text, t) for r, w, t in members),
+                            params.get("Np1"), params.get("Np2"), stmt.words[0].span)
+
+
+def parse_mechanism(text: str, filename: str = "<string>", unknown_teeth: bool = False) -> Mechanism:
     """Parse and validate ``.mech`` text.
+
+    ``unknown_teeth`` accepts planetary tooth counts written ``?`` or ``a..b`` (for
+    :mod:`transgen.synthesis`; the counts are ``None`` in the model); otherwise they are errors.
 
     Raises
     ------
@@ -565,15 +702,15 @@ def parse_mechanism(text: str, filename: str = "<string>") -> Mechanism:
     """
     tree = parse_tree(text, filename)
     report = _Reporter(filename, text)
-    mechanism = _resolve(_statements(tree, report), report, filename)
+    mechanism = _resolve(_statements(tree, report), report, filename, unknown_teeth)
     if report.diagnostics:
         raise MechValidationError(report.diagnostics)
     assert mechanism is not None
     return mechanism
 
 
-def load_mechanism(path: str | Path) -> Mechanism:
-    """Read and parse a ``.mech`` file.
+def load_mechanism(path: str | Path, unknown_teeth: bool = False) -> Mechanism:
+    """Read and parse a ``.mech`` file (``unknown_teeth`` as in :func:`parse_mechanism`).
 
     A bare name such as ``"ht740"`` or ``"ht740.mech"`` that is not an existing file is looked
     up in the bundled library (:mod:`transgen.library`).
@@ -595,11 +732,20 @@ def load_mechanism(path: str | Path) -> Mechanism:
         raise MechSyntaxError([Diagnostic(str(path), 1, 1, f"not a text file ({exc.reason})")]) from None
     except OSError as exc:
         raise MechSyntaxError([Diagnostic(str(path), 1, 1, f"cannot read file: {exc.strerror}{hint}")]) from None
-    return parse_mechanism(text, str(path))
+    return parse_mechanism(text, str(path), unknown_teeth)
 
 
 def _number(x: float) -> str:
     return repr(float(x))  # shortest text that reads back as the same float
+
+
+def _optional(key: str, value: float | None) -> str:
+    """`` key=value`` for an optional number that is given, else ``""``."""
+    return "" if value is None else f" {key}={_number(value)}"
+
+
+def _teeth_text(n: int | None, bounds: tuple[int, int] | None) -> str:
+    return str(n) if n is not None else ("?" if bounds is None else f"{bounds[0]}..{bounds[1]}")
 
 
 def format_mechanism(m: Mechanism) -> str:
@@ -608,23 +754,37 @@ def format_mechanism(m: Mechanism) -> str:
     out += [f"link {k.name} J={_number(k.inertia)}" for k in m.links]
     for p in m.planetaries:
         pin = " pinions=2" if p.pinions == 2 else ""
-        out.append(f"planetary {p.name} sun={p.sun} ring={p.ring} carrier={p.carrier} Ns={p.n_sun} Nr={p.n_ring}{pin}")
+        ns, nr = (_teeth_text(n, b) for n, b in ((p.n_sun, p.sun_bounds), (p.n_ring, p.ring_bounds)))
+        out.append(f"planetary {p.name} sun={p.sun} ring={p.ring} carrier={p.carrier} Ns={ns} Nr={nr}{pin}"
+                   + _optional("eta0", p.eta0))
+    for sp in m.stepped:
+        members = " ".join(f"{role}={link} {'Ns' if role.startswith('sun') else 'Nr'}{role[-1]}={teeth}"
+                           for role, link, teeth in sp.members)
+        steps = "".join(f" Np{k}={n}" for k, n in (("1", sp.np1), ("2", sp.np2)) if n is not None)
+        out.append(f"stepped {sp.name} carrier={sp.carrier} {members}{steps}")
     for g in m.gear_pairs:
         k1, k2 = ("N1", "N2") if g.by == "teeth" else ("r1", "r2")
         v1, v2 = (int(g.n1), int(g.n2)) if g.by == "teeth" else (_number(g.n1), _number(g.n2))
-        out.append(f"gears {g.name} {g.link1} {g.link2} {k1}={v1} {k2}={v2} mesh={g.mesh}")
+        out.append(f"gears {g.name} {g.link1} {g.link2} {k1}={v1} {k2}={v2} mesh={g.mesh}" + _optional("eta", g.eta))
     for e in m.elements:
+        slip = _optional("max_slip_rpm", e.max_slip_rpm)
         if e.kind == "clutch":
-            out.append(f"clutch {e.name} {e.link1} {e.link2} static={_number(e.static)} dynamic={_number(e.dynamic)}")
+            out.append(f"clutch {e.name} {e.link1} {e.link2} static={_number(e.static)} dynamic={_number(e.dynamic)}{slip}")
         elif e.kind == "brake":
             typ = f" type={e.brake_type}" if e.brake_type else ""
-            out.append(f"brake {e.name} {e.link1} static={_number(e.static)} dynamic={_number(e.dynamic)}{typ}")
+            out.append(f"brake {e.name} {e.link1} static={_number(e.static)} dynamic={_number(e.dynamic)}{typ}{slip}")
+        elif e.kind == "dog":
+            static = f" static={_number(e.static)}" if math.isfinite(e.static) else ""
+            out.append(f"dog {e.name} {e.link1} {e.link2}{static}{slip}")
         else:
-            out.append(f"oneway {e.name} {e.link1} {e.link2} free={e.free}")
+            out.append(f"oneway {e.name} {e.link1} {e.link2} free={e.free}{slip}")
     out += [f"input {m.input}", f"output {m.output}"]
     out += [f"torque {t.name} {t.link}" for t in m.loads]
     for g in m.gears:
         ratio = f" ratio={g.ratio}" if g.ratio is not None else ""
+        ratio += f" tol={g.tolerance}" if g.tolerance is not None else ""
+        ratio += " rounding=truncated" if g.rounding == "truncated" else ""
+        ratio += f" {ALTERNATIVE}" if g.alternative else ""
         out.append(f"{g.kind} {g.name} = {' '.join(g.engaged)}{ratio}")
     for d in m.modes:
         out.append(f"mode {d.name} = {' '.join(d.locked) or 'none'}")

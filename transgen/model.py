@@ -25,6 +25,8 @@ __all__ = [
     "Span",
     "Link",
     "Planetary",
+    "SteppedPlanetary",
+    "STEPPED_MEMBERS",
     "GearPair",
     "ShiftElement",
     "ExternalTorque",
@@ -65,21 +67,65 @@ class Planetary:
     ``pinions=1``: simple set, ``Ns*w_s + Nr*w_r = (Ns + Nr)*w_c`` (thesis eq. 3.37).
     ``pinions=2``: double-pinion set, ``Nr*w_r - Ns*w_s = (Nr - Ns)*w_c``.
     Members are link names or :data:`HOUSING`.
+
+    A tooth count written ``?`` or ``a..b`` is unknown (``None``), to be found by
+    :mod:`transgen.synthesis`; ``sun_bounds``/``ring_bounds`` keep a written range ``(a, b)``.
+    Only ``parse_mechanism(..., unknown_teeth=True)`` builds such a set.
     """
 
     name: str
     sun: str
     ring: str
     carrier: str
-    n_sun: int
-    n_ring: int
+    n_sun: int | None
+    n_ring: int | None
     pinions: Literal[1, 2] = 1
     span: Span = _span()
+    sun_bounds: tuple[int, int] | None = None
+    ring_bounds: tuple[int, int] | None = None
+    eta0: float | None = None
+    """Standing (carrier-fixed) efficiency of the sun-ring train, 0 < eta0 <= 1; ``None``: the
+    default of :func:`transgen.powerflow.power_flow`."""
+
+    @property
+    def teeth_known(self) -> bool:
+        return self.n_sun is not None and self.n_ring is not None
 
     @property
     def members(self) -> tuple[str, str, str]:
         """(sun, ring, carrier)."""
         return (self.sun, self.ring, self.carrier)
+
+
+STEPPED_MEMBERS = ("sun1", "sun2", "ring1", "ring2")
+"""The members a stepped-pinion planetary can have: a sun or a ring on pinion step 1 or 2."""
+
+
+@dataclass(frozen=True)
+class SteppedPlanetary:
+    """A planetary with stepped (or long) pinions: one carrier whose pinions have two steps of
+    ``np1`` and ``np2`` teeth, and two to four central gears, each meshing one step: ``members``
+    is a tuple of ``(role, link, teeth)`` with ``role`` in :data:`STEPPED_MEMBERS` (``sun2``: a
+    sun meshing step 2; ``ring1``: a ring meshing step 1).
+
+    Each member ``X`` on step ``k`` obeys ``(w_X - w_c) * N_X / Np_k = sigma_X * (w_p - w_c)``
+    (``w_p`` the pinion speed, ``sigma`` -1 for a sun, +1 for a ring); eliminating ``w_p``
+    between the first member ``A`` and each other member ``B`` gives the constraints
+    ``sigma_A*N_A*Np_b*w_A - sigma_B*N_B*Np_a*w_B = (sigma_A*N_A*Np_b - sigma_B*N_B*Np_a)*w_c``.
+    A sun on step 1 and a ring on step 2: ``Ns*Np2*w_s + Nr*Np1*w_r = (Ns*Np2 + Nr*Np1)*w_c``;
+    with ``Np1 = Np2`` the simple planetary.
+    """
+
+    name: str
+    carrier: str
+    members: tuple[tuple[str, str, int], ...]
+    np1: int | None = None
+    np2: int | None = None
+    span: Span = _span()
+
+    def step_teeth(self, role: str) -> int:
+        """Teeth of the pinion step the member ``role`` meshes."""
+        return self.np1 if role.endswith("1") else self.np2
 
 
 @dataclass(frozen=True)
@@ -99,6 +145,8 @@ class GearPair:
     by: Literal["teeth", "radius"] = "teeth"
     mesh: Literal["external", "internal"] = "external"
     span: Span = _span()
+    eta: float | None = None
+    """Mesh efficiency, 0 < eta <= 1; ``None``: the default of :func:`transgen.powerflow.power_flow`."""
 
     @property
     def sign(self) -> int:
@@ -110,14 +158,17 @@ class GearPair:
 class ShiftElement:
     """A clutch, brake or one-way clutch between ``link1`` and ``link2``.
 
-    ``kind`` is ``"clutch"``, ``"brake"`` (``link2`` is the housing) or ``"oneway"``.
+    ``kind`` is ``"clutch"``, ``"brake"`` (``link2`` is the housing), ``"oneway"`` or ``"dog"``
+    (a dog clutch or, to the housing, a dog brake: open or locked only; it engages only at
+    synchronous speed and transmits no torque while slipping, ``dynamic = 0``; ``static`` is its
+    holding capacity, infinite unless given, beyond which the simulator stops).
     ``static`` and ``dynamic`` are torque capacities at full apply [N*m] (infinite static
     capacity for a one-way clutch). ``free`` is the sign of the slip ``w1 - w2`` in which a
     one-way clutch overruns (``"positive"`` or ``"negative"``); it locks against the other sign.
     """
 
     name: str
-    kind: Literal["clutch", "brake", "oneway"]
+    kind: Literal["clutch", "brake", "oneway", "dog"]
     link1: str
     link2: str
     static: float
@@ -125,6 +176,9 @@ class ShiftElement:
     free: Literal["positive", "negative"] | None = None
     brake_type: Literal["plate", "band"] | None = None
     span: Span = _span()
+    max_slip_rpm: float | None = None
+    """Highest admissible slip speed while open [rpm] (``None``: no limit given); see
+    :func:`transgen.powerflow.power_flow`."""
 
     @property
     def links(self) -> tuple[str, str]:
@@ -155,7 +209,11 @@ class Gear:
     """A row of the gear table: a named gear (or neutral) and its engaged shift elements.
 
     ``ratio`` is the published input/output speed ratio as written in the file (a string, so
-    that its precision is known), or ``None``.
+    that its precision is known), or ``None``. How it is compared with the computed ratio:
+    ``tolerance`` (``tol=``, an absolute tolerance, as written) when given, else ``rounding``:
+    ``"nearest"`` (the computed ratio rounds to it at its printed precision: within half a unit
+    of its last digit) or ``"truncated"`` (the computed ratio, cut toward zero after its printed
+    digits, gives it: ``|pub| <= |computed| < |pub| + one unit of the last digit``).
     """
 
     name: str
@@ -163,6 +221,11 @@ class Gear:
     kind: Literal["gear", "neutral"] = "gear"
     ratio: str | None = None
     span: Span = _span()
+    tolerance: str | None = None
+    rounding: Literal["nearest", "truncated"] = "nearest"
+    alternative: bool = False
+    """An alternative gear (a manual low, a second reverse, a 10-speed's extra ratio): in the
+    table, but outside the step sequence, the spread and the default speed-phase modes."""
 
 
 @dataclass(frozen=True)
@@ -189,6 +252,7 @@ class Mechanism:
     gears: tuple[Gear, ...] = ()
     modes: tuple[ModeDecl, ...] = ()
     coordinates: tuple[str, ...] = ()
+    stepped: tuple[SteppedPlanetary, ...] = ()
     source: str = field(default="<string>", compare=False)
     text: str = field(default="", compare=False, repr=False)
 

@@ -6,8 +6,10 @@ torque is an input. :func:`select_modes` chooses which modes to model:
 
 * ``"default"``: the declared forward gears, then the one-element-less modes a single-swap shift
   between consecutive forward gears passes through (the speed phase), then the neutrals
-  (declared with ``neutral``, or else the elements shared by the first gear and a reverse gear),
-  then the reverse gears — for the HT-740 exactly the thesis' seven modes M1-M7;
+  (declared with ``neutral``, or else the elements shared by the first gear and a reverse gear,
+  with any number of degrees of freedom: :func:`default_neutral`),
+  then the reverse gears, then the alternative gears (``gear L = ... alternative``: no speed
+  phase) — for the HT-740 exactly the thesis' seven modes M1-M7;
 * ``"declared"``: the ``mode`` statements of the file (the default when there are any);
 * ``"all"``: every combination of locked elements (also the default of a mechanism without a
   gear table, such as a benchmark chain of clutches).
@@ -53,6 +55,8 @@ __all__ = [
     "check_coordinates",
     "valid_coordinate_sets",
     "default_coordinates",
+    "default_neutral",
+    "neutral_note",
 ]
 
 
@@ -126,12 +130,15 @@ def select_modes(mech: Mechanism, which: str = "auto") -> list[Mode]:
         raise ValueError(f"unknown mode selection {which!r}")
     if not any(g.kind == "gear" for g in mech.gears):
         return select_modes(mech, "all")  # no gear table: nothing to choose from
-    forward, reverse = [], []
+    forward, reverse, alternative = [], [], []
     for gear in mech.gears:
         if gear.kind != "gear":
             continue
         ratio = analyze(mech, gear.engaged, g).ratio
-        (reverse if ratio is not None and ratio < 0 else forward).append(gear)
+        if gear.alternative:
+            alternative.append(gear)
+        else:
+            (reverse if ratio is not None and ratio < 0 else forward).append(gear)
     chosen: list[tuple[str, tuple[str, ...]]] = [(f"gear {gear.name}", gear.engaged) for gear in forward]
     for a, b in zip(forward, forward[1:]):
         common = _one_swap_common(a.engaged, b.engaged)
@@ -140,11 +147,13 @@ def select_modes(mech: Mechanism, which: str = "auto") -> list[Mode]:
     neutrals = [(f"neutral {n.name}", n.engaged) for n in mech.neutrals]
     if not neutrals and forward:
         for r in reverse:
-            common = _one_swap_common(forward[0].engaged, r.engaged)
-            if common:
+            common = default_neutral(mech, forward[0].engaged, r.engaged, g)
+            if common is not None:
                 neutrals.append((f"neutral {forward[0].name}-{r.name}", common))
+                break  # one neutral: with the first reverse gear that gives one
     chosen += neutrals
     chosen += [(f"reverse {gear.name}", gear.engaged) for gear in reverse]
+    chosen += [(f"alternative gear {gear.name}", gear.engaged) for gear in alternative]
     labels: dict[frozenset, list[str]] = {}
     order: list[tuple[str, ...]] = []
     for label, locked in chosen:
@@ -155,6 +164,45 @@ def select_modes(mech: Mechanism, which: str = "auto") -> list[Mode]:
             order.append(tuple(locked))
         labels[key].append(label)
     return [Mode(f"M{i + 1}", locked, _join_labels(labels[frozenset(locked)])) for i, locked in enumerate(order)]
+
+
+def default_neutral(mech: Mechanism, first, reverse, graph: nx.DiGraph | None = None) -> tuple[str, ...] | None:
+    """The neutral between first gear ``first`` and reverse gear ``reverse``: the elements they
+    share (possibly none: everything open), whatever their DOF (a shift from first to reverse
+    through neutral releases every other element), or ``None`` when those elements do not make
+    a neutral (the input held, or a ratio fixed) or leave a massless member undetermined."""
+    g = build_graph(mech) if graph is None else graph
+    common = tuple(e for e in first if e in reverse)
+    if analyze(mech, common, g).kind != "neutral" or diagnose_singular(g, complete_locked(g, common)):
+        return None
+    return common
+
+
+def neutral_note(mech: Mechanism) -> str:
+    """Why the default mode selection of ``mech`` models no neutral, or ``""`` when it models one
+    (or declares its modes, or has no forward gear)."""
+    if mech.modes or mech.neutrals:
+        return ""
+    g = build_graph(mech)
+    gears = [(gear, analyze(mech, gear.engaged, g).ratio) for gear in mech.gears if gear.kind == "gear"
+             and not gear.alternative]
+    forward = [gear for gear, r in gears if not (r is not None and r < 0)]
+    reverse = [gear for gear, r in gears if r is not None and r < 0]
+    if not forward:
+        return ""
+    hint = "declare it with 'neutral N = ELEM ...' to model it"
+    if not reverse:
+        return f"no neutral is modelled: there is no reverse gear to derive it from (first and reverse share its elements); {hint}"
+    if any(default_neutral(mech, forward[0].engaged, r.engaged, g) is not None for r in reverse):
+        return ""
+    r = reverse[0]
+    common = tuple(e for e in forward[0].engaged if e in r.engaged)
+    c = analyze(mech, common, g)
+    why = (diagnose_singular(g, complete_locked(g, common)) if c.kind == "neutral"
+           else f"{c.kind}{' (' + c.detail + ')' if c.detail else ''}{f', ratio {c.ratio:.6g}' if c.ratio is not None else ''}")
+    shared = " ".join(common) or "no element"
+    return (f"no neutral is modelled: gear {forward[0].name} and reverse {r.name} share {shared}, which is not a "
+            f"neutral that can be modelled: {why}; {hint}")
 
 
 def _join_labels(labels: list[str]) -> str:

@@ -14,13 +14,16 @@ from dataclasses import replace
 
 from .errors import MechError
 from .language import _PARAMS, format_mechanism, parse_mechanism, read_number
-from .model import GearPair, Mechanism
+from .model import GearPair, Mechanism, SteppedPlanetary
 
 __all__ = ["mechanism_parameters", "with_parameter", "ParameterError"]
 
 # .mech parameter -> field of the model object, per statement keyword (the names are _PARAMS')
 _FIELDS = {"J": "inertia", "Ns": "n_sun", "Nr": "n_ring", "pinions": "pinions", "N1": "n1", "N2": "n2", "r1": "n1",
            "r2": "n2", "mesh": "mesh", "static": "static", "dynamic": "dynamic", "type": "brake_type", "free": "free"}
+POWER_FLOW_ONLY = frozenset({"eta0", "eta", "max_slip_rpm"})
+"""Parameters that only ``transgen powerflow`` reads (the simulator has no mesh losses or slip
+limits): not settable here, so that a study cannot vary something without effect."""
 
 
 class ParameterError(ValueError):
@@ -35,6 +38,8 @@ def _statements(m: Mechanism):
         yield p.name, "planetary", p
     for g in m.gear_pairs:
         yield g.name, "gears", g
+    for sp in m.stepped:
+        yield sp.name, "stepped", sp
     for e in m.elements:
         yield e.name, e.kind, e
 
@@ -42,19 +47,45 @@ def _statements(m: Mechanism):
 def _params(keyword: str, obj) -> dict:
     """The settable parameters of a statement: its keyword's numbers and words (not link names),
     a gear pair's sizes as it gives them (teeth or radii)."""
-    allowed = {k: v for k, v in _PARAMS[keyword].items() if v != "name"}
+    allowed = {k: v for k, v in _PARAMS[keyword].items() if v != "name" and k not in POWER_FLOW_ONLY}
     if isinstance(obj, GearPair):
         drop = ("r1", "r2") if obj.by == "teeth" else ("N1", "N2")
         allowed = {k: v for k, v in allowed.items() if k not in drop}
+    if isinstance(obj, SteppedPlanetary):  # the teeth of its gears and pinion steps that it has
+        allowed = {k: v for k, v in allowed.items() if _get(obj, k) is not None}
     return allowed
 
 
+def _teeth_key(role: str) -> str:
+    return ("Ns" if role.startswith("sun") else "Nr") + role[-1]
+
+
+def _get(obj, key: str):
+    """The value of parameter ``key`` of a statement object (``None``: the statement has none)."""
+    if isinstance(obj, SteppedPlanetary):
+        if key in ("Np1", "Np2"):
+            return obj.np1 if key == "Np1" else obj.np2
+        return next((t for role, _, t in obj.members if _teeth_key(role) == key), None)
+    return getattr(obj, _FIELDS[key])
+
+
+def _set(obj, key: str, value):
+    """``obj`` with parameter ``key`` set to ``value``."""
+    if isinstance(obj, SteppedPlanetary):
+        if key in ("Np1", "Np2"):
+            return replace(obj, **{key.lower(): value})
+        return replace(obj, members=tuple((r, link, value if _teeth_key(r) == key else t) for r, link, t in obj.members))
+    return replace(obj, **{_FIELDS[key]: value})
+
+
 def mechanism_parameters(m: Mechanism) -> dict[str, object]:
-    """``"NAME.PARAM"`` -> current value of every parameter of ``m`` (SI units)."""
+    """``"NAME.PARAM"`` -> current value of every parameter of ``m`` (SI units); ``None`` where the
+    file leaves it to its default (a dog's unlimited ``static``)."""
     out = {}
     for name, keyword, obj in _statements(m):
         for key in _params(keyword, obj):
-            out[f"{name}.{key}"] = getattr(obj, _FIELDS[key])
+            value = _get(obj, key)
+            out[f"{name}.{key}"] = None if value == float("inf") else value
     return out
 
 
@@ -74,6 +105,9 @@ def with_parameter(m: Mechanism, name: str, key: str, value) -> Mechanism:
                              + (f"; did you mean '{close[0]}'?" if close else f" (names: {', '.join(found)})"))
     keyword, obj = found[name]
     allowed = _params(keyword, obj)
+    if key in POWER_FLOW_ONLY and key in _PARAMS[keyword]:
+        raise ParameterError(f"{keyword} {name}: {key} is read by 'transgen powerflow' only (the simulator has no "
+                             f"mesh losses or slip limits); write it in the .mech file")
     if key not in allowed:
         close = _closest(key, allowed)
         raise ParameterError(f"{keyword} {name} has no parameter '{key}'" + (f"; did you mean '{close[0]}'?" if close else "")
@@ -90,8 +124,8 @@ def with_parameter(m: Mechanism, name: str, key: str, value) -> Mechanism:
         number = read_number(repr(value) if isinstance(value, float) else str(value), key, kind)
         if isinstance(number, str):
             raise ParameterError(number)
-        new = float(number) if isinstance(getattr(obj, _FIELDS[key]), float) else number
-    changed = _replace(m, obj, replace(obj, **{_FIELDS[key]: new}))
+        new = float(number) if isinstance(_get(obj, key), float) else number
+    changed = _replace(m, obj, _set(obj, key, new))
     try:
         parse_mechanism(format_mechanism(changed), m.source)
     except MechError as exc:
@@ -107,7 +141,7 @@ def _closest(name: str, known) -> list[str]:
 
 def _replace(m: Mechanism, old, new) -> Mechanism:
     """``m`` with the statement object ``old`` replaced by ``new``."""
-    for field in ("links", "planetaries", "gear_pairs", "elements"):
+    for field in ("links", "planetaries", "gear_pairs", "elements", "stepped"):
         items = getattr(m, field)
         if any(x is old for x in items):
             return replace(m, **{field: tuple(new if x is old else x for x in items)})

@@ -8,7 +8,9 @@ mode. The conditions are those of thesis section 3.2.6, in transgen's sign conve
   locked satisfies ``|t| <= static capacity * apply``;
 * friction clutch / brake, unlock: ``|t| > static capacity * apply``;
 * one-way clutch (``free=positive``), lock: the slip reaches zero from above (it would turn
-  negative); unlock: the torque it transmits reverses, ``t > 0`` (mirror for ``free=negative``).
+  negative); unlock: the torque it transmits reverses, ``t > 0`` (mirror for ``free=negative``);
+* dog clutch / brake, lock: the slip reaches zero (synchronism) while it is engaged; unlock: it
+  is disengaged (a torque beyond its static capacity while engaged stops the simulation).
 
 Elements in parallel (:class:`~transgen.equations.LockingGroup`: the same two links, e.g. a
 brake beside a one-way clutch on one carrier) lock one motion, so the diagram treats them as the
@@ -113,6 +115,8 @@ def lock_condition(kind: str, name: str, free: str | None = None) -> str:
     if kind == "oneway":
         sign = "negative" if free == "positive" else "positive"
         return f"slip of {name} reaches 0 and would turn {sign}"
+    if kind == "dog":
+        return f"slip of {name} reaches 0 (synchronous) while {name} is engaged: a dog locks only at zero slip"
     return f"slip of {name} crosses 0 and |t_{name}| <= static capacity"
 
 
@@ -121,6 +125,9 @@ def unlock_condition(kind: str, name: str, free: str | None = None) -> str:
     if kind == "oneway":
         sign = ">" if free == "positive" else "<"
         return f"t_{name} reverses (t_{name} {sign} 0)"
+    if kind == "dog":
+        return (f"{name} is disengaged (it never slips under torque: |t_{name}| > static capacity while engaged "
+                f"stops the simulation)")
     return f"|t_{name}| > static capacity"
 
 
@@ -132,6 +139,8 @@ def _holding_range(mech: Mechanism, group: LockingGroup, held: tuple[str, ...]) 
     # a one-way clutch free in +slip (in the group's direction) locks against -: holds t <= 0
     locks = {-(1 if mech.element(x).free == "positive" else -1) * sign[x] for x in held if x not in friction}
     cap = " + ".join(f"static_{x}" for x in friction)
+    if any(mech.element(x).kind == "dog" and mech.element(x).static == float("inf") for x in friction):
+        locks = {1, -1}  # an engaged dog without a capacity limit holds any torque
     hi = "inf" if 1 in locks else (cap or "0")
     lo = "-inf" if -1 in locks else (f"-({cap})" if len(friction) > 1 else f"-{cap}" if cap else "0")
     return f"[{lo}, {hi}]"

@@ -35,6 +35,8 @@ _EXACT = {
     "dissipated": "J", "work_to_load": "J", "residual": "J", "tolerance": "J",
     "ratio_before": "1", "ratio_after": "1", "oncoming_apply_final": "1", "relative_residual": "1",
     "tolerance_relative": "1", "boost_start": "1", "boost_peak": "1", "chi_min": "1", "chi_max": "1",
+    "accel_before": "m/s^2", "accel_after": "m/s^2", "jerk_max": "m/s^3", "jerk_peak_to_peak": "m/s^3",
+    "vdv": "m/s^1.75", "torque_overshoot": "%", "output_torque_final": "N*m",
 }
 _SUFFIX = (("_time", "s"), ("_start", "s"), ("_end", "s"), ("_duration", "s"), ("_rpm", "rpm"),
            ("_krpm", "krpm"), ("_pct", "%"), ("_share", "%"), ("_torque_before", "N*m"),
@@ -43,10 +45,12 @@ _SUFFIX = (("_time", "s"), ("_start", "s"), ("_end", "s"), ("_duration", "s"), (
 
 def column_unit(column: str) -> str:
     """The unit of a result column (``"s"``, ``"N*m"``, ``"J"``, ``"W"``, ``"rad/s"``, ``"rpm"``,
-    ``"%"``, ``"1"`` for ratios); ``""`` for texts, flags, parameters and unknown columns."""
+    ``"%"``, ``"m/s^2"``, ``"m/s^3"``, ``"m/s^1.75"``, ``"1"`` for ratios and counts); ``""`` for texts, flags, parameters and unknown columns."""
     parts = column.split(".")
     if len(parts) == 3 and parts[0].startswith("shift") and parts[1] in ("energy", "peak_power"):
         return "J" if parts[1] == "energy" else "W"  # per-element dicts of a shift
+    if len(parts) == 3 and parts[0].startswith("shift") and parts[1] in ("lock_counts", "unlock_counts"):
+        return "1"
     name = parts[-1]
     if name in _EXACT:
         return _EXACT[name]

@@ -8,6 +8,9 @@
 * :func:`draw_std` draws the state-transition diagram of :mod:`transgen.std` (thesis Figs. 3.8
   and 3.12): modes as bubbles, transitions as curved arrows labelled ``lock X`` / ``unlock X``
   (the conditions themselves belong in the JSON of :meth:`StateTransitionDiagram.to_dict`).
+* :func:`draw_levers` draws the lever diagrams of the lever analogy (Benford and Leising, 1981),
+  one panel per gear with the nodes at their speeds, and :func:`draw_speed_chart` every link's
+  speed per gear; :func:`lever_layout` gives the levers' geometry from the tooth counts.
 * :func:`graph_to_dot`, :func:`std_to_dot` and :func:`graph_to_graphml` write the same
   diagrams as Graphviz DOT and GraphML text; :func:`save_figure` writes a figure atomically.
 
@@ -26,6 +29,8 @@ The package's modules, one job each:
 * :mod:`~transgen.drawing.layout`: the hand-made layouts of the graph and the STD;
 * :mod:`~transgen.drawing.graph_figure`: :func:`draw_graph`;
 * :mod:`~transgen.drawing.std_figure`: :func:`draw_std`;
+* :mod:`~transgen.drawing.lever`: the levers' geometry (:func:`lever_layout`) and node speeds;
+* :mod:`~transgen.drawing.lever_figure`: :func:`draw_levers`, :func:`draw_speed_chart`;
 * :mod:`~transgen.drawing.dot_graphml`: :func:`graph_to_dot`, :func:`std_to_dot`,
   :func:`graph_to_graphml`.
 
@@ -36,6 +41,8 @@ from __future__ import annotations
 from .dot_graphml import graph_to_dot, graph_to_graphml, std_to_dot
 from .figure import FIGURE_FORMATS, save_figure
 from .graph_figure import draw_graph
+from .lever import Lever, LeverNode, lever_layout, lever_speeds
+from .lever_figure import draw_levers, draw_speed_chart
 from .std_figure import draw_std
 
 __all__ = [
@@ -46,4 +53,10 @@ __all__ = [
     "graph_to_graphml",
     "save_figure",
     "FIGURE_FORMATS",
+    "draw_levers",
+    "draw_speed_chart",
+    "lever_layout",
+    "lever_speeds",
+    "Lever",
+    "LeverNode",
 ]

@@ -11,8 +11,8 @@ import textwrap
 
 import networkx as nx
 
-ELEMENT_KINDS = ("clutch", "brake", "oneway")
-TRANSFORMER_KINDS = ("planetary", "gearpair")
+ELEMENT_KINDS = ("clutch", "brake", "oneway", "dog")
+TRANSFORMER_KINDS = ("planetary", "gearpair", "stepped")
 
 _MODE_COLORS = {"gear": "#dbe9f6", "speed": "#fdf1cf", "neutral": "#e4e4e4", "reverse": "#f7dede"}
 LOCK_COLOR = "#1f4e9c"  # arrows and labels of transitions that lock an element
@@ -45,6 +45,8 @@ def node_text(name: str, data: dict) -> str:
     if kind == "planetary":
         head = f"MTF: {name}" + (" (double pinion)" if data.get("pinions") == 2 else "")
         return f"{head}\n{_param_text(name, data.get('params', {}))}"
+    if kind == "stepped":
+        return f"MTF: {name} (stepped pinion)\n{_param_text(name.split('/')[0], data.get('params', {}))}"
     if kind == "gearpair":
         mesh = data.get("mesh")
         head = f"TF: {name}" + (f" ({mesh})" if mesh else "")

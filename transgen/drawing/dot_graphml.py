@@ -21,9 +21,11 @@ _DOT_NODE = {
     "link": 'shape=box, style="rounded,filled", fillcolor="#dbe9f6"',
     "planetary": 'shape=box, style=filled, fillcolor="#fdf1cf"',
     "gearpair": 'shape=box, style=filled, fillcolor="#fdf1cf"',
+    "stepped": 'shape=box, style=filled, fillcolor="#fdf1cf"',
     "clutch": 'shape=box, style=filled, fillcolor="#f7dede"',
     "brake": 'shape=box, style=filled, fillcolor="#f7dede"',
     "oneway": 'shape=box, style=filled, fillcolor="#efe0f5"',
+    "dog": 'shape=box, style=filled, fillcolor="#e0f0e0"',
     "housing": 'shape=box, style="rounded,filled", fillcolor="#e4e4e4"',
     "source": 'shape=box, style="rounded,dashed"',
 }

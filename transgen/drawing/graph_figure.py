@@ -18,9 +18,11 @@ _COLORS = {
     "link": ("#dbe9f6", "#2b5d8a"),
     "planetary": ("#fdf1cf", "#8a6d1c"),
     "gearpair": ("#fdf1cf", "#8a6d1c"),
+    "stepped": ("#fdf1cf", "#8a6d1c"),
     "clutch": ("#f7dede", "#8a2b2b"),
     "brake": ("#f7dede", "#8a2b2b"),
     "oneway": ("#efe0f5", "#5d2b8a"),
+    "dog": ("#e0f0e0", "#2b6a2b"),
     "housing": ("#e4e4e4", "#333333"),
     "source": ("#ffffff", "#2b7a3b"),
 }
