@@ -652,7 +652,7 @@ def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluati
         fixed = {k: v for k, v in chosen.items() if k < plan.number}
         run_overrides = {**base, **calibration.overrides(plans, fixed)}
         if calibration.kind == "auto":  # the schedule commands the shift when the output speed crosses its line
-            current = load_scenario(key, run_overrides, files).run(start=state)
+            current = load_scenario(key, run_overrides, files).run()
             if not current.success:
                 raise ScenarioError(f"{path}: error: the run with the shifts tuned before {plan.name} fails: "
                                     f"{current.message}")
@@ -768,14 +768,18 @@ def _next_command(result, t0: float, t_end: float) -> float:
 
 
 def _refresh(plan: ShiftPlan, result) -> ShiftPlan:
-    """``plan`` with its command time from ``result`` (the run with the shifts tuned before it: an
-    automatic schedule commands the shift when the output speed crosses its line)."""
+    """``plan`` with its command time from ``result`` (the whole run with the shifts tuned before
+    it: an automatic schedule commands the shift when the output speed crosses its line, earlier
+    or later than before). The schedule's shifts come in the same order, so the plan's number is
+    its place in the shift report; a schedule that shifts otherwise now is an error."""
     from transgen.sim.report import shift_report
 
-    for q in shift_report(result):
-        if q.oncoming == plan.oncoming and q.offgoing == plan.offgoing and q.t_start > plan.t_start - 1.0:
-            return replace(plan, t_start=q.t_start)
-    return plan
+    qualities = shift_report(result)
+    q = qualities[plan.number - 1] if plan.number <= len(qualities) else None
+    if q is None or (q.oncoming, q.offgoing) != (plan.oncoming, plan.offgoing):
+        raise ScenarioError(f"{result.meta.get('scenario', '')}: error: with the shifts tuned before {plan.name} the "
+                            f"automatic schedule no longer commands it as shift {plan.number}")
+    return replace(plan, t_start=q.t_start)
 
 
 def _select(plans: list[ShiftPlan], names: Sequence[str] | None, path) -> list[ShiftPlan]:
@@ -848,7 +852,8 @@ def tuned_scenario_text(result: OptimizeResult, output, before: Sequence | None 
 
 #: the shift report's numbers that the comparison shows: (label, attribute, format)
 COMPARED = (("hole %", "torque_hole_pct", ".1f"), ("energy kJ", "energy_total", ".2f"), ("flare rpm", "flare_max_rpm", ".1f"),
-            ("bindup", "bindup", ""), ("duration s", "shift_duration", ".3f"))
+            ("bindup", "bindup", ""), ("chatter", "chatter", ""), ("duration s", "shift_duration", ".3f"),
+            ("jerk m/s^3", "jerk_max", ".1f"))
 
 
 def _cell(q, attr: str, fmt: str) -> str:
@@ -866,12 +871,13 @@ def _cell(q, attr: str, fmt: str) -> str:
 
 def comparison_rows(before: Sequence, after: Sequence, labels: tuple[str, str] = ("before", "after")) -> list[str]:
     """Side-by-side lines of the shift report's numbers of two runs (the shifts in order)."""
-    head = f"{'shift':<10}" + "".join(f"{label + ' ' + labels[0]:>18}{labels[1]:>10}" for label, _, _ in COMPARED)
-    rows = [head]
+    width = max(10, *(len(x) + 2 for x in labels))
+    rows = [f"{'':<10}" + "".join(f"{label:^{2 * width}}" for label, _, _ in COMPARED),
+            f"{'shift':<10}" + "".join(f"{labels[0]:>{width}}{labels[1]:>{width}}" for _ in COMPARED)]
     for k in range(max(len(before), len(after))):
         b = before[k] if k < len(before) else None
         a = after[k] if k < len(after) else None
         name = (a or b).name
-        rows.append(f"{name:<10}" + "".join(f"{_cell(b, attr, fmt):>18}{_cell(a, attr, fmt):>10}"
+        rows.append(f"{name:<10}" + "".join(f"{_cell(b, attr, fmt):>{width}}{_cell(a, attr, fmt):>{width}}"
                                             for _, attr, fmt in COMPARED))
     return rows
