@@ -175,6 +175,15 @@ def test_events_and_automatic_schedules_carry_their_templates(tmp_path):
     result = scenario.run()
     calibration, plans = plan_calibration(path, {}, result, scenario)
     assert calibration.kind == "auto" and plans and plans[0].name == "1-2"
+    from dataclasses import replace
+
+    from transgen.errors import ScenarioError
+    from transgen.sim.study.optimize import _refresh
+
+    moved = replace(plans[0], t_start=plans[0].t_start + 1.5)  # found again by its place in the run
+    assert _refresh(moved, result).t_start == pytest.approx(plans[0].t_start)
+    with pytest.raises(ScenarioError, match="no longer commands it"):
+        _refresh(replace(plans[0], number=len(plans) + 1), result)
     tmpl = ShiftTemplate(fill_time=0.05)
     overrides = calibration.overrides(plans, {1: tmpl})
     assert overrides == {"auto_shift.templates.1-2": {**ShiftTemplate().__dict__, "fill_time": 0.05}}
