@@ -1,0 +1,201 @@
+"""Every command on every construct of the language: stepped-pinion planetaries (``stepped``),
+dog clutches and brakes (``dog``), alternative gears (``gear ... alternative``).
+
+Power flow: a stepped set's losses against Müller's closed forms (with the standing efficiency
+``eta0`` of the set between two of its gears), against a simple planetary (equal steps), and the
+torque and power balances; dogs as locked elements; alternative gears marked.
+"""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+from transgen import bundled_mechanisms, load_mechanism, parse_mechanism
+from transgen.cli import main
+from transgen.model import HOUSING
+from transgen.powerflow import power_flow
+
+DATA = Path(__file__).parent / "data"
+STEPPED2 = DATA / "stepped_test2.mech"
+BUNDLED = sorted(bundled_mechanisms())
+
+
+def _stepped_text(members: str, np1: int, np2: int, brake: str, inp: str, out: str, eta0=None, extra="") -> str:
+    """A stepped set on links G1, G2 (, G3) and carrier C; ``brake`` holds one link."""
+    eta = f" eta0={eta0}" if eta0 is not None else ""
+    links = sorted({w.split("=")[1] for w in members.split() if "=" in w and not w.split("=")[1].isdigit()} | {"C"})
+    return ("transmission \"stepped\"\n" + "".join(f"link {k} J=0.01\n" for k in links)
+            + f"stepped P carrier=C {members} Np1={np1} Np2={np2}{eta}\n"
+            + f"brake B {brake} static=100 dynamic=80\n{extra}input {inp}\noutput {out}\ngear 1 = B\n")
+
+
+# ------------------------------------------------------------------------------- power flow
+
+
+def test_stepped_gear_is_determinate_and_lossless_torque_ratio_is_the_ratio():
+    mech = load_mechanism(STEPPED2)
+    flow = power_flow(mech, eta0=1.0)
+    g1 = flow.gear("1")
+    k = 80 * 25 / (30 * 20)  # Nr*Np1 / (Ns*Np2): the stepped set's basic ratio magnitude
+    assert abs(g1.ratio - (1 + k)) <= 1e-12
+    assert abs(g1.torque_ratio - g1.ratio) <= 1e-12 and g1.losses == 0.0
+    assert abs(g1.element_torques["B1"] - (-k)) <= 1e-12  # the ring's reaction into the housing
+
+
+@pytest.mark.parametrize("eta0", [0.97, 0.9, 0.995])
+def test_stepped_closed_forms_of_mueller(eta0):
+    """Ring fixed, sun in, carrier out: ``(1 + eta0*k)/(1 + k)``; carrier fixed (reverse):
+    ``eta0``; sun fixed, ring in, carrier out: ``(k + eta0)/(k + 1)`` ... with ``k = Nr*Np1/(Ns*Np2)``."""
+    members = "sun1=S Ns1=30 ring2=R Nr2=80"
+    k = 80 * 25 / (30 * 20)
+    g = power_flow(parse_mechanism(_stepped_text(members, 25, 20, "R", "S", "C", eta0))).gear("1")
+    assert abs(g.efficiency - (1 + eta0 * k) / (1 + k)) <= 1e-12
+    assert g.set("P").driving == "sun1"
+    g = power_flow(parse_mechanism(_stepped_text(members, 25, 20, "C", "S", "R", eta0))).gear("1")
+    assert abs(g.efficiency - eta0) <= 1e-12 and g.ratio < 0
+    g = power_flow(parse_mechanism(_stepped_text(members, 25, 20, "S", "R", "C", eta0))).gear("1")
+    assert abs(g.efficiency - (k + eta0) / (k + 1)) <= 1e-12
+    assert g.set("P").driving == "ring2"
+
+
+@pytest.mark.parametrize("fixed, inp, out", [("R", "S", "C"), ("C", "S", "R"), ("S", "C", "R"), ("R", "C", "S")])
+def test_stepped_with_equal_steps_is_the_simple_planetary(fixed, inp, out):
+    """Equal pinion steps: the stepped set is a simple planetary with the same eta0, in drive
+    and coast (an independent formulation: the planetary's loss relations)."""
+    stepped = parse_mechanism(_stepped_text("sun1=S Ns1=33 ring1=R Nr1=75", 21, 21, fixed, inp, out, 0.96)
+                              .replace(" Np2=21", ""))
+    simple = parse_mechanism(_stepped_text("sun1=S Ns1=33 ring1=R Nr1=75", 21, 21, fixed, inp, out)
+                             .replace("stepped P carrier=C sun1=S Ns1=33 ring1=R Nr1=75 Np1=21 Np2=21",
+                                      "planetary P sun=S ring=R carrier=C Ns=33 Nr=75 eta0=0.96"))
+    for coast in (False, True):
+        a, b = power_flow(stepped, coast=coast).gear("1"), power_flow(simple, coast=coast).gear("1")
+        assert abs(a.efficiency - b.efficiency) <= 1e-12 and abs(a.torque_ratio - b.torque_ratio) <= 1e-12
+        assert {"sun1": "sun", "ring1": "ring", None: None}[a.set("P").driving] == b.set("P").driving
+
+
+def _stepped_balance(mech, g, eta):
+    """A stepped set in equilibrium with its pinion's carrier-frame balance
+    ``sum f_X * r_X * T_X = 0``, ``r_X = sigma_X*Np_k/N_X``, ``f_X = sqrt(eta0)**(+1 driving, -1
+    driven)``, written from the Mechanism."""
+    for sp in mech.stepped:
+        s = g.set(sp.name)
+        assert abs(sum(s.torques.values())) <= 1e-10
+        w = {port: s.speeds[port] for port in s.torques}
+        if None in w.values():
+            continue
+        total = 0.0
+        for role, _, teeth in sp.members:
+            r = (-1 if role.startswith("sun") else 1) * sp.step_teeth(role) / teeth
+            p = s.torques[role] * (w[role] - w["carrier"])
+            f = 1.0 if abs(p) <= 1e-12 else math.sqrt(eta[sp.name]) ** (1 if p > 0 else -1)
+            total += f * r * s.torques[role]
+        assert abs(total) <= 1e-10, (sp.name, g.name)
+
+
+def _link_balance(mech, g):
+    total = {k.name: 0.0 for k in mech.links}
+    total[mech.input] += g.input_torque
+    total[mech.output] -= g.torque_ratio * g.input_torque
+    for label, t in g.element_torques.items():
+        e = mech.element(label.split("+")[0])
+        for link, sign in ((e.link1, -1), (e.link2, 1)):
+            if link != HOUSING:
+                total[link] += sign * t
+    for s in g.sets:
+        for port, link in s.links.items():
+            if link != HOUSING:
+                total[link] -= s.torques[port]
+    return total
+
+
+THREE = ("sun1=S1 Ns1=30 sun2=S2 Ns2=24 ring1=R Nr1=90", 20, 26)
+
+
+@pytest.mark.parametrize("brake, inp, out", [("S2", "S1", "R"), ("C", "S1", "R"), ("S2", "S1", "C"), ("R", "S2", "C"),
+                                             ("S1", "S2", "R")])
+@pytest.mark.parametrize("coast", [False, True])
+def test_three_gear_stepped_set_balances_torque_and_power(brake, inp, out, coast):
+    members, np1, np2 = THREE
+    mech = parse_mechanism(_stepped_text(members, np1, np2, brake, inp, out, 0.95))
+    g = power_flow(mech, coast=coast).gear("1")
+    lossless = power_flow(parse_mechanism(_stepped_text(members, np1, np2, brake, inp, out)), eta0=1.0,
+                          coast=coast).gear("1")
+    assert abs(lossless.torque_ratio - lossless.ratio) <= 1e-12
+    for link, r in _link_balance(mech, g).items():
+        assert abs(r) <= 1e-10, link
+    assert abs(g.input_power - g.output_power - g.losses) <= 1e-10
+    assert abs(g.losses - sum(g.set("P").powers.values())) <= 1e-10 and g.losses > 0
+    assert 0 < g.efficiency < 1
+    _stepped_balance(mech, g, power_flow(mech).eta)
+
+
+def test_unloaded_third_gear_changes_nothing():
+    """A stepped set's gear that floats (no element on it) carries no torque: the flow is that of
+    the two-gear set, whose efficiency has the closed form."""
+    members, np1, np2 = THREE
+    mech = parse_mechanism(_stepped_text(members, np1, np2, "R", "S1", "C", 0.95))
+    g = power_flow(mech).gear("1")
+    k = 90 * 20 / (30 * 20)
+    assert abs(g.efficiency - (1 + 0.95 * k) / (1 + k)) <= 1e-12
+    assert g.link_speeds["S2"] is not None and abs(g.set("P").torques["sun2"]) <= 1e-14
+
+
+@pytest.mark.parametrize("name", BUNDLED + [str(STEPPED2)])
+def test_every_bundled_gear_is_lossless_at_eta0_one(name):
+    mech = load_mechanism(name)
+    flow = power_flow(mech, eta0=1.0)
+    assert [g.name for g in flow.gears] == [g.name for g in mech.gears if g.kind == "gear"]
+    for g in flow.gears:
+        assert abs(g.torque_ratio - g.ratio) <= 1e-12 * max(1.0, abs(g.ratio)), (name, g.name)
+        assert g.losses == 0.0
+    lossy = power_flow(mech)
+    for g in lossy.gears:
+        for link, r in _link_balance(mech, g).items():
+            assert abs(r) <= 1e-10, (name, g.name, link)
+        _stepped_balance(mech, g, lossy.eta)
+
+
+def test_dogs_carry_torque_when_locked_and_report_their_slip_when_open():
+    mech = load_mechanism("zf9hp48")
+    flow = power_flow(mech, eta0=1.0, input_rpm=2000, max_slip_rpm=6000, design_torque=480)
+    g1 = flow.gear("1")
+    assert abs(g1.element_torques["F"]) > 1.0 and abs(g1.element_torques["A"]) > 0.0
+    g8 = flow.gear("8")  # A and F open in 8th
+    assert "A" in g8.element_slips and "F" in g8.element_slips
+    assert abs(g8.element_slip_rpm["F"] - 2000 * g8.element_slips["F"]) <= 1e-9
+    assert "F" in g8.overspeed  # the dog brake's hub over 6000 rpm relative to the case in 8th
+    cap = {c.element: c for c in flow.capacities}
+    assert cap["F"].kind == "dog" and cap["F"].static > 0 and cap["F"].dynamic is None
+    assert cap["F"].declared_dynamic is None
+    # a locked dog clutch is a branch of the circulating power like a friction clutch
+    g5 = flow.gear("5")
+    assert g5.circulating_power >= abs(g5.element_torques["A"]) - 1.0 - 1e-12
+
+
+def test_alternative_gears_are_analysed_and_marked(capsys):
+    flow = power_flow(load_mechanism("mb7g_tronic"))
+    assert flow.gear("R2").alternative and not flow.gear("R1").alternative
+    assert main(["powerflow", "mb7g_tronic"]) == 0
+    assert "gear R2 (K3 B1 BR, alternative)" in capsys.readouterr().out
+    assert main(["powerflow", "mb7g_tronic", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert {g["name"]: g["alternative"] for g in doc["gears"]}["R2"] is True
+
+
+def test_stepped_eta0_in_the_file_round_trips_and_wins():
+    from transgen.language import format_mechanism
+    mech = parse_mechanism(_stepped_text("sun1=S Ns1=30 ring2=R Nr2=80", 25, 20, "R", "S", "C", 0.93))
+    assert mech.stepped[0].eta0 == 0.93
+    assert parse_mechanism(format_mechanism(mech)) == mech
+    flow = power_flow(mech, eta0=0.99)
+    assert flow.eta["P"] == 0.93
+    assert power_flow(mech, eta0=0.99).to_dict()["eta0"] == {"P": 0.93}
+
+
+def test_cli_powerflow_of_the_stepped_example(capsys):
+    assert main(["powerflow", str(STEPPED2)]) == 0
+    out = capsys.readouterr().out
+    assert "gear 1 (B1): ratio 4.3333" in out and "sun1 drives" in out
