@@ -199,3 +199,122 @@ def test_cli_powerflow_of_the_stepped_example(capsys):
     assert main(["powerflow", str(STEPPED2)]) == 0
     out = capsys.readouterr().out
     assert "gear 1 (B1): ratio 4.3333" in out and "sun1 drives" in out
+
+
+# ------------------------------------------------------------------------------- lever diagrams
+
+import matplotlib  # noqa: E402
+
+matplotlib.use("Agg")
+
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+from matplotlib.text import Text  # noqa: E402
+
+from transgen.drawing import draw_levers, lever_layout, lever_speeds  # noqa: E402
+from transgen.graph import build_graph, link_nodes  # noqa: E402
+from transgen.kinematics import constraint_matrix, null_space  # noqa: E402
+from transgen.model import Link, Mechanism, Planetary, SteppedPlanetary  # noqa: E402
+
+
+def _collinear(lever, speeds, context):
+    known = [(n.position, speeds[n.link]) for n in lever.nodes if speeds.get(n.link) is not None]
+    if len(known) < 2:
+        return
+    (x0, w0), (x1, w1) = known[0], known[-1]
+    slope = (w1 - w0) / (x1 - x0)
+    size = max(1.0, max(abs(w) for _, w in known))
+    for x, w in known:
+        assert abs(w0 + slope * (x - x0) - w) <= 1e-9 * size, f"{context}: node at {x} off the lever line"
+    assert len(known) == len(lever.nodes), f"{context}: a node of a determined lever is left free"
+
+
+def test_stepped_set_is_one_lever_spaced_by_its_relation():
+    mech = load_mechanism(STEPPED2)
+    (lever,) = lever_layout(mech)
+    pos = {n.link: n.position for n in lever.nodes}
+    assert lever.links == ("IN", "OUT", "R") and lever.sets == ("P",)  # sun1, carrier, ring2
+    # C-S : C-R = Nr*Np1 : Ns*Np2, the coefficients of Ns*Np2*w_s + Nr*Np1*w_r = (...)*w_c
+    assert (pos["OUT"] - pos["IN"]) / (pos["R"] - pos["OUT"]) == pytest.approx(80 * 25 / (30 * 20), rel=1e-15)
+    assert [n.members for n in lever.nodes] == [("P.sun1",), ("P.carrier",), ("P.ring2",)]
+    for gear in ("1", "2"):
+        _collinear(lever, lever_speeds(mech, gear), gear)
+
+
+def test_stepped_set_with_equal_steps_is_the_planetary_lever():
+    a = _plain([Planetary("P", "A", "B", "C", 33, 75)])
+    b = _plain(stepped=[SteppedPlanetary("P", "C", (("sun1", "A", 33), ("ring1", "B", 75)), np1=21)])
+    assert [(n.link, n.position) for n in lever_layout(a)[0].nodes] == \
+        [(n.link, n.position) for n in lever_layout(b)[0].nodes]
+
+
+def _plain(planetaries=(), stepped=(), links=("A", "B", "C", "D", "E")):
+    return Mechanism("test", tuple(Link(n, 1.0) for n in links), tuple(planetaries), stepped=tuple(stepped),
+                     input=links[0], output=links[-1])
+
+
+@st.composite
+def stepped_trains(draw):
+    """One stepped set of 2-4 central gears (a member may be the housing) and 0-2 planetaries."""
+    links = tuple(f"L{i}" for i in range(draw(st.integers(3, 6))))
+    pool = list(links) + [HOUSING]
+    roles = draw(st.lists(st.sampled_from(["sun1", "sun2", "ring1", "ring2"]), min_size=2, max_size=4, unique=True))
+    chosen = draw(st.permutations(pool))[:len(roles) + 1]
+    np1, np2 = draw(st.integers(12, 30)), draw(st.integers(12, 30))
+    members, seen = [], set()
+    for role, link in zip(roles, chosen[1:]):
+        step = np1 if role.endswith("1") else np2
+        teeth = draw(st.integers(step + 20, 140) if role.startswith("ring") else st.integers(14, 70))
+        key = (role[:3], teeth * (np2 if role.endswith("1") else np1))
+        if key in seen:
+            return None
+        seen.add(key)
+        members.append((role, link, teeth))
+    sp = SteppedPlanetary("S", chosen[0], tuple(members), np1 if any(r.endswith("1") for r in roles) else None,
+                          np2 if any(r.endswith("2") for r in roles) else None)
+    sets = []
+    for k in range(draw(st.integers(0, 2))):
+        m = draw(st.permutations(pool))[:3]
+        ns = draw(st.integers(12, 60))
+        sets.append(Planetary(f"P{k}", *m, ns, draw(st.integers(ns + 12, 150)), pinions=draw(st.sampled_from([1, 2]))))
+    return _plain(sets, [sp], links)
+
+
+@settings(max_examples=120, deadline=None)
+@given(stepped_trains())
+def test_every_motion_of_a_stepped_train_is_a_straight_line_on_every_lever(mech):
+    if mech is None:
+        return
+    g = build_graph(mech)
+    names = link_nodes(g)
+    basis = null_space(constraint_matrix(g), len(names))
+    levers = lever_layout(mech)
+    assert any("S" in lv.sets and len(lv.nodes) >= len(mech.stepped[0].members) + 1 for lv in levers)
+    for motion in basis.T:
+        speeds = dict(zip(names, motion)) | {HOUSING: 0.0}
+        for lever in levers:
+            _collinear(lever, speeds, f"lever {lever.name}")
+
+
+@pytest.mark.parametrize("name", BUNDLED + [str(STEPPED2)])
+def test_every_node_on_its_lever_line_in_every_gear(name):
+    mech = load_mechanism(name)
+    levers = lever_layout(mech)
+    assert sorted({n.link for lv in levers for n in lv.nodes} - {HOUSING}) == sorted(mech.link_names)
+    for gear in (g for g in mech.gears if g.kind == "gear"):
+        speeds = lever_speeds(mech, gear.name)
+        for lever in levers:
+            _collinear(lever, speeds, f"{name} gear {gear.name} lever {lever.name}")
+
+
+def test_dogs_and_alternative_gears_in_the_lever_figure():
+    fig = draw_levers(load_mechanism("zf9hp48"), ["1", "8"])
+    gids = {t.get_gid(): t.get_text() for t in fig.findobj(Text)}
+    assert "legend:dog clutch engaged" in gids and "legend:dog brake engaged" in gids
+    assert gids["element:1:A"] == "A (dog)" and gids["element:8:F"] == "F (dog)"
+    fig.clear()
+    fig = draw_levers(load_mechanism("mb7g_tronic"), ["R1", "R2"])
+    gids = {t.get_gid(): t.get_text() for t in fig.findobj(Text)}
+    assert gids["title:R2"] == "gear R2 (alternative)" and gids["title:R1"] == "gear R1"
+    assert "legend:dog clutch engaged" not in gids
+    fig.clear()
