@@ -318,3 +318,97 @@ def test_dogs_and_alternative_gears_in_the_lever_figure():
     assert gids["title:R2"] == "gear R2 (alternative)" and gids["title:R1"] == "gear R1"
     assert "legend:dog clutch engaged" not in gids
     fig.clear()
+
+
+# ---------------------------------------------------------------------------------- synthesis
+
+import dataclasses  # noqa: E402
+
+from transgen.synthesis.table import DOG_UPSHIFT_PENALTY, gear_candidates, synthesize_table  # noqa: E402
+from transgen.synthesis.teeth import ratio_targets, synthesize_teeth  # noqa: E402
+
+
+def _published(mech):
+    """The published table without its alternative gears: forward gears in order, reverse set."""
+    real = [g for g in mech.gears if g.kind == "gear" and not g.alternative]
+    return ([frozenset(g.engaged) for g in real if float(g.ratio) > 0],
+            {frozenset(g.engaged) for g in real if float(g.ratio) < 0})
+
+
+def _rank(mech, top=50):
+    fwd, rev = _published(mech)
+    result = synthesize_table(dataclasses.replace(mech, gears=()), len(fwd), len(rev), top=top)
+    for i, t in enumerate(result.tables, start=1):
+        if [c.engaged for c in t.forward] == fwd and {c.engaged for c in t.reverse} == rev:
+            return i, result
+    return None, result
+
+
+def test_zf9hp48_table_with_its_dogs_comes_out_first():
+    """Measured: rank 1. Its dogs engage only on downshifts (F in 5-4, A in 8-7), at synchronism.
+    Without the dog rule the table ties with one that shifts 3-4 on B E F (releasing A) and engages
+    A again on the 4-5 upshift: the runner-up now, lower by exactly the dog-upshift penalty."""
+    mech = load_mechanism("zf9hp48")
+    rank, result = _rank(mech)
+    print(f"zf9hp48: published table ranks {rank} of {len(result.tables)}")
+    assert rank == 1
+    best, second = result.tables[:2]
+    assert best.dog_shifts == (("5-4", "F"), ("8-7", "A"))
+    assert [c.names for c in second.forward][3] == ("B", "E", "F")
+    assert ("4-5", "A") in second.dog_shifts
+    assert best.score - second.score == pytest.approx(DOG_UPSHIFT_PENALTY, abs=1e-9)
+    assert best.to_dict()["dog_shifts"] == [["5-4", "F"], ["8-7", "A"]]
+
+
+def test_mb7g_tronic_table_ignoring_its_alternative_reverse():
+    """Measured: the 722.9's table (7 forward, the first reverse; the alternative R2 left out)
+    ranks 1."""
+    mech = load_mechanism("mb7g_tronic")
+    rank, result = _rank(mech)
+    print(f"mb7g_tronic: published table ranks {rank} of {len(result.tables)}")
+    assert rank == 1
+
+
+def test_table_command_counts_no_alternative_gear_and_reports_dog_shifts(tmp_path, capsys):
+    bare = tmp_path / "bare.mech"
+    bare.write_text("\n".join(line for line in load_mechanism("zf9hp48").text.split("\n")
+                              if not line.startswith("gear")))
+    assert main(["synthesize", "table", str(bare), "--forward", "9", "--top", "2"]) == 0
+    out = capsys.readouterr().out
+    assert "dogs engage in F 5-4 A 8-7" in out
+    # --forward from the file: the 722.9's alternative reverse is not counted
+    assert main(["synthesize", "table", "mb7g_tronic", "--top", "1", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert len([k for k in doc["tables"][0]["gears"] if not k.startswith("R")]) == 7
+
+
+@pytest.mark.parametrize("free, holds", [("positive", True), ("negative", False)])
+def test_one_way_clutch_on_a_stepped_set_holds_by_its_static_torque(free, holds):
+    """The ring's reaction (powerflow: -3.27 N*m per N*m through B1, from R to the housing) loads a
+    one-way clutch in its place against ``free=positive`` only."""
+    text = STEPPED2.read_text().replace("brake B1 R static=500 dynamic=400", f"oneway F R free={free}")
+    text = text.replace("gear 1 = B1", "gear 1 = F")
+    mech = parse_mechanism(text)
+    found = {c.engaged for c in gear_candidates(mech)}
+    assert (frozenset({"F"}) in found) == holds
+    assert frozenset({"K"}) in found
+
+
+def test_tooth_synthesis_beside_a_stepped_set():
+    text = (DATA / "stepped_unknown_planetary.mech").read_text()
+    mech = parse_mechanism(text, unknown_teeth=True)
+    result = synthesize_teeth(mech, ratio_targets(mech), top=3)
+    assert result.solutions
+    for s in result.solutions:
+        (q,) = s.teeth
+        k = 1 + q.n_sun / q.n_ring  # gear 2: K locks the stepped set, Q with its sun held
+        assert abs(k - 1.43) <= 0.005
+        assert abs(k * (1 + 80 * 25 / (30 * 20)) - 6.21) <= 0.005
+
+
+def test_unknown_teeth_on_a_stepped_set_is_a_clear_error(tmp_path, capsys):
+    path = tmp_path / "q.mech"
+    path.write_text(STEPPED2.read_text().replace("Ns1=30", "Ns1=?"))
+    assert main(["synthesize", "teeth", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "q.mech:5:" in err and "Ns1 cannot be unknown" in err and "only the tooth counts Ns, Nr of a planetary" in err
