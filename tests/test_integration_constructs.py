@@ -412,3 +412,98 @@ def test_unknown_teeth_on_a_stepped_set_is_a_clear_error(tmp_path, capsys):
     assert main(["synthesize", "teeth", str(path)]) == 2
     err = capsys.readouterr().err
     assert "q.mech:5:" in err and "Ns1 cannot be unknown" in err and "only the tooth counts Ns, Nr of a planetary" in err
+
+
+# ------------------------------------------------------------- random stepped trains with dogs
+
+import random  # noqa: E402
+import re  # noqa: E402
+
+import independent as ind  # noqa: E402
+from hypothesis import HealthCheck  # noqa: E402
+
+from transgen.errors import MechError  # noqa: E402
+from transgen.kinematics import combinations  # noqa: E402
+from transgen.powerflow import PowerFlowError  # noqa: E402
+
+
+def _random_stepped_text(rng: random.Random) -> str:
+    """A stepped set of 2-4 gears (carrier or a gear possibly the housing), maybe a planetary,
+    clutches, brakes and dogs; every combination with one DOF becomes a gear."""
+    links = [f"L{i}" for i in range(rng.randint(4, 6))]
+    pool = links + [HOUSING]
+    roles = rng.sample(["sun1", "sun2", "ring1", "ring2"], rng.randint(2, 4))
+    members = rng.sample(pool, len(roles) + 1)
+    np1, np2 = rng.randint(12, 30), rng.randint(12, 30)
+    parts = []
+    for role, link in zip(roles, members[1:]):
+        step = np1 if role.endswith("1") else np2
+        teeth = rng.randint(step + 20, 140) if role.startswith("ring") else rng.randint(14, 70)
+        parts.append(f"{role}={link} {'Ns' if role.startswith('sun') else 'Nr'}{role[-1]}={teeth}")
+    steps = "".join(f" Np{k}={n}" for k, n in (("1", np1), ("2", np2)) if any(r.endswith(k) for r in roles))
+    out = [f"link {k} J=0.1" for k in links]
+    out.append(f"stepped S carrier={members[0]} {' '.join(parts)}{steps} eta0={rng.choice([0.9, 0.95, 0.98])}")
+    if rng.random() < 0.5:
+        sun, ring, carrier = rng.sample(pool, 3)
+        ns = rng.randint(15, 40)
+        out.append(f"planetary P sun={sun} ring={ring} carrier={carrier} Ns={ns} Nr={ns + rng.randint(20, 60)} "
+                   f"pinions={rng.choice([1, 2])}")
+    for i in range(rng.randint(2, 4)):
+        kind = rng.choice(["clutch", "brake", "dog", "dogbrake"])
+        if kind in ("clutch", "dog"):
+            a, b = rng.sample(links, 2)
+            out.append(f"clutch K{i} {a} {b} static=10 dynamic=8" if kind == "clutch" else f"dog K{i} {a} {b}")
+        else:
+            out.append(f"brake K{i} {rng.choice(links)} static=10 dynamic=8" if kind == "brake"
+                       else f"dog K{i} {rng.choice(links)}")
+    a, b = rng.sample(links, 2)
+    return "\n".join(out + [f"input {a}", f"output {b}"]) + "\n"
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 2**32 - 1))
+def test_power_flow_of_random_stepped_trains_with_dogs(seed):
+    """Lossless: the torque ratio and element torques of an independent exact static solution
+    (constraints written from the Mechanism, tests/independent.py); lossy: torque and power
+    balances, the pinion balance and an efficiency no better than lossless."""
+    text = _random_stepped_text(random.Random(seed))
+    try:
+        mech = parse_mechanism(text)
+    except MechError:
+        return  # two gears that would turn together, ...
+    gears = [c for c in combinations(mech) if c.kind == "gear" and c.engaged]
+    if not gears:
+        return
+    text += "".join(f"gear g{i} = {' '.join(c.engaged)}\n" for i, c in enumerate(gears))
+    mech = parse_mechanism(text)
+    plain = parse_mechanism(re.sub(r" eta0=\S+", "", text))  # without the file's eta0, which would win
+    for gear in mech.gears:
+        try:
+            lossless = power_flow(plain, eta0=1.0, gears=[gear.name]).gears[0]
+        except PowerFlowError as exc:
+            assert "not unique" in str(exc) or "no static equilibrium" in str(exc)
+            continue
+        a = ind.constraint_matrix(mech, gear.engaged)
+        s = ind.input_matrix(mech, ("T_in", "T_out"))
+        sol, params = s[:, 1].row_join(a.T).gauss_jordan_solve(-s[:, 0])
+        # elements in parallel split their torque freely (transgen reports their sum as a group)
+        assert not sol[0].free_symbols, text
+        assert abs(lossless.torque_ratio - float(sol[0])) <= 1e-9 * max(1.0, abs(float(sol[0]))), text
+        n_tf = a.rows - len(gear.engaged)
+        for k, e in enumerate(gear.engaged):
+            if sol[1 + n_tf + k].free_symbols:
+                continue
+            t = -float(sol[1 + n_tf + k])
+            found = [v for label, v in lossless.element_torques.items() if label.split("+")[0] == e]
+            if found:
+                assert abs(found[0] - t) <= 1e-9 * max(1.0, abs(t)), (text, gear.name, e)
+        flow = power_flow(mech, gears=[gear.name])
+        g = flow.gears[0]
+        size = max(1.0, abs(g.torque_ratio))
+        for r in _link_balance(mech, g).values():
+            assert abs(r) <= 1e-8 * size, text
+        assert abs(g.input_power - g.output_power - g.losses) <= 1e-8 * size
+        assert g.losses >= -1e-10
+        _stepped_balance(mech, g, flow.eta)
+        if not g.warnings:
+            assert 0 < g.efficiency <= lossless.efficiency + 1e-12
