@@ -17,6 +17,8 @@ from transgen import bundled_mechanisms, load_mechanism, parse_mechanism
 from transgen.cli import main
 from transgen.model import HOUSING
 from transgen.powerflow import power_flow
+from test_lever import _assert_collinear
+from test_powerflow import _link_balance_residuals
 
 DATA = Path(__file__).parent / "data"
 STEPPED2 = DATA / "stepped_test2.mech"
@@ -95,22 +97,6 @@ def _stepped_balance(mech, g, eta):
         assert abs(total) <= 1e-10, (sp.name, g.name)
 
 
-def _link_balance(mech, g):
-    total = {k.name: 0.0 for k in mech.links}
-    total[mech.input] += g.input_torque
-    total[mech.output] -= g.torque_ratio * g.input_torque
-    for label, t in g.element_torques.items():
-        e = mech.element(label.split("+")[0])
-        for link, sign in ((e.link1, -1), (e.link2, 1)):
-            if link != HOUSING:
-                total[link] += sign * t
-    for s in g.sets:
-        for port, link in s.links.items():
-            if link != HOUSING:
-                total[link] -= s.torques[port]
-    return total
-
-
 THREE = ("sun1=S1 Ns1=30 sun2=S2 Ns2=24 ring1=R Nr1=90", 20, 26)
 
 
@@ -124,7 +110,7 @@ def test_three_gear_stepped_set_balances_torque_and_power(brake, inp, out, coast
     lossless = power_flow(parse_mechanism(_stepped_text(members, np1, np2, brake, inp, out)), eta0=1.0,
                           coast=coast).gear("1")
     assert abs(lossless.torque_ratio - lossless.ratio) <= 1e-12
-    for link, r in _link_balance(mech, g).items():
+    for link, r in _link_balance_residuals(mech, g).items():
         assert abs(r) <= 1e-10, link
     assert abs(g.input_power - g.output_power - g.losses) <= 1e-10
     assert abs(g.losses - sum(g.set("P").powers.values())) <= 1e-10 and g.losses > 0
@@ -153,7 +139,7 @@ def test_every_bundled_gear_is_lossless_at_eta0_one(name):
         assert g.losses == 0.0
     lossy = power_flow(mech)
     for g in lossy.gears:
-        for link, r in _link_balance(mech, g).items():
+        for link, r in _link_balance_residuals(mech, g).items():
             assert abs(r) <= 1e-10, (name, g.name, link)
         _stepped_balance(mech, g, lossy.eta)
 
@@ -217,18 +203,6 @@ from transgen.kinematics import constraint_matrix, null_space  # noqa: E402
 from transgen.model import Link, Mechanism, Planetary, SteppedPlanetary  # noqa: E402
 
 
-def _collinear(lever, speeds, context):
-    known = [(n.position, speeds[n.link]) for n in lever.nodes if speeds.get(n.link) is not None]
-    if len(known) < 2:
-        return
-    (x0, w0), (x1, w1) = known[0], known[-1]
-    slope = (w1 - w0) / (x1 - x0)
-    size = max(1.0, max(abs(w) for _, w in known))
-    for x, w in known:
-        assert abs(w0 + slope * (x - x0) - w) <= 1e-9 * size, f"{context}: node at {x} off the lever line"
-    assert len(known) == len(lever.nodes), f"{context}: a node of a determined lever is left free"
-
-
 def test_stepped_set_is_one_lever_spaced_by_its_relation():
     mech = load_mechanism(STEPPED2)
     (lever,) = lever_layout(mech)
@@ -238,7 +212,7 @@ def test_stepped_set_is_one_lever_spaced_by_its_relation():
     assert (pos["OUT"] - pos["IN"]) / (pos["R"] - pos["OUT"]) == pytest.approx(80 * 25 / (30 * 20), rel=1e-15)
     assert [n.members for n in lever.nodes] == [("P.sun1",), ("P.carrier",), ("P.ring2",)]
     for gear in ("1", "2"):
-        _collinear(lever, lever_speeds(mech, gear), gear)
+        _assert_collinear(lever, lever_speeds(mech, gear), gear)
 
 
 def test_stepped_set_with_equal_steps_is_the_planetary_lever():
@@ -293,7 +267,7 @@ def test_every_motion_of_a_stepped_train_is_a_straight_line_on_every_lever(mech)
     for motion in basis.T:
         speeds = dict(zip(names, motion)) | {HOUSING: 0.0}
         for lever in levers:
-            _collinear(lever, speeds, f"lever {lever.name}")
+            _assert_collinear(lever, speeds, f"lever {lever.name}")
 
 
 @pytest.mark.parametrize("name", BUNDLED + [str(STEPPED2)])
@@ -304,7 +278,7 @@ def test_every_node_on_its_lever_line_in_every_gear(name):
     for gear in (g for g in mech.gears if g.kind == "gear"):
         speeds = lever_speeds(mech, gear.name)
         for lever in levers:
-            _collinear(lever, speeds, f"{name} gear {gear.name} lever {lever.name}")
+            _assert_collinear(lever, speeds, f"{name} gear {gear.name} lever {lever.name}")
 
 
 def test_dogs_and_alternative_gears_in_the_lever_figure():
@@ -500,7 +474,7 @@ def test_power_flow_of_random_stepped_trains_with_dogs(seed):
         flow = power_flow(mech, gears=[gear.name])
         g = flow.gears[0]
         size = max(1.0, abs(g.torque_ratio))
-        for r in _link_balance(mech, g).values():
+        for r in _link_balance_residuals(mech, g).values():
             assert abs(r) <= 1e-8 * size, text
         assert abs(g.input_power - g.output_power - g.losses) <= 1e-8 * size
         assert g.losses >= -1e-10
