@@ -133,14 +133,17 @@ class PowerFlowConvergenceError(TransgenError, RuntimeError):
 
 @dataclass(frozen=True)
 class SetFlow:
-    """One transformer (planetary set or gear pair) in one gear, per unit input torque and speed.
+    """One transformer (planetary set, stepped-pinion set or gear pair) in one gear, per unit
+    input torque and speed.
 
     ``torques[port]``: the torque the member's link exerts on the set (the link feels the
-    opposite), ports ``sun``/``ring``/``carrier`` or ``1``/``2``; ``powers[port] = t * w`` the power
+    opposite), ports ``sun``/``ring``/``carrier``, a stepped set's ``sun1``/``ring2``/.../``carrier``
+    (summed over its constraint nodes) or ``1``/``2``; ``powers[port] = t * w`` the power
     the member feeds into the set (per unit input power); ``throughput`` the sum of the positive
     ones; ``loss`` the power lost in the meshes (``sum(powers)``, >= 0); ``eta`` the standing or
-    mesh efficiency applied; ``driving`` the member that drives in the carrier frame (``None``:
-    no relative motion or no torque, lossless).
+    mesh efficiency applied; ``driving`` the member that drives in the carrier frame (a stepped
+    set: every gear that feeds power into the pinion, joined by ``+``; ``None``: no relative
+    motion or no torque, lossless).
     """
 
     name: str
