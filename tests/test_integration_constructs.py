@@ -227,6 +227,20 @@ def _plain(planetaries=(), stepped=(), links=("A", "B", "C", "D", "E")):
                      input=links[0], output=links[-1])
 
 
+def test_stepped_set_and_planetary_sharing_two_members_are_one_lever():
+    """A stepped set (sun1 A, ring2 B, carrier C) and a simple set on the same sun and carrier (ring
+    D): one four-node lever, every motion a straight line on it."""
+    mech = _plain([Planetary("Q", "A", "D", "C", 30, 70)],
+                  [SteppedPlanetary("P", "C", (("sun1", "A", 30), ("ring2", "B", 80)), np1=25, np2=20)])
+    levers = lever_layout(mech)
+    (lever,) = [lv for lv in levers if len(lv.nodes) > 1]
+    assert set(lever.sets) == {"P", "Q"} and set(lever.links) == {"A", "B", "C", "D"}
+    g = build_graph(mech)
+    names = link_nodes(g)
+    for motion in null_space(constraint_matrix(g), len(names)).T:
+        _assert_collinear(lever, dict(zip(names, motion)) | {HOUSING: 0.0}, "P+Q")
+
+
 @st.composite
 def stepped_trains(draw):
     """One stepped set of 2-4 central gears (a member may be the housing) and 0-2 planetaries."""
