@@ -514,8 +514,8 @@ def _dog_teeth(ax, x: float, y: float, color: str) -> None:
     """The teeth of a dog brake on its ground wall at ``x`` (pointing at the node, to the right)."""
     from matplotlib.lines import Line2D
 
-    for v in (-0.045, 0.045):
-        ax.add_line(Line2D([x, x + 0.05], [y + v, y + v], color=color, linewidth=2.6, zorder=4,
+    for v in (-0.075, 0.075):  # clear of the node's circle (radius 0.055) at the wall
+        ax.add_line(Line2D([x, x + 0.05], [y + v, y + v], color=color, linewidth=2.2, zorder=4,
                            solid_capstyle="butt"))
 
 
