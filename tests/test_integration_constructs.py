@@ -11,6 +11,7 @@ import json
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from transgen import bundled_mechanisms, load_mechanism, parse_mechanism
@@ -495,3 +496,27 @@ def test_power_flow_of_random_stepped_trains_with_dogs(seed):
         _stepped_balance(mech, g, flow.eta)
         if not g.warnings:
             assert 0 < g.efficiency <= lossless.efficiency + 1e-12
+
+
+# ---------------------------------------------------------------------------------- simulator
+
+
+def test_launch_of_the_stepped_example_runs_its_ratios_and_balances_energy(tmp_path):
+    """``transgen scenario new`` and the simulator on a stepped set: 1st holds the stepped ratio
+    1 + Nr*Np1/(Ns*Np2), the 1-2 upshift hands B1 over to K, and the energy balance closes."""
+    from transgen.sim.launch import launch_scenario
+    from transgen.sim.scenario import load_scenario
+
+    path = tmp_path / "stepped.toml"
+    path.write_text(launch_scenario(load_mechanism(STEPPED2), mechanism_ref=str(STEPPED2)))
+    r = load_scenario(path, {"simulation.t_end": 8.0}).run()
+    assert r.success, r.message
+    assert [(e.kind, e.elements) for e in r.events if e.kind in ("lock", "unlock")] == [
+        ("unlock", ("B1",)), ("lock", ("K",))]
+    s = r.signals
+    first = (s["locked_B1"] == 1.0) & (s["w_OUT"] > 1.0)
+    assert first.sum() > 10
+    assert np.allclose(s["w_IN"][first] / s["w_OUT"][first], 1 + 80 * 25 / (30 * 20), rtol=1e-9)
+    assert np.allclose(s["w_R"][first], 0.0, atol=1e-9)
+    residual = s["E_in"] - s["E_load"] - s["E_dissipated"] - s["E_stored"]  # E_stored: from its start value
+    assert np.max(np.abs(residual - residual[0])) <= 1e-5 * np.max(np.abs(s["E_in"]))
