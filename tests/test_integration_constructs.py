@@ -180,6 +180,8 @@ def test_stepped_eta0_in_the_file_round_trips_and_wins():
     flow = power_flow(mech, eta0=0.99)
     assert flow.eta["P"] == 0.93
     assert power_flow(mech, eta0=0.99).to_dict()["eta0"] == {"P": 0.93}
+    from transgen.describe import mechanism_to_dict
+    assert mechanism_to_dict(mech)["stepped"][0]["eta0"] == 0.93  # transgen check --json
 
 
 def test_cli_powerflow_of_the_stepped_example(capsys):
