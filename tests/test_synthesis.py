@@ -142,7 +142,7 @@ def _rank(name: str, top: int = 50, parallel: bool = False) -> int | None:
     ``parallel``: elements joining the same two links count as the same (a brake and a one-way
     clutch in parallel)."""
     mech, bare = _strip_table(name)
-    real = [g for g in mech.gears if g.kind == "gear"]
+    real = [g for g in mech.gears if g.kind == "gear" and not g.alternative]  # alternative gears: not compared
     fwd = [g for g in real if float(g.ratio) > 0]
     rev = [g for g in real if float(g.ratio) < 0]
     result = synthesize_table(bare, len(fwd), len(rev), top=top)

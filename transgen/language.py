@@ -278,7 +278,8 @@ _PARAMS: dict[str, dict[str, object]] = {
     "dog": {"static": CAPACITY, "max_slip_rpm": SLIP_SPEED},
     "gear": {"ratio": RATIO, "tol": RATIO_TOL, "rounding": ("nearest", "truncated")},
     "stepped": {"carrier": "name", "sun1": "name", "sun2": "name", "ring1": "name", "ring2": "name",
-                "Ns1": TEETH, "Ns2": TEETH, "Nr1": TEETH, "Nr2": TEETH, "Np1": TEETH, "Np2": TEETH},
+                "Ns1": TEETH, "Ns2": TEETH, "Nr1": TEETH, "Nr2": TEETH, "Np1": TEETH, "Np2": TEETH,
+                "eta0": EFFICIENCY},
 }
 _REQUIRED: dict[str, tuple[str, ...]] = {
     "link": ("J",),
@@ -674,7 +675,7 @@ def _stepped(stmt: _Statement, params: dict, report: _Reporter, link_refs: list)
     if len(report.diagnostics) > before or carrier is None:
         return None
     return SteppedPlanetary(name, carrier.text, tuple((r, w.text, t) for r, w, t in members),
-                            params.get("Np1"), params.get("Np2"), stmt.words[0].span)
+                            params.get("Np1"), params.get("Np2"), stmt.words[0].span, eta0=params.get("eta0"))
 
 
 def parse_mechanism(text: str, filename: str = "<string>", unknown_teeth: bool = False) -> Mechanism:
@@ -761,7 +762,7 @@ def format_mechanism(m: Mechanism) -> str:
         members = " ".join(f"{role}={link} {'Ns' if role.startswith('sun') else 'Nr'}{role[-1]}={teeth}"
                            for role, link, teeth in sp.members)
         steps = "".join(f" Np{k}={n}" for k, n in (("1", sp.np1), ("2", sp.np2)) if n is not None)
-        out.append(f"stepped {sp.name} carrier={sp.carrier} {members}{steps}")
+        out.append(f"stepped {sp.name} carrier={sp.carrier} {members}{steps}" + _optional("eta0", sp.eta0))
     for g in m.gear_pairs:
         k1, k2 = ("N1", "N2") if g.by == "teeth" else ("r1", "r2")
         v1, v2 = (int(g.n1), int(g.n2)) if g.by == "teeth" else (_number(g.n1), _number(g.n2))
