@@ -14,7 +14,6 @@ from __future__ import annotations
 import hashlib
 import os
 import sys
-import tempfile
 from pathlib import Path
 
 import lark
@@ -45,6 +44,8 @@ def cached_lark(text: str, **options) -> Lark:
     except Exception:  # noqa: BLE001 - missing, truncated or from another lark: rebuild it
         pass
     parser = Lark(text, **options)
+    import tempfile  # only to write the tables (its import costs start-up time)
+
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.stem, suffix=".tmp")

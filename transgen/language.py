@@ -18,7 +18,6 @@ located diagnostics are one pass over the text; splitting them would hand positi
 """
 from __future__ import annotations
 
-import difflib
 import functools
 import math
 import sys
@@ -279,6 +278,8 @@ _NOT_FINITE = frozenset({"nan", "inf", "infinity"})
 def _suggest(name: str, known) -> str:
     if len(name) > 100:
         return ""
+    import difflib  # only for a message
+
     close = difflib.get_close_matches(name, list(known), n=1, cutoff=0.5)
     return f"; did you mean '{close[0]}'?" if close else ""
 

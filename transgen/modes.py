@@ -31,17 +31,20 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
-import networkx as nx
 import numpy as np
 
 from .blas import one_blas_thread
 from .equations import (LockingGroup, ModeEquations, assemble, complete_locked, diagnose_singular, locked_constraints,
                         solve)
 from .errors import ModeError
-from .graph import build_graph
+from .graph import bond_graph
 from .kinematics import analyze, engaged_combinations, numeric_rank
 from .model import Mechanism
+
+if TYPE_CHECKING:
+    from .graph import Graph
 
 __all__ = [
     "Mode",
@@ -115,7 +118,7 @@ def select_modes(mech: Mechanism, which: str = "auto") -> list[Mode]:
     ``"declared"`` or ``"all"``; named M1, M2, ... unless declared with names."""
     if which == "auto":
         which = "declared" if mech.modes else "default"
-    g = build_graph(mech)
+    g = bond_graph(mech)
     if which == "declared":
         return [Mode(d.name, complete_locked(g, d.locked), "declared") for d in mech.modes]
     if which == "all":
@@ -169,12 +172,12 @@ def _join_labels(labels: list[str]) -> str:
     return "; ".join(out)
 
 
-def mode_model(mech: Mechanism, mode: Mode, graph: nx.DiGraph | None = None,
+def mode_model(mech: Mechanism, mode: Mode, graph: Graph | None = None,
                symbolic: bool | str = False) -> ModeModel:
     """Kinematics and solved equations of ``mode``; a mode that cannot be solved keeps
     ``equations=None`` and says why in ``problem``. ``symbolic`` (True, ``"all"`` or
     ``"inertias"``) also solves the symbolic equations (:func:`transgen.equations.assemble`)."""
-    g = build_graph(mech) if graph is None else graph
+    g = bond_graph(mech) if graph is None else graph
     combo = analyze(mech, mode.locked, g)
     groups = locked_constraints(g, mode.locked)
     problem = diagnose_singular(g, mode.locked)
@@ -197,7 +200,7 @@ def mode_models(mech: Mechanism, which: str = "auto", symbolic: bool | str = Fal
     """:func:`mode_model` of every mode of :func:`select_modes`; ``progress(i, n, mode)``, if
     given, is called before each of the ``n`` modes (symbolic solves take seconds each). The
     small dense linear algebra uses one BLAS thread (:mod:`transgen.blas`)."""
-    g = build_graph(mech)
+    g = bond_graph(mech)
     modes = select_modes(mech, which)
     out = []
     for i, m in enumerate(modes):
