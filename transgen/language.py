@@ -3,8 +3,9 @@
 Parsing happens in three steps, each a plain function:
 
 1. :func:`parse_tree` parses the text with the lark grammar ``grammars/mech.lark`` (LALR, with
-   positions; lark's generated standalone parser, see :mod:`transgen.grammar_cache`). A syntax error in one line does not hide those in the others: since every
-   statement is one line, the lines are re-parsed one by one to report them all.
+   positions; lark's generated standalone parser, see :mod:`transgen.grammar_cache`). A syntax
+   error in one line does not hide those in the others: since every statement is one line, the
+   lines are re-parsed one by one to report them all.
 2. :func:`_read_statements` turns the tree into statement records, checking each statement's
    parameters (known keys, types, ranges).
 3. :func:`_resolve` builds the frozen :class:`Mechanism`, checking names (unknown names with the
