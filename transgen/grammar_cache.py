@@ -1,6 +1,6 @@
 """The parser of a lark grammar as a generated module, built once per user and grammar version.
 
-Importing lark and loading the LALR tables of ``mech.lark`` took a numeric command about a fifth
+Importing lark and loading the LALR tables of ``mech.lark`` took a numeric command about a sixth
 of its start-up (lark's own import pulls in its grammar compiler, Earley parsers, tempfile,
 hashlib, ...). lark's *standalone* tool writes the tables of one grammar, with the run-time part
 of lark they need (lexer, LALR parser, ``Tree``, ``Token``, the ``Unexpected*`` exceptions), into
