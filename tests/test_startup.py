@@ -108,6 +108,16 @@ def test_grammar_cache_round_trip_and_a_broken_file_is_rebuilt(tmp_path, monkeyp
         assert saved.stat().st_size > 1000 and b"GRAMMAR = 'x'" not in saved.read_bytes()
 
 
+def test_a_cache_that_cannot_be_written_costs_only_the_build(tmp_path, monkeypatch):
+    blocked = tmp_path / "not-a-folder"
+    blocked.write_text("a file where the cache folder would be")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(blocked))
+    monkeypatch.delenv("TRANSGEN_NO_GRAMMAR_CACHE", raising=False)
+    module = parser_module(grammar_text(), parser="lalr", propagate_positions=True, maybe_placeholders=False)
+    assert module.Lark_StandAlone().parse("link A J=1\n").children[0].data == "link"
+    assert blocked.read_text() == "a file where the cache folder would be"
+
+
 def _same_tree(a, b) -> bool:
     """Trees of the generated parser and of lark (different classes) are equal, with positions."""
     if isinstance(a, str) or isinstance(b, str):
