@@ -133,7 +133,8 @@ MAX_SYNTAX_ERRORS = 100
 
 
 def parse_tree(text: str, filename: str = "<string>") -> Tree:
-    """Parse ``.mech`` text into a lark tree; raise :class:`MechSyntaxError` with every bad line."""
+    """Parse ``.mech`` text into a lark tree (the ``Tree`` class of the generated parser, a copy of
+    lark's: :mod:`transgen.grammar_cache`); raise :class:`MechSyntaxError` with every bad line."""
     if not text.endswith("\n"):
         text += "\n"
     grammar = _grammar()
