@@ -80,6 +80,28 @@ def test_the_graph_as_a_product_is_networkx(warm_cache, tmp_path):
     assert "networkx" in loaded and not loaded & {"lark", "scipy", "sympy"}
 
 
+BLAS_THREADS = ("import threadpoolctl\n"
+                "print(sorted({i['num_threads'] for i in threadpoolctl.threadpool_info() if i['user_api'] == 'blas'}))\n")
+
+
+def _blas_threads(code: str, **env: str) -> str:
+    out = subprocess.run([sys.executable, "-c", code + BLAS_THREADS], capture_output=True, text=True, check=True,
+                         env={k: v for k, v in os.environ.items() if not k.endswith("_NUM_THREADS")} | env,
+                         cwd=tempfile.gettempdir())
+    return out.stdout.strip().splitlines()[-1]
+
+
+def test_the_command_line_starts_the_blas_with_one_thread():
+    """No thread pool to start for small linear algebra (transgen.blas.one_thread_from_start); a
+    user's own setting is kept, and a program that loaded numpy before calling main keeps its BLAS."""
+    many = _blas_threads("import numpy\n", OPENBLAS_NUM_THREADS="2")
+    if many == "[]":
+        pytest.skip("no BLAS that threadpoolctl knows")
+    assert _blas_threads(run_cli(["check", "simple2"])) == "[1]"
+    assert _blas_threads(run_cli(["check", "simple2"]), OPENBLAS_NUM_THREADS="2", MKL_NUM_THREADS="2") == many
+    assert _blas_threads("import numpy\n" + run_cli(["check", "simple2"])) == _blas_threads("import numpy\n")
+
+
 def test_the_package_names_still_resolve():
     assert transgen.load_mechanism("ht740").name
     assert {"build_graph", "gear_table", "Mechanism"} <= set(dir(transgen))

@@ -354,6 +354,9 @@ def main(argv: list[str] | None = None) -> int:
     """Run the command line; return the exit code."""
     import signal
 
+    from .blas import one_thread_from_start
+
+    one_thread_from_start()  # small linear algebra: no BLAS thread pool to start (transgen.blas)
     if signal.getsignal(signal.SIGTERM) is signal.SIG_DFL:
         with contextlib.suppress(ValueError):  # not the main thread
             signal.signal(signal.SIGTERM, _terminate)
