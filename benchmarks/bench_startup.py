@@ -42,6 +42,8 @@ COMMANDS = [
 BASELINES = {
     "python -c pass": ["-c", "pass"],
     "import numpy": ["-c", "import numpy"],
+    "import numpy, 1 BLAS thread": ["-c", "import os\nfor v in ('OPENBLAS_NUM_THREADS', 'MKL_NUM_THREADS'): "
+                                           "os.environ.setdefault(v, '1')\nimport numpy"],
     "import networkx": ["-c", "import networkx"],
     "import lark": ["-c", "import lark"],
     "import scipy.linalg": ["-c", "import scipy.linalg"],
