@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from .equations import diagnose_singular, locking_groups
-from .graph import build_graph
+from .graph import bond_graph
 from .kinematics import analyze, engaged_combinations
 from .model import Mechanism
 from .modes import mode_models, neutral_note
@@ -68,7 +68,7 @@ def modes_report(mech: Mechanism, which: str = "auto") -> dict:
     parallel (same two links) that lock one motion as one constraint — not a problem: the
     motion is unique, the simulator splits their torque by its documented rule."""
     models = mode_models(mech, which)
-    g = build_graph(mech)
+    g = bond_graph(mech)
     tie_ups, non_unique, massless = [], [], []
     combos = engaged_combinations(mech.element_names)
     for combo in combos:

@@ -78,16 +78,20 @@ the sliding to the static friction coefficient, default 0.85) times it.
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from .graph import Graph
+
 import itertools
 import math
 from dataclasses import dataclass, field
 
-import networkx as nx
 import numpy as np
 
 from .equations import assemble, complete_locked, locked_constraints
 from .errors import TransgenError
-from .graph import build_graph, coefficient, link_nodes, stepped_nodes, transformer_ports
+from .graph import bond_graph, coefficient, link_nodes, stepped_nodes, transformer_ports
 from .kinematics import analyze, link_speeds, numeric_rank
 from .model import HOUSING, Mechanism
 
@@ -375,7 +379,7 @@ class _SteppedSet:
         return len(self.ports) - 1
 
 
-def _transformers(mech: Mechanism, g: nx.DiGraph) -> list:
+def _transformers(mech: Mechanism, g: Graph) -> list:
     out = []
     for node, data in g.nodes(data=True):
         if data["kind"] not in ("planetary", "gearpair"):
@@ -401,7 +405,7 @@ class _Gear:
     and ``T = T_out`` for ``T_in = 1`` (drive) or ``T = T_in`` for ``T_out = -sign(w_out)`` (coast:
     the driveline drives the output in its direction of rotation)."""
 
-    def __init__(self, mech: Mechanism, g: nx.DiGraph, engaged, eta: dict[str, float], coast: bool = False):
+    def __init__(self, mech: Mechanism, g: Graph, engaged, eta: dict[str, float], coast: bool = False):
         links = link_nodes(g)
         self.links = links
         self.locked = complete_locked(g, engaged)
@@ -571,7 +575,7 @@ def _solve_directions(gear: _Gear, name: str) -> tuple[np.ndarray, list[int], in
     raise PowerFlowConvergenceError(f"gear {name}: the power directions of {', '.join(cycling)} do not settle")
 
 
-def _gear_flow(mech: Mechanism, g: nx.DiGraph, gear_decl, eta: dict, input_rpm, max_slip_rpm,
+def _gear_flow(mech: Mechanism, g: Graph, gear_decl, eta: dict, input_rpm, max_slip_rpm,
                coast: bool = False) -> GearFlow:
     name = gear_decl.name
     combo = analyze(mech, gear_decl.engaged, g)
@@ -668,7 +672,7 @@ def _holds(e, t: float) -> bool:
 
 
 def _capacities(mech: Mechanism, gears, design_torque, safety_factor, dynamic_ratio) -> tuple[Capacity, ...]:
-    g = build_graph(mech)
+    g = bond_graph(mech)
     best: dict[str, tuple[float, str | None]] = {e.name: (0.0, None) for e in mech.elements}
     for flow in gears:
         for grp in locked_constraints(g, complete_locked(g, flow.engaged)):
@@ -755,7 +759,7 @@ def power_flow(mech: Mechanism, eta0: float | None = None, input_rpm: float | No
         raise PowerFlowError(f"the tooth counts of {', '.join(unknown_teeth)} are unknown: choose them first "
                              f"('transgen synthesize teeth')")
     eta = _efficiencies(mech, eta0, eta_pair)
-    g = build_graph(mech)
+    g = bond_graph(mech)
     declared = [gr for gr in mech.gears if gr.kind == "gear"]
     if gears is not None:
         names = [gr.name for gr in declared]

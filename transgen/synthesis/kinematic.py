@@ -21,7 +21,7 @@ from fractions import Fraction
 
 import numpy as np
 
-from ..graph import build_graph, link_nodes
+from ..graph import bond_graph, link_nodes
 from ..kinematics import _values, constraints
 from ..model import Mechanism
 
@@ -115,7 +115,7 @@ def gear_kinematics(mech: Mechanism, engaged, name: str, unknown: tuple[str, ...
     Known sets keep their tooth counts; an unknown set gets ``Ns = 1, Nr = k``. The independent
     rows are chosen at a random ``k`` inside ``[k_low, k_high]`` (a generic point).
     """
-    g = build_graph(mech)
+    g = bond_graph(mech)
     links = link_nodes(g)
     index = {link: j for j, link in enumerate(links)}
     # every transformer's own parameters (gear pairs, stepped-pinion sets, known planetaries);

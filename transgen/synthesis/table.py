@@ -49,7 +49,7 @@ from dataclasses import dataclass
 from ..errors import TransgenError
 import numpy as np
 
-from ..graph import TRANSFORMER_KINDS, build_graph, coefficient, element_nodes, link_nodes, transformer_ports
+from ..graph import TRANSFORMER_KINDS, bond_graph, coefficient, element_nodes, link_nodes, transformer_ports
 from ..kinematics import _values, analyze
 from ..model import Mechanism
 
@@ -172,7 +172,7 @@ SCORE_FORMULA = ("ln(spread) - 2*sum out(step) - 1*sum max(0, ln(step[i+1]/step[
 def gear_candidates(mech: Mechanism) -> list[Candidate]:
     """Every combination of engaged elements with one degree of freedom, a determined ratio and
     no superfluous element (see the module docstring)."""
-    g = build_graph(mech)
+    g = bond_graph(mech)
     names = element_nodes(g)
     free = analyze(mech, (), g).dof
     out = []
@@ -198,7 +198,7 @@ def oneway_torques(mech: Mechanism, engaged, g=None) -> dict[str, float] | None:
     coefficients ``c_k``), the torque of each engaged element and the output torque; one torque
     balance per link.
     """
-    g = build_graph(mech) if g is None else g
+    g = bond_graph(mech) if g is None else g
     links = link_nodes(g)
     row = {name: i for i, name in enumerate(links)}
     transformers = [n for n, d in g.nodes(data=True) if d["kind"] in TRANSFORMER_KINDS]
