@@ -77,10 +77,12 @@ def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
             u[tr.element_input] += te
             return ww, u, derivs, p_in, diss, p_load, slips, te
 
-        # elements at zero slip that are not sticking move off the way their slip accelerates
+        # elements at zero slip that are not sticking move off the way their slip accelerates under
+        # the torques of everything else, the slipping elements' friction included
         at_zero = ~seg_stuck & (directions == 0)
         if at_zero.any():
-            u0 = point(t, y0)[1]
+            u0 = point(signal_time(pt, t), y0, seg_stuck, tr.P @ mode.C,
+                       tr.slipping_set(seg_locked, directions, t, t_stop))[1]
             acc = tr.P @ (mode.C @ (mode.B @ u0))
             directions = np.where(at_zero, np.sign(acc).astype(int), directions)
         seg_dirs = directions.copy()
@@ -126,7 +128,7 @@ def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
                 if kind == "unstick":
                     t_e = evaluate(t_end, y_end)[7][i]
                     stuck[i] = False
-                    directions[i] = e.free if e.kind == "oneway" else int(np.sign(t_e))
+                    directions[i] = e.free if e.kind == "oneway" else _breakaway_direction(t_e, slips[i], tol)
                     # the spring energy is released into the damper: account it as dissipated
                     energy[1] += 0.5 * k * phi[i] ** 2
                     phi[i] = 0.0
@@ -150,6 +152,25 @@ def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
         if progress is not None:
             progress(t)
     return collect(pt, options, recorder, events, success, message, model, wall)
+
+
+def _breakaway_direction(torque: float, slip: float, tol: float) -> int:
+    """The slip direction (+1/-1) of a friction element that stops sticking with spring-damper
+    torque ``torque`` [N*m] at slip ``slip`` [rad/s] (``tol``: the mode decision's zero slip).
+
+    Haessig's slipping element transmits ``T_dyn * apply * sign(slip)``: the friction torque
+    opposes the slip there is. A stuck element's slip is its spring's twist rate (``phi' =
+    slip``), which has the sign of the torque only while the torque grows: an off-going element
+    whose capacity falls faster than the torque it holds (an upshift's release) breaks away with
+    the spring unwinding, ``torque * slip < 0``. Sliding in the torque's direction from that
+    slip would make the element create energy until the slip turns; the friction torque then
+    takes the slip's sign, which turns the slip within the spring's time scale, and the element
+    sticks again at the crossing or slips on in the torque's direction (both vanish with the
+    stiffness, as the slip ``dT/dt / k`` does). At zero slip the element breaks away in the
+    direction of its torque, as in the mode-switching model."""
+    if abs(slip) > tol:
+        return 1 if slip > 0 else -1
+    return 1 if torque > 0 else -1
 
 
 def _name(tr, stuck) -> str:
