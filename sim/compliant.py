@@ -128,9 +128,13 @@ def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
                 if kind == "unstick":
                     t_e = evaluate(t_end, y_end)[7][i]
                     stuck[i] = False
-                    directions[i] = e.free if e.kind == "oneway" else _breakaway_direction(t_e, slips[i], tol)
+                    directions[i] = e.free if e.kind == "oneway" else (1 if t_e > 0 else -1)
                     # the spring energy is released into the damper: account it as dissipated
                     energy[1] += 0.5 * k * phi[i] ** 2
+                    if e.kind != "oneway" and directions[i] * slips[i] < 0:
+                        w, lost = _absorb_twist_rate(tr, mode, w, i)
+                        energy[1] += lost
+                        slips = tr.P @ w
                     phi[i] = 0.0
                     events.append(Event(t_end, "unlock", (e.name,), before, _name(tr, stuck)))
                 elif abs(slips[i]) <= tol and e.applied_after(t_end):  # a slip back at zero, or an apply rising at it
@@ -154,23 +158,25 @@ def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
     return collect(pt, options, recorder, events, success, message, model, wall)
 
 
-def _breakaway_direction(torque: float, slip: float, tol: float) -> int:
-    """The slip direction (+1/-1) of a friction element that stops sticking with spring-damper
-    torque ``torque`` [N*m] at slip ``slip`` [rad/s] (``tol``: the mode decision's zero slip).
+def _absorb_twist_rate(tr, mode, w: np.ndarray, i: int):
+    """The link speeds ``w`` [rad/s] after the breakaway of element ``i`` against its slip, and the
+    kinetic energy [J] that took (>= 0, dissipated).
 
-    Haessig's slipping element transmits ``T_dyn * apply * sign(slip)``: the friction torque
-    opposes the slip there is. A stuck element's slip is its spring's twist rate (``phi' =
-    slip``), which has the sign of the torque only while the torque grows: an off-going element
-    whose capacity falls faster than the torque it holds (an upshift's release) breaks away with
-    the spring unwinding, ``torque * slip < 0``. Sliding in the torque's direction from that
-    slip would make the element create energy until the slip turns; the friction torque then
-    takes the slip's sign, which turns the slip within the spring's time scale, and the element
-    sticks again at the crossing or slips on in the torque's direction (both vanish with the
-    stiffness, as the slip ``dT/dt / k`` does). At zero slip the element breaks away in the
-    direction of its torque, as in the mode-switching model."""
-    if abs(slip) > tol:
-        return 1 if slip > 0 else -1
-    return 1 if torque > 0 else -1
+    A stuck element's slip is its spring's twist rate (``phi' = slip``): it has the sign of the
+    spring torque while the torque grows, the other sign while the spring unwinds, as an
+    off-going element does when its capacity falls below its torque faster than the torque falls
+    (an upshift's release). The element breaks away in the direction of its torque, as in the
+    mode-switching model, and its spring goes with its twist and its twist rate: the twist's
+    energy into the damper (accounted by the caller) and the twist rate taken up by the damper as
+    a plastic angular impulse along the element (momentum kept, the slip brought to zero). Left
+    in the links, that slip would make the element slide against its own friction torque (create
+    energy) until the slip turns, and sliding the slip's way instead reverses the element's torque
+    for an instant. Both the slip, ``(dT/dt) / k``, and the impulse vanish with the stiffness."""
+    column = mode.B[:, int(tr.element_input[i])]  # state acceleration per unit element torque
+    row = tr.P[i] @ mode.C                        # slip per state
+    q = w[mode.coords] - column * (float(tr.P[i] @ w) / float(row @ column))
+    after = mode.C @ q
+    return after, 0.5 * float(tr.inertia @ (w * w - after * after))
 
 
 def _name(tr, stuck) -> str:

@@ -49,30 +49,30 @@ def _dissipates(result, name):
     return np.all(t * slip >= -1e-6 * np.abs(t))
 
 
-def test_a_clutch_released_faster_than_it_unloads_breaks_away_dissipating():
-    # the breakaway's friction torque took the spring torque's sign while the slip had the other:
-    # the monitor stopped the run ("the slipping element creates energy") at the unlock
-    r = _pair(**RELEASE)
+@pytest.mark.parametrize("stiffness, damping", [(1e5, 1e3), (1e7, 6e3), (1e9, 6e4)])
+def test_a_clutch_released_faster_than_it_unloads_breaks_away_dissipating(stiffness, damping):
+    # the breakaway slid the torque's way while the slip had the other sign: the monitor stopped
+    # the run ("the slipping element creates energy") at the unlock
+    r = _pair(**RELEASE, stiffness=stiffness, damping=damping)
     assert r.success, r.message
-    assert _times(r, "unlock")[0] == pytest.approx(0.25, abs=1e-6)  # where the switching model unlocks
+    # once, where the switching model unlocks, and on in the torque's direction: no re-lock, no
+    # instant of reversed torque (which a shift report would call bindup)
+    assert [(e.kind, e.t) for e in r.events[1:]] == [("unlock", pytest.approx(0.25, abs=1e-6))]
+    # stuck up to it, the slip is the spring's twist rate dT/dt / k, against the torque
+    stuck = r["locked_C"] == 1
+    assert r["slip_C"][stuck][-1] == pytest.approx(-200.0 / stiffness, rel=1e-2)
+    assert np.all(r["slip_C"][~stuck] >= -1e-9) and np.all(r["t_C"][~stuck] >= 0)
     assert _dissipates(r, "C")
-    assert r["slip_C"][-1] > 0  # slipping on in the torque's direction
-    assert r.energy["relative_residual"] < 1e-6
+    assert r.energy["relative_residual"] < 1e-6  # the twist rate's energy is booked as dissipated
 
 
-def test_the_breakaway_lag_of_the_compliance_vanishes_with_the_stiffness():
-    # the reversed slip turns within the spring's time scale; the element sticks at the crossing
-    # and slips on once its spring has wound up again: a lag that shrinks as the stiffness grows
-    lags = []
-    for k, c in ((1e5, 1e3), (1e7, 6e3)):
-        r = _pair(**RELEASE, stiffness=k, damping=c)
-        assert r.success, r.message
-        assert _dissipates(r, "C")
-        lags.append(_times(r, "unlock")[-1] - 0.25)
-    assert 0 <= lags[1] < lags[0] / 4 and lags[0] < 3e-3
-    # stiff enough that the spring's twist rate stays inside the zero-slip tolerance: no lag at all
-    r = _pair(**RELEASE, stiffness=1e9, damping=6e4)
-    assert r.success and [e.kind for e in r.events[1:]] == ["unlock"]
+def test_the_breakaway_matches_the_switching_model():
+    switching = _pair(**RELEASE, model="switching", method="DOP853")
+    compliant = _pair(**RELEASE, stiffness=1e9, damping=6e4)
+    assert switching.success and compliant.success
+    settled = compliant.time >= 0.01  # the spring starts untwisted: a start-up transient
+    for name in ("w_A", "w_B", "t_C"):
+        assert np.allclose(compliant[name][settled], switching[name][settled], rtol=1e-4, atol=1e-3), name
 
 
 def test_a_clutch_overloaded_by_a_growing_torque_breaks_away_once():
@@ -91,11 +91,12 @@ def test_a_clutch_overloaded_by_a_growing_torque_breaks_away_once():
 def test_ht740_upshift_runs_with_the_compliant_model(name, t_end, unlock, lock):
     # both stopped at C5's release (the energy-creating breakaway); once past it, the improved
     # trajectories chattered where C5, released, came back through zero slip: the direction it
-    # then moves in was taken without the slipping on-coming C4's torque
+    # moves off in was taken from the slip acceleration without the slipping on-coming C4's torque
     s = load_scenario(name, {"simulation.model": "compliant", "simulation.t_end": t_end})
     r = s.run()
     assert r.success, r.message
     assert _times(r, "unlock")[0] == pytest.approx(unlock, abs=1e-3)  # k = 1e5: lags by up to ms
-    c4 = [e.t for e in r.events if e.kind == "lock" and e.elements == ("C4",)]
-    assert len(c4) == 1 and c4[0] == pytest.approx(lock, abs=3e-3)
+    # the switching model's sequence: C5 released once (no re-lock, no reversed torque), C4 locks
+    assert [(e.kind, e.elements) for e in r.events[1:]] == [("unlock", ("C5",)), ("lock", ("C4",))]
+    assert r.events[2].t == pytest.approx(lock, abs=3e-3)
     assert _dissipates(r, "C5") and _dissipates(r, "C4")
