@@ -6,7 +6,8 @@ mode with nothing locked) and every shift element is a submodel of its own: whil
 is a stiff torsional spring ``k`` with damper ``c`` (its twist ``phi`` is a state), while it slips
 it transmits ``T_dyn * apply * sign(slip)``. It starts to stick when its slip crosses zero (with
 ``phi = 0``) and slips again when the spring-damper torque exceeds the static capacity (a
-one-way clutch: when its torque reverses). The stiff springs make the equations stiff: the
+one-way clutch: when its torque reverses), in the direction of that torque, its spring's twist
+and twist rate going into the damper (:func:`_absorb_twist_rate`). The stiff springs make the equations stiff: the
 default integrator is Radau. The same scenario files run with either model.
 """
 from __future__ import annotations
