@@ -132,7 +132,7 @@ def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
                     directions[i] = e.free if e.kind == "oneway" else (1 if t_e > 0 else -1)
                     # the spring energy is released into the damper: account it as dissipated
                     energy[1] += 0.5 * k * phi[i] ** 2
-                    if e.kind != "oneway" and directions[i] * slips[i] < 0:
+                    if directions[i] * slips[i] < 0:
                         w, lost = _absorb_twist_rate(tr, mode, w, i)
                         energy[1] += lost
                         slips = tr.P @ w
@@ -166,13 +166,14 @@ def _absorb_twist_rate(tr, mode, w: np.ndarray, i: int):
     A stuck element's slip is its spring's twist rate (``phi' = slip``): it has the sign of the
     spring torque while the torque grows, the other sign while the spring unwinds, as an
     off-going element does when its capacity falls below its torque faster than the torque falls
-    (an upshift's release). The element breaks away in the direction of its torque, as in the
-    mode-switching model, and its spring goes with its twist and its twist rate: the twist's
-    energy into the damper (accounted by the caller) and the twist rate taken up by the damper as
-    a plastic angular impulse along the element (momentum kept, the slip brought to zero). Left
-    in the links, that slip would make the element slide against its own friction torque (create
-    energy) until the slip turns, and sliding the slip's way instead reverses the element's torque
-    for an instant. Both the slip, ``(dT/dt) / k``, and the impulse vanish with the stiffness."""
+    (an upshift's release). The element breaks away in the direction of its torque (a one-way
+    clutch: its free direction), as in the mode-switching model, and its spring goes with its
+    twist and its twist rate: the twist's energy into the damper (accounted by the caller) and
+    the twist rate taken up by the damper as a plastic angular impulse along the element
+    (momentum kept, the slip brought to zero). Left in the links, that slip would make the
+    element slide against its own friction torque (create energy) until the slip turns, and
+    sliding the slip's way instead reverses the element's torque for an instant. Both the slip,
+    ``(dT/dt) / k``, and the impulse vanish with the stiffness."""
     column = mode.B[:, int(tr.element_input[i])]  # state acceleration per unit element torque
     row = tr.P[i] @ mode.C                        # slip per state
     q = w[mode.coords] - column * (float(tr.P[i] @ w) / float(row @ column))

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from transgen import parse_mechanism
 from transgen.sim.components import InputTorque
@@ -100,3 +102,28 @@ def test_ht740_upshift_runs_with_the_compliant_model(name, t_end, unlock, lock):
     assert [(e.kind, e.elements) for e in r.events[1:]] == [("unlock", ("C5",)), ("lock", ("C4",))]
     assert r.events[2].t == pytest.approx(lock, abs=3e-3)
     assert _dissipates(r, "C5") and _dissipates(r, "C4")
+
+
+@settings(max_examples=12, derandomize=True, database=None, deadline=None)
+@given(release=st.floats(0.2, 1.0), unload=st.floats(1.2, 4.0), stiffness=st.sampled_from([1e5, 1e6, 1e7]),
+       static_over_dynamic=st.floats(1.0, 1.5))
+def test_any_release_breaks_away_once_where_the_switching_model_does(release, unload, stiffness, static_over_dynamic):
+    # the capacity falls to zero in `release` s, the held torque (200 N*m at the start) in
+    # `unload` times that: the element breaks away once, the spring unwinding or not, dissipating
+    static = 300.0
+    mech = parse_mechanism(f"link A J=1\nlink B J=2\nclutch C A B static={static} dynamic={static / static_over_dynamic}\n"
+                           "input A\noutput B\n")
+    apply, torque = Table((0.0, release), (1.0, 0.0)), Table((0.0, release * unload), (300.0, 0.0))
+    runs = {}
+    for model, extra in (("switching", dict(method="DOP853")),
+                         ("compliant", dict(method="Radau", stiffness=stiffness, damping=3.0 * (stiffness * 2 / 3) ** 0.5))):
+        tr = Transmission(mech, {"C": {"apply": apply}}, modes="all")
+        pt = Powertrain(tr, [InputTorque(torque, tr.link_index["A"])], np.array([10.0, 10.0]))
+        runs[model] = simulate(pt, SolverOptions(t_end=release + 0.05, output_dt=0.01, model=model, rtol=1e-8,
+                                                 atol=1e-8, **extra))
+    switching, compliant = runs["switching"], runs["compliant"]
+    assert compliant.success, compliant.message
+    assert [e.kind for e in compliant.events[1:]] == [e.kind for e in switching.events[1:]] == ["unlock"]
+    assert compliant.events[1].t == pytest.approx(switching.events[1].t, abs=1e-4)
+    assert _dissipates(compliant, "C")
+    assert compliant.energy["relative_residual"] < 1e-6
