@@ -16,18 +16,19 @@ from transgen.sim.signals import Constant, Table
 from transgen.sim.simulate import Powertrain, SolverOptions, simulate
 from transgen.sim.transmission import Transmission
 
-PAIR = parse_mechanism("""
+PAIR_TEXT = """
 link A J=1
 link B J=2
-clutch C A B static=300 dynamic=250
+clutch C A B static=300 dynamic={dynamic}
 input A
 output B
-""")
+"""
+PAIR = parse_mechanism(PAIR_TEXT.format(dynamic=250))
 
 
-def _pair(apply, torque, t_end=0.6, **options):
+def _pair(apply, torque, t_end=0.6, mech=PAIR, **options):
     """Two inertias (A 1, B 2 kg*m^2) joined by clutch C, stuck at the start, driven on A."""
-    tr = Transmission(PAIR, {"C": {"apply": apply}}, modes="all")
+    tr = Transmission(mech, {"C": {"apply": apply}}, modes="all")
     pt = Powertrain(tr, [InputTorque(torque, tr.link_index["A"])], np.array([10.0, 10.0]))
     settings = dict(model="compliant", method="Radau", rtol=1e-8, atol=1e-8, stiffness=1e5, damping=1000.0)
     settings.update(options)
@@ -106,22 +107,15 @@ def test_ht740_upshift_runs_with_the_compliant_model(name, t_end, unlock, lock):
 
 @settings(max_examples=12, derandomize=True, database=None, deadline=None)
 @given(release=st.floats(0.2, 1.0), unload=st.floats(1.2, 4.0), stiffness=st.sampled_from([1e5, 1e6, 1e7]),
-       static_over_dynamic=st.floats(1.0, 1.5))
+       static_over_dynamic=st.floats(1.0, 1.5))  # capacity and held torque: 300 and 200 N*m at the start
 def test_any_release_breaks_away_once_where_the_switching_model_does(release, unload, stiffness, static_over_dynamic):
     # the capacity falls to zero in `release` s, the held torque (200 N*m at the start) in
     # `unload` times that: the element breaks away once, the spring unwinding or not, dissipating
-    static = 300.0
-    mech = parse_mechanism(f"link A J=1\nlink B J=2\nclutch C A B static={static} dynamic={static / static_over_dynamic}\n"
-                           "input A\noutput B\n")
-    apply, torque = Table((0.0, release), (1.0, 0.0)), Table((0.0, release * unload), (300.0, 0.0))
-    runs = {}
-    for model, extra in (("switching", dict(method="DOP853")),
-                         ("compliant", dict(method="Radau", stiffness=stiffness, damping=3.0 * (stiffness * 2 / 3) ** 0.5))):
-        tr = Transmission(mech, {"C": {"apply": apply}}, modes="all")
-        pt = Powertrain(tr, [InputTorque(torque, tr.link_index["A"])], np.array([10.0, 10.0]))
-        runs[model] = simulate(pt, SolverOptions(t_end=release + 0.05, output_dt=0.01, model=model, rtol=1e-8,
-                                                 atol=1e-8, **extra))
-    switching, compliant = runs["switching"], runs["compliant"]
+    mech = parse_mechanism(PAIR_TEXT.format(dynamic=300 / static_over_dynamic))
+    signals = dict(apply=Table((0.0, release), (1.0, 0.0)), torque=Table((0.0, release * unload), (300.0, 0.0)),
+                   t_end=release + 0.05, mech=mech)
+    switching = _pair(**signals, model="switching", method="DOP853")
+    compliant = _pair(**signals, stiffness=stiffness, damping=3.0 * (stiffness * 2 / 3) ** 0.5)
     assert compliant.success, compliant.message
     assert [e.kind for e in compliant.events[1:]] == [e.kind for e in switching.events[1:]] == ["unlock"]
     assert compliant.events[1].t == pytest.approx(switching.events[1].t, abs=1e-4)
