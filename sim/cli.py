@@ -129,18 +129,20 @@ def _progress(t_end: float, quiet: bool):
 def cmd_simulate(args) -> int:
     from transgen.errors import ScenarioError
 
-    from .report import report_dict, report_text, shift_report, simulate_units
-    from .scenario import bundled_scenarios, load_scenario
-
     if args.list or not args.scenario:
         if not args.list:
             raise ScenarioError("name a scenario file (or use --list to see the bundled ones)")
+        from .library import bundled_scenarios  # not the simulator: listing needs no numeric library
+
         items = {name: str(path) for name, path in bundled_scenarios().items()}
         if args.json:
             print_document("transgen.scenarios/1", {"scenarios": items}, {})
         else:
             print("\n".join(f"  {k:<24} {v}" for k, v in items.items()))
         return 0
+    from .report import report_dict, report_text, shift_report, simulate_units
+    from .scenario import load_scenario
+
     formats = _plot_formats(args.format)  # checked before anything runs or is written
     if args.output:
         from .result_files import result_format

@@ -6,7 +6,8 @@ mode with nothing locked) and every shift element is a submodel of its own: whil
 is a stiff torsional spring ``k`` with damper ``c`` (its twist ``phi`` is a state), while it slips
 it transmits ``T_dyn * apply * sign(slip)``. It starts to stick when its slip crosses zero (with
 ``phi = 0``) and slips again when the spring-damper torque exceeds the static capacity (a
-one-way clutch: when its torque reverses). The stiff springs make the equations stiff: the
+one-way clutch: when its torque reverses), in the direction of that torque, its spring's twist
+and twist rate going into the damper (:func:`_absorb_twist_rate`). The stiff springs make the equations stiff: the
 default integrator is Radau. The same scenario files run with either model.
 """
 from __future__ import annotations
@@ -77,10 +78,12 @@ def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
             u[tr.element_input] += te
             return ww, u, derivs, p_in, diss, p_load, slips, te
 
-        # elements at zero slip that are not sticking move off the way their slip accelerates
+        # elements at zero slip that are not sticking move off the way their slip accelerates under
+        # the torques of everything else, the slipping elements' friction included
         at_zero = ~seg_stuck & (directions == 0)
         if at_zero.any():
-            u0 = point(t, y0)[1]
+            u0 = point(signal_time(pt, t), y0, seg_stuck, tr.P @ mode.C,
+                       tr.slipping_set(seg_locked, directions, t, t_stop))[1]
             acc = tr.P @ (mode.C @ (mode.B @ u0))
             directions = np.where(at_zero, np.sign(acc).astype(int), directions)
         seg_dirs = directions.copy()
@@ -126,9 +129,13 @@ def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
                 if kind == "unstick":
                     t_e = evaluate(t_end, y_end)[7][i]
                     stuck[i] = False
-                    directions[i] = e.free if e.kind == "oneway" else int(np.sign(t_e))
+                    directions[i] = e.free if e.kind == "oneway" else (1 if t_e > 0 else -1)
                     # the spring energy is released into the damper: account it as dissipated
                     energy[1] += 0.5 * k * phi[i] ** 2
+                    if directions[i] * slips[i] < 0:
+                        w, lost = _absorb_twist_rate(tr, mode, w, i)
+                        energy[1] += lost
+                        slips = tr.P @ w
                     phi[i] = 0.0
                     events.append(Event(t_end, "unlock", (e.name,), before, _name(tr, stuck)))
                 elif abs(slips[i]) <= tol and e.applied_after(t_end):  # a slip back at zero, or an apply rising at it
@@ -150,6 +157,28 @@ def simulate_compliant(pt: Powertrain, options: SolverOptions, progress=None):
         if progress is not None:
             progress(t)
     return collect(pt, options, recorder, events, success, message, model, wall)
+
+
+def _absorb_twist_rate(tr, mode, w: np.ndarray, i: int):
+    """The link speeds ``w`` [rad/s] after the breakaway of element ``i`` against its slip, and the
+    kinetic energy [J] that took (>= 0, dissipated).
+
+    A stuck element's slip is its spring's twist rate (``phi' = slip``): it has the sign of the
+    spring torque while the torque grows, the other sign while the spring unwinds, as an
+    off-going element does when its capacity falls below its torque faster than the torque falls
+    (an upshift's release). The element breaks away in the direction of its torque (a one-way
+    clutch: its free direction), as in the mode-switching model, and its spring goes with its
+    twist and its twist rate: the twist's energy into the damper (accounted by the caller) and
+    the twist rate taken up by the damper as a plastic angular impulse along the element
+    (momentum kept, the slip brought to zero). Left in the links, that slip would make the
+    element slide against its own friction torque (create energy) until the slip turns, and
+    sliding the slip's way instead reverses the element's torque for an instant. Both the slip,
+    ``(dT/dt) / k``, and the impulse vanish with the stiffness."""
+    column = mode.B[:, int(tr.element_input[i])]  # state acceleration per unit element torque
+    row = tr.P[i] @ mode.C                        # slip per state
+    q = w[mode.coords] - column * (float(tr.P[i] @ w) / float(row @ column))
+    after = mode.C @ q
+    return after, 0.5 * float(tr.inertia @ (w * w - after * after))
 
 
 def _name(tr, stuck) -> str:

@@ -42,6 +42,7 @@ from .schedule import AutoShift, ShiftEvent, ShiftTemplate, shift_trajectories
 from .signals import Constant
 from .simulate import Powertrain, SolverOptions
 from .file_access import FileAccess
+from .library import bundled_scenarios
 from .scenario_file import MAX_STEPS, Reader, Source, as_float, bounded, read_source, shown
 from .transmission import Transmission
 
@@ -80,12 +81,6 @@ class Scenario:
         result.meta.update({"scenario": str(self.path), "title": self.title, "lockup": list(self.lockup),
                             "input_link": self.mechanism.input, "output_link": self.mechanism.output})
         return result
-
-
-def bundled_scenarios() -> dict[str, Path]:
-    """Name -> path of the scenarios shipped in ``sim/scenarios``."""
-    folder = Path(__file__).parent / "scenarios"
-    return {p.stem: p for p in sorted(folder.glob("*.toml"))}
 
 
 # ----------------------------------------------------------------------------- reading TOML

@@ -41,8 +41,8 @@ def exact(x) -> Rational:
 
 
 def constraint_rows(mech, engaged=()) -> list[tuple[str, dict]]:
-    """``[(name, {link: coefficient})]``: one row per planetary and gear pair, then one per
-    engaged element, each meaning ``sum(coefficient * w_link) = 0`` (housing terms dropped)."""
+    """``[(name, {link: coefficient})]``: one row per planetary and gear pair, one per pair of
+    consecutive central gears of a stepped-pinion set, then one per engaged element, each meaning ``sum(coefficient * w_link) = 0`` (housing terms dropped)."""
     rows: list[tuple[str, dict]] = []
 
     def add(name, terms):
@@ -65,6 +65,13 @@ def constraint_rows(mech, engaged=()) -> list[tuple[str, dict]]:
             add(gp.name, [(gp.link1, n1), (gp.link2, n2)])
         else:  # n1*w1 = n2*w2
             add(gp.name, [(gp.link1, n1), (gp.link2, -n2)])
+    for sp in getattr(mech, "stepped", ()):
+        # every gear X on pinion step k: (w_p - w_c) = g_X * (w_X - w_c), g_X = sigma_X*N_X/Np_k
+        # (sigma -1 sun, +1 ring); one row per pair of consecutive gears
+        g = [(link, (1 if role.startswith("ring") else -1) * Rational(teeth, sp.np1 if role.endswith("1") else sp.np2))
+             for role, link, teeth in sp.members]
+        for (la, ga), (lb, gb) in zip(g, g[1:]):
+            add(f"{sp.name}:{la}:{lb}", [(la, ga), (lb, -gb), (sp.carrier, gb - ga)])
     by_name = {e.name: e for e in mech.elements}
     for name in engaged:
         e = by_name[name]

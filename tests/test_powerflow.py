@@ -79,8 +79,8 @@ def test_lossless_element_torques_match_an_independent_exact_static_solution(nam
 
 def _link_balance_residuals(mech, g):
     """The torque balance of every link, written from the Mechanism: T_in on the input, -T_out
-    on the output, -t/+t of each element on its LINK1/LINK2, minus the torque each planetary
-    member and gear exerts on its set."""
+    on the output, -t/+t of each element on its LINK1/LINK2, minus the torque each member of a
+    set (planetary, stepped-pinion set, gear pair) exerts on it."""
     total = {k.name: 0.0 for k in mech.links}
     total[mech.input] += g.input_torque
     total[mech.output] -= g.torque_ratio * g.input_torque
@@ -89,15 +89,15 @@ def _link_balance_residuals(mech, g):
         for link, sign in ((e.link1, -1), (e.link2, 1)):
             if link != HOUSING:
                 total[link] += sign * t
-    for p in mech.planetaries:
-        torques = g.set(p.name).torques
-        for member, port in zip(p.members, ("sun", "ring", "carrier")):
-            if member != HOUSING:
-                total[member] -= torques[port]
-    for pair in mech.gear_pairs:
-        torques = g.set(pair.name).torques
-        total[pair.link1] -= torques["1"]
-        total[pair.link2] -= torques["2"]
+    members = {p.name: dict(zip(("sun", "ring", "carrier"), p.members)) for p in mech.planetaries}
+    members.update({sp.name: {role: link for role, link, _ in sp.members} | {"carrier": sp.carrier}
+                    for sp in mech.stepped})
+    members.update({pair.name: {"1": pair.link1, "2": pair.link2} for pair in mech.gear_pairs})
+    for name, ports in members.items():
+        torques = g.set(name).torques
+        for port, link in ports.items():
+            if link != HOUSING:
+                total[link] -= torques[port]
     return total
 
 

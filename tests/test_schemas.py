@@ -4,6 +4,7 @@ numeric field has a unit in ``units``; every shipped schema is used by some comm
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import jsonschema
 import pytest
@@ -11,6 +12,8 @@ import pytest
 from transgen import __version__
 from transgen.cli import main
 from transgen.schemas import SCHEMA_DIR, json_document, load_schema, schema_names, schema_path, validate
+
+_STEPPED = Path(__file__).parent / "data" / "stepped_test2.mech"
 
 #: each command line with JSON on standard output, and the schema it must carry
 COMMANDS = [
@@ -43,6 +46,15 @@ COMMANDS = [
       "--workers", "1", "-o", "results.csv", "--json"], "transgen.sweep/1"),
     (["optimize", "simple2_upshift", "--workers", "1", "--evaluations", "10", "--population", "9", "--allow-bindup",
       "--max-flare", "1000", "-o", "tuned.toml", "--json"], "transgen.optimize/1"),
+    # the language's constructs through every command: stepped pinions, dogs, alternative gears
+    (["check", str(_STEPPED), "--json"], "transgen.check/1"),
+    (["powerflow", str(_STEPPED), "--json"], "transgen.powerflow/1"),
+    (["powerflow", "zf9hp48", "--input-rpm", "2000", "--max-slip-rpm", "6000", "--design-torque", "480", "--json"],
+     "transgen.powerflow/1"),
+    (["powerflow", "mb7g_tronic", "--json"], "transgen.powerflow/1"),
+    (["lever", str(_STEPPED), "--json"], "transgen.lever/1"),
+    (["lever", "zf9hp48", "--json"], "transgen.lever/1"),
+    (["synthesize", "table", "zf9hp48", "--top", "2", "--json"], "transgen.synthesis_table/1"),
 ]
 
 #: keys whose values are names, counts of things or free-form data, not measured quantities

@@ -8,21 +8,33 @@ import tempfile
 import sys
 from pathlib import Path
 
+import lark
 import pytest
 
 import transgen
-from transgen.grammar_cache import cached_lark
-from transgen.language import _parser, grammar_text, load_mechanism
+from transgen.grammar_cache import parser_module
+from transgen.language import _grammar, grammar_text, load_mechanism
 
 
-def imported_after(code: str) -> set[str]:
-    """Top-level packages in ``sys.modules`` after running ``code`` in a fresh interpreter."""
+def imported_after(code: str, cache: Path | None = None) -> set[str]:
+    """Top-level packages in ``sys.modules`` after running ``code`` in a fresh interpreter
+    (with ``cache`` as the user's cache folder: ``XDG_CACHE_HOME``)."""
     probe = code + "\nimport sys\nprint(' '.join(sorted({m.partition('.')[0] for m in sys.modules})))"
+    env = dict(os.environ, MPLBACKEND="Agg") | ({"XDG_CACHE_HOME": str(cache)} if cache else {})
+    env.pop("TRANSGEN_NO_GRAMMAR_CACHE", None)
     # not from the checkout: `python -c` imports from its working directory first, and a source
     # checkout's transgen folder is not the installed package (sim/ is mapped into it on install)
-    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True,
-                         env=dict(os.environ, MPLBACKEND="Agg"), cwd=tempfile.gettempdir())
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True, env=env,
+                         cwd=tempfile.gettempdir())
     return set(out.stdout.strip().splitlines()[-1].split())
+
+
+@pytest.fixture(scope="module")
+def warm_cache(tmp_path_factory) -> Path:
+    """A cache folder holding the generated parser of ``mech.lark`` (as after a first run)."""
+    cache = tmp_path_factory.mktemp("cache")
+    assert "lark" in imported_after(run_cli(["check", "simple2"]), cache)  # a cold cache builds it with lark
+    return cache
 
 
 def run_cli(argv: list[str]) -> str:
@@ -42,11 +54,52 @@ def test_help_loads_no_numeric_library():
     assert not loaded & {"numpy", "scipy", "sympy", "matplotlib", "networkx", "lark"}
 
 
-@pytest.mark.parametrize("argv", [["check", "ht740"], ["ratios", "ht740"], ["modes", "ht740"], ["matrices", "ht740"]])
-def test_numeric_commands_load_neither_sympy_nor_scipy_nor_matplotlib(argv):
-    loaded = imported_after(run_cli(argv))
-    assert "numpy" in loaded  # the probe sees the command's imports
-    assert not loaded & {"scipy", "sympy", "matplotlib"}
+NUMERIC = [["check", "ht740"], ["ratios", "ht740"], ["modes", "ht740"], ["matrices", "ht740"], ["std", "ht740", "--json"],
+           ["check", "ht740", "--json"], ["ratios", "zf8hp70", "--json"], ["modes", "ht740", "--all", "--json"],
+           ["matrices", "ht740", "--list-coordinates"]]
+
+
+@pytest.mark.parametrize("argv", NUMERIC, ids=" ".join)
+def test_numeric_commands_load_numpy_alone(argv, warm_cache):
+    """The numeric pipeline works on plain arrays and the BondGraph: no networkx (only for the
+    graph as a product: drawing, DOT, GraphML), no lark (the generated parser), no scipy, sympy
+    or matplotlib."""
+    loaded = imported_after(run_cli(argv), warm_cache)
+    assert "numpy" in loaded and "transgen" in loaded  # the probe sees the command's imports
+    assert not loaded & {"networkx", "lark", "scipy", "sympy", "matplotlib"}
+
+
+@pytest.mark.parametrize("argv", [["list"], ["list", "--json"], ["simulate", "--list"]], ids=" ".join)
+def test_listing_loads_no_numeric_library(argv, warm_cache):
+    loaded = imported_after(run_cli(argv), warm_cache)
+    assert not loaded & {"numpy", "scipy", "sympy", "matplotlib", "networkx", "lark"}
+
+
+def test_the_graph_as_a_product_is_networkx(warm_cache, tmp_path):
+    loaded = imported_after(run_cli(["graph", "ht740", "-o", str(tmp_path / "g.dot")]), warm_cache)
+    assert "networkx" in loaded and not loaded & {"lark", "scipy", "sympy"}
+
+
+BLAS_THREADS = ("import threadpoolctl\n"
+                "print(sorted({i['num_threads'] for i in threadpoolctl.threadpool_info() if i['user_api'] == 'blas'}))\n")
+
+
+def _blas_threads(code: str, **env: str) -> str:
+    out = subprocess.run([sys.executable, "-c", code + BLAS_THREADS], capture_output=True, text=True, check=True,
+                         env={k: v for k, v in os.environ.items() if not k.endswith("_NUM_THREADS")} | env,
+                         cwd=tempfile.gettempdir())
+    return out.stdout.strip().splitlines()[-1]
+
+
+def test_the_command_line_starts_the_blas_with_one_thread():
+    """No thread pool to start for small linear algebra (transgen.blas.one_thread_from_start); a
+    user's own setting is kept, and a program that loaded numpy before calling main keeps its BLAS."""
+    many = _blas_threads("import numpy\n", OPENBLAS_NUM_THREADS="2")
+    if many == "[]":
+        pytest.skip("no BLAS that threadpoolctl knows")
+    assert _blas_threads(run_cli(["check", "simple2"])) == "[1]"
+    assert _blas_threads(run_cli(["check", "simple2"]), OPENBLAS_NUM_THREADS="2", MKL_NUM_THREADS="2") == many
+    assert _blas_threads("import numpy\n" + run_cli(["check", "simple2"])) == _blas_threads("import numpy\n")
 
 
 def test_the_package_names_still_resolve():
@@ -60,23 +113,66 @@ def test_grammar_cache_round_trip_and_a_broken_file_is_rebuilt(tmp_path, monkeyp
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
     monkeypatch.delenv("TRANSGEN_NO_GRAMMAR_CACHE", raising=False)
     options = dict(parser="lalr", propagate_positions=True, maybe_placeholders=False)
-    built = cached_lark(grammar_text(), **options)
-    (saved,) = (tmp_path / "transgen").glob("*.pickle")
-    loaded = cached_lark(grammar_text(), **options)
+    built = parser_module(grammar_text(), **options)
+    (saved,) = (tmp_path / "transgen").glob("parser-*.py")
+    loaded = parser_module(grammar_text(), **options)
+    assert loaded is not built and loaded.GRAMMAR == grammar_text()
     text = (Path(__file__).resolve().parents[1] / "mechanisms" / "coupled_clutches.mech").read_text(encoding="utf-8")
-    assert loaded.parse(text) == built.parse(text)
-    assert loaded.options.propagate_positions
-    saved.write_bytes(b"truncated")
-    rebuilt = cached_lark(grammar_text(), **options)
-    assert rebuilt.parse(text) == built.parse(text)
-    assert saved.stat().st_size > 100
+    tree = lark.Lark(grammar_text(), **options).parse(text)
+    for module in (built, loaded):
+        parser = module.Lark_StandAlone()
+        assert parser.options.propagate_positions and not parser.options.maybe_placeholders
+        assert _same_tree(parser.parse(text), tree)
+    for broken in (b"truncated", saved.read_bytes().replace(b"GRAMMAR = ", b"GRAMMAR = 'x' + ")):
+        saved.write_bytes(broken)
+        rebuilt = parser_module(grammar_text(), **options)
+        assert _same_tree(rebuilt.Lark_StandAlone().parse(text), tree)
+        assert saved.stat().st_size > 1000 and b"GRAMMAR = 'x'" not in saved.read_bytes()
+
+
+def test_a_cache_that_cannot_be_written_costs_only_the_build(tmp_path, monkeypatch):
+    blocked = tmp_path / "not-a-folder"
+    blocked.write_text("a file where the cache folder would be")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(blocked))
+    monkeypatch.delenv("TRANSGEN_NO_GRAMMAR_CACHE", raising=False)
+    module = parser_module(grammar_text(), parser="lalr", propagate_positions=True, maybe_placeholders=False)
+    assert module.Lark_StandAlone().parse("link A J=1\n").children[0].data == "link"
+    assert blocked.read_text() == "a file where the cache folder would be"
+
+
+def _same_tree(a, b) -> bool:
+    """Trees of the generated parser and of lark (different classes) are equal, with positions."""
+    if isinstance(a, str) or isinstance(b, str):
+        return (isinstance(a, str) and isinstance(b, str) and str(a) == str(b) and a.type == b.type
+                and (a.line, a.column, a.end_line, a.end_column) == (b.line, b.column, b.end_line, b.end_column))
+    return (a.data == b.data and len(a.children) == len(b.children)
+            and (a.meta.line, a.meta.column, a.meta.end_line, a.meta.end_column)
+            == (b.meta.line, b.meta.column, b.meta.end_line, b.meta.end_column)
+            and all(_same_tree(x, y) for x, y in zip(a.children, b.children)))
+
+
+def test_the_generated_parser_reports_syntax_errors_as_lark_does():
+    options = dict(parser="lalr", propagate_positions=True, maybe_placeholders=False)
+    reference = lark.Lark(grammar_text(), **options)
+    generated = _grammar()
+    for text in ("link A J=1\nlink B J=\n", "link A J=1 $\n", "gear 1 = \n", "link\n", "planetary P sun=A ring\n",
+                 'transmission "open\n', "input A B\n", "link A J=1"):
+        with pytest.raises(lark.exceptions.UnexpectedInput) as expected:
+            reference.parse(text)
+        with pytest.raises(generated.UnexpectedInput) as got:
+            generated.parser.parse(text)
+        a, b = expected.value, got.value
+        assert type(a).__name__ == type(b).__name__
+        assert (a.line, a.column, str(getattr(a, "token", "")), getattr(a, "expected", None),
+                getattr(a, "allowed", None)) == (b.line, b.column, str(getattr(b, "token", "")),
+                                                 getattr(b, "expected", None), getattr(b, "allowed", None))
 
 
 def test_a_mechanism_parses_the_same_without_the_cache(monkeypatch):
     cached = load_mechanism("ht740")
     monkeypatch.setenv("TRANSGEN_NO_GRAMMAR_CACHE", "1")
-    _parser.cache_clear()
+    _grammar.cache_clear()
     try:
         assert load_mechanism("ht740") == cached
     finally:
-        _parser.cache_clear()
+        _grammar.cache_clear()

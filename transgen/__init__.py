@@ -2,7 +2,7 @@
 
 The pipeline, one module per stage::
 
-    .mech text --language--> Mechanism (model) --graph--> bond graph (networkx)
+    .mech text --language--> Mechanism (model) --graph--> bond graph (networkx; BondGraph for numbers)
       --kinematics--> DOF, ratios, gear table
       --equations--> per-mode E, F, G --modes--> modes, coordinates
       --statespace--> B, C, D --std--> state-transition diagram --> sim (transgen.sim)

@@ -7,12 +7,32 @@ for a core: small solves then run 1.7-2x slower (``benchmarks/bench_blas_threads
 :func:`single_threaded` limits the BLAS to one thread for the duration of a run (with
 ``threadpoolctl``), where a run starts, not at import: a program that imports transgen keeps its
 own BLAS settings outside transgen's calls, and they are restored when the run ends.
+
+A process that starts with transgen's command line goes further (:func:`one_thread_from_start`):
+its BLAS starts with one thread, so OpenBLAS does not start a thread pool when numpy is imported,
+which cost a numeric command 40-60 ms of its 0.25-0.3 s on a loaded 2-core machine.
 """
 from __future__ import annotations
 
 import functools
+import os
+import sys
 
-__all__ = ["single_threaded", "one_blas_thread"]
+__all__ = ["single_threaded", "one_blas_thread", "one_thread_from_start", "BLAS_THREAD_VARIABLES"]
+
+BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+"""The environment variables that set a BLAS library's threads when it is loaded."""
+
+
+def one_thread_from_start() -> None:
+    """Before numpy is imported: the BLAS libraries will start with one thread (each variable of
+    :data:`BLAS_THREAD_VARIABLES` the user has not set is set to 1, and child processes inherit
+    it). Nothing once numpy is loaded (a program that calls the command line in-process keeps its
+    BLAS as it is)."""
+    if "numpy" in sys.modules:
+        return
+    for name in BLAS_THREAD_VARIABLES:
+        os.environ.setdefault(name, "1")
 
 
 def single_threaded(*preload: str):

@@ -207,8 +207,7 @@ def _symbolic_progress(i: int, n: int, mode) -> None:
 
 
 def cmd_matrices(args) -> int:
-    from .export import write_state_space
-    from .graph import build_graph, link_nodes
+    from .graph import bond_graph, link_nodes
     from .modes import mode_models, valid_coordinate_sets
     from .statespace import matrices_document, state_space
 
@@ -219,7 +218,7 @@ def cmd_matrices(args) -> int:
     if progress is not None:
         print(file=sys.stderr)
     if args.list_coordinates:
-        sets = valid_coordinate_sets(models, link_nodes(build_graph(mech)))
+        sets = valid_coordinate_sets(models, link_nodes(bond_graph(mech)))
         if args.json:
             print_document("transgen.coordinates/1",
                         {"mechanism": mech.name, "valid_coordinates": [list(s) for s in sets]}, {})
@@ -242,6 +241,8 @@ def cmd_matrices(args) -> int:
 
         print(dumps(matrices_document(ss)))
         return 0
+    from .export import write_state_space
+
     write_state_space(ss, args.output, args.format)
     print(f"wrote {args.output}: {len(ss.modes)} modes, coordinates {', '.join(ss.coordinates)}")
     return 0
@@ -487,6 +488,9 @@ def main(argv: list[str] | None = None) -> int:
     """Run the command line; return the exit code."""
     import signal
 
+    from .blas import one_thread_from_start
+
+    one_thread_from_start()  # small linear algebra: no BLAS thread pool to start (transgen.blas)
     if signal.getsignal(signal.SIGTERM) is signal.SIG_DFL:
         with contextlib.suppress(ValueError):  # not the main thread
             signal.signal(signal.SIGTERM, _terminate)

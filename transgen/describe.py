@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from .equations import diagnose_singular, locking_groups
-from .graph import build_graph
+from .graph import bond_graph
 from .kinematics import analyze, engaged_combinations
 from .model import Mechanism
 from .modes import mode_models, neutral_note
@@ -16,7 +16,8 @@ def _capacity(x: float):
 
 MECHANISM_UNITS = {"J": "kg*m^2", "static": "N*m", "dynamic": "N*m", "Ns": "1", "Nr": "1",
                    "n1": "1 (by = teeth) or m (by = radius)", "n2": "1 (by = teeth) or m (by = radius)",
-                   "ratio": "1", "eta0": "1", "eta": "1", "max_slip_rpm": "rpm"}
+                   "ratio": "1", "eta0": "1", "eta": "1", "max_slip_rpm": "rpm", "Np1": "1", "Np2": "1",
+                   "teeth": "1"}
 """Units of the numeric fields of :func:`mechanism_to_dict` (``static`` None: no limit)."""
 
 MODES_UNITS = {"dof": "1", "kinematic_dof": "1", "combinations": "1", "of": "1", "max_engaged": "1"}
@@ -30,7 +31,7 @@ def mechanism_to_dict(m: Mechanism) -> dict:
         "source": m.source,
         "links": [{"name": k.name, "J": k.inertia} for k in m.links],
         "stepped": [
-            {"name": sp.name, "carrier": sp.carrier, "Np1": sp.np1, "Np2": sp.np2,
+            {"name": sp.name, "carrier": sp.carrier, "Np1": sp.np1, "Np2": sp.np2, "eta0": sp.eta0,
              "members": [{"role": role, "link": link, "teeth": teeth} for role, link, teeth in sp.members]}
             for sp in m.stepped
         ],
@@ -67,7 +68,7 @@ def modes_report(mech: Mechanism, which: str = "auto") -> dict:
     parallel (same two links) that lock one motion as one constraint — not a problem: the
     motion is unique, the simulator splits their torque by its documented rule."""
     models = mode_models(mech, which)
-    g = build_graph(mech)
+    g = bond_graph(mech)
     tie_ups, non_unique, massless = [], [], []
     combos = engaged_combinations(mech.element_names)
     for combo in combos:

@@ -37,14 +37,17 @@ same equations stay beside their one assembly, so that both back-ends read one s
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-import networkx as nx
 import numpy as np
 
 from .errors import ModeError
 from .graph import TRANSFORMER_KINDS, coefficient, element_nodes, link_nodes, transformer_ports
 from .kinematics import constraint_matrix, constraints, null_space, numeric_rank
 from .model import HOUSING
+
+if TYPE_CHECKING:
+    from .graph import Graph
 
 __all__ = ["ModeEquations", "LockingGroup", "locking_groups", "locked_constraints", "complete_locked", "input_names",
            "assemble", "solve", "diagnose_singular", "symbols_of", "kinematic_basis"]
@@ -75,7 +78,7 @@ class LockingGroup:
         return self.members[0]
 
 
-def _grouped(g: nx.DiGraph, names) -> tuple[LockingGroup, ...]:
+def _grouped(g: Graph, names) -> tuple[LockingGroup, ...]:
     """``names`` (shift elements) grouped by the pair of links they join, in order of first
     appearance."""
     groups: dict[frozenset, list[tuple[str, tuple[str, str]]]] = {}
@@ -86,13 +89,13 @@ def _grouped(g: nx.DiGraph, names) -> tuple[LockingGroup, ...]:
                  for items in groups.values())
 
 
-def locking_groups(g: nx.DiGraph) -> tuple[LockingGroup, ...]:
+def locking_groups(g: Graph) -> tuple[LockingGroup, ...]:
     """Every shift element in exactly one :class:`LockingGroup` (most are alone), ordered by
     their first member's declaration."""
     return _grouped(g, element_nodes(g))
 
 
-def locked_constraints(g: nx.DiGraph, locked) -> tuple[LockingGroup, ...]:
+def locked_constraints(g: Graph, locked) -> tuple[LockingGroup, ...]:
     """The constraints of a mode: its locked elements grouped by :func:`locking_groups`, in the
     order of first appearance in ``locked``; each group's first member is its *representative*
     (the element whose ``alpha_1 = alpha_2`` row and torque unknown the equations carry)."""
@@ -133,13 +136,13 @@ class ModeEquations:
         return self.G[self.n_links + self.n_locked :, :]
 
 
-def input_names(g: nx.DiGraph) -> tuple[str, ...]:
+def input_names(g: Graph) -> tuple[str, ...]:
     """Names of the inputs ``u``: external torques, then every shift element's torque."""
     sources = [n for n, d in g.nodes(data=True) if d["kind"] == "source"]
     return tuple(sources) + tuple(f"t_{e}" for e in element_nodes(g))
 
 
-def symbols_of(g: nx.DiGraph, which: str = "all") -> dict:
+def symbols_of(g: Graph, which: str = "all") -> dict:
     """Values for the symbolic back-end: sympy symbols for the transformer parameters (tooth
     counts ``Ns_P1``, radii ``r1_G``) and the nonzero inertias (``J_<link>``); massless links
     keep an exact 0. ``which="inertias"`` keeps the gear geometry as exact rational numbers and
@@ -157,7 +160,7 @@ def symbols_of(g: nx.DiGraph, which: str = "all") -> dict:
     return values
 
 
-def _numeric_values(g: nx.DiGraph) -> dict:
+def _numeric_values(g: Graph) -> dict:
     values = {}
     for node, data in g.nodes(data=True):
         values.update(data.get("params", {}))
@@ -166,7 +169,7 @@ def _numeric_values(g: nx.DiGraph) -> dict:
     return values
 
 
-def assemble(g: nx.DiGraph, locked=(), symbolic: bool | str = False) -> ModeEquations:
+def assemble(g: Graph, locked=(), symbolic: bool | str = False) -> ModeEquations:
     """Assemble ``E`` and ``F`` of the mode with the elements ``locked`` from the graph.
 
     Elements in parallel (:func:`locked_constraints`) lock one motion: the group has one
@@ -241,7 +244,7 @@ def assemble(g: nx.DiGraph, locked=(), symbolic: bool | str = False) -> ModeEqua
     return ModeEquations(locked, z, u, E, F, len(links), len(reps), groups=groups)
 
 
-def solve(eq: ModeEquations, g: nx.DiGraph) -> ModeEquations:
+def solve(eq: ModeEquations, g: Graph) -> ModeEquations:
     """``G = -E^-1 F``: LU with partial pivoting (numeric) or exact sparse elimination (symbolic).
 
     Raises :class:`ModeError` naming the massless links whose motion is undetermined or the
@@ -288,7 +291,7 @@ def solve(eq: ModeEquations, g: nx.DiGraph) -> ModeEquations:
     return ModeEquations(eq.locked, eq.z, eq.u, eq.E, eq.F, eq.n_links, eq.n_locked, G, eq.groups)
 
 
-def complete_locked(g: nx.DiGraph, locked) -> tuple[str, ...]:
+def complete_locked(g: Graph, locked) -> tuple[str, ...]:
     """``locked`` with the one-way clutches in parallel with a locked element added (in
     declaration order, after the given ones): a one-way clutch whose motion is held is engaged —
     it holds in its locking direction whenever its group does — so a mode that locks a group
@@ -300,7 +303,7 @@ def complete_locked(g: nx.DiGraph, locked) -> tuple[str, ...]:
     return locked + extra
 
 
-def diagnose_singular(g: nx.DiGraph, locked=()) -> str:
+def diagnose_singular(g: Graph, locked=()) -> str:
     """Why the mode's equations have no unique solution, or ``""`` when they do.
 
     Two causes: locked elements whose torques are not unique (redundant constraints: the

@@ -34,15 +34,118 @@ read the same graph):
 
 The transformer torques follow from power conservation (eq. 3.36): the torque ``t_k`` a link
 exerts on port ``k`` is proportional to ``c_k``.
+
+:func:`bond_graph` builds the same graph as a :class:`BondGraph`: plain dictionaries read
+through the same calls as the networkx graph (``g.nodes(data=True)``, ``g.nodes[name]``,
+``g.in_edges(node, data=True)``, ``g.edges(data=True)``, ``g.graph``). The numeric pipeline
+(kinematics, equations, modes, state space, STD) reads the graph only through these calls and
+accepts either; it builds a :class:`BondGraph`, since importing networkx costs a numeric command
+more start-up time than numpy does. :func:`build_graph` is that graph converted with
+:meth:`BondGraph.to_networkx`, so the two hold the same nodes, attributes and bonds in the same
+order; networkx is for where the graph is the product (drawing, DOT and GraphML export, graph
+algorithms).
 """
 from __future__ import annotations
 
-import networkx as nx
+from typing import TYPE_CHECKING
 
 from .model import HOUSING, Mechanism, SteppedPlanetary
 
-__all__ = ["build_graph", "transformer_ports", "link_nodes", "element_nodes", "coefficient", "stepped_nodes",
-           "TRANSFORMER_KINDS"]
+if TYPE_CHECKING:
+    import networkx as nx
+
+__all__ = ["build_graph", "bond_graph", "BondGraph", "transformer_ports", "link_nodes", "element_nodes", "coefficient",
+           "stepped_nodes", "TRANSFORMER_KINDS"]
+
+
+class _NodeView:
+    """``g.nodes`` of a :class:`BondGraph`, read as networkx's: iterate the names, ``g.nodes[name]``
+    for the attributes, ``g.nodes(data=True)`` for ``(name, attributes)`` pairs."""
+
+    __slots__ = ("_nodes",)
+
+    def __init__(self, nodes: dict[str, dict]):
+        self._nodes = nodes
+
+    def __call__(self, data: bool = False):
+        return iter(self._nodes.items()) if data else iter(self._nodes)
+
+    def __getitem__(self, name: str) -> dict:
+        return self._nodes[name]
+
+    def __iter__(self):
+        return iter(self._nodes)
+
+    def __len__(self) -> int:
+        return len(self._nodes)
+
+    def __contains__(self, name) -> bool:
+        return name in self._nodes
+
+
+class BondGraph:
+    """A directed graph of named nodes with attribute dictionaries, at most one bond (edge) per
+    ordered pair of nodes, kept in insertion order: the mechanism graph without networkx
+    (see the module docstring). Read it as a ``networkx.DiGraph``; :meth:`to_networkx` converts it."""
+
+    __slots__ = ("graph", "_nodes", "_succ", "_pred", "_bonds", "nodes")
+
+    def __init__(self, **attr):
+        self.graph = dict(attr)
+        self._nodes: dict[str, dict] = {}
+        self._succ: dict[str, dict[str, dict]] = {}
+        self._pred: dict[str, dict[str, dict]] = {}
+        self._bonds: dict[tuple[str, str], dict] = {}  # in the order they were added
+        self.nodes = _NodeView(self._nodes)
+
+    def add_node(self, name: str, **attr) -> None:
+        """Add ``name`` (or update its attributes), as ``networkx.DiGraph.add_node``."""
+        if name not in self._nodes:
+            self._nodes[name] = {}
+            self._succ[name], self._pred[name] = {}, {}
+        self._nodes[name].update(attr)
+
+    def add_edge(self, u: str, v: str, **attr) -> None:
+        """Add the bond ``u -> v`` (missing nodes too; an existing bond's attributes are updated),
+        as ``networkx.DiGraph.add_edge``."""
+        for name in (u, v):
+            if name not in self._nodes:
+                self.add_node(name)
+        data = self._succ[u].get(v)
+        if data is None:
+            data = self._succ[u][v] = self._pred[v][u] = self._bonds[u, v] = {}
+        data.update(attr)
+
+    def in_edges(self, node: str, data: bool = False) -> list[tuple]:
+        """Bonds into ``node``: ``(u, node)``, or ``(u, node, attributes)`` with ``data``."""
+        return [(u, node, d) if data else (u, node) for u, d in self._pred[node].items()]
+
+    def out_edges(self, node: str, data: bool = False) -> list[tuple]:
+        """Bonds out of ``node``: ``(node, v)``, or ``(node, v, attributes)`` with ``data``."""
+        return [(node, v, d) if data else (node, v) for v, d in self._succ[node].items()]
+
+    def edges(self, data: bool = False) -> list[tuple]:
+        """Every bond, by source node in node order (networkx's order)."""
+        return [edge for node in self._nodes for edge in self.out_edges(node, data)]
+
+    @property
+    def name(self) -> str:
+        return self.graph.get("name", "")
+
+    def to_networkx(self) -> nx.DiGraph:
+        """The same graph as a ``networkx.DiGraph`` (same nodes, bonds, attributes and orders)."""
+        import networkx as nx
+
+        g = nx.DiGraph(**self.graph)
+        for name, attr in self._nodes.items():
+            g.add_node(name, **attr)
+        for (u, v), attr in self._bonds.items():  # as added: the same order of predecessors
+            g.add_edge(u, v, **attr)
+        return g
+
+
+if TYPE_CHECKING:  # what the numeric pipeline accepts (for annotations)
+    Graph = BondGraph | nx.DiGraph
 
 
 def _pname(key: str, owner: str) -> str:
@@ -50,8 +153,14 @@ def _pname(key: str, owner: str) -> str:
 
 
 def build_graph(mech: Mechanism) -> nx.DiGraph:
-    """The bond-graph-like graph of ``mech`` (see the module docstring for its vocabulary)."""
-    g = nx.DiGraph(name=mech.name, input=mech.input, output=mech.output)
+    """The bond-graph-like graph of ``mech`` as a ``networkx.DiGraph`` (see the module docstring
+    for its vocabulary): :func:`bond_graph` converted."""
+    return bond_graph(mech).to_networkx()
+
+
+def bond_graph(mech: Mechanism) -> BondGraph:
+    """The bond-graph-like graph of ``mech`` as a :class:`BondGraph` (no networkx import)."""
+    g = BondGraph(name=mech.name, input=mech.input, output=mech.output)
     for link in mech.links:
         g.add_node(link.name, kind="link", J=link.inertia, label=f"1\n{link.name}")
     g.add_node(HOUSING, kind="housing", label="Sf=0")
@@ -94,7 +203,7 @@ def stepped_nodes(sp: SteppedPlanetary) -> list[str]:
     return [sp.name if i == 0 else f"{sp.name}/{role}" for i, (role, _, _) in enumerate(sp.members[1:])]
 
 
-def _add_stepped(g: nx.DiGraph, sp: SteppedPlanetary) -> None:
+def _add_stepped(g: BondGraph, sp: SteppedPlanetary) -> None:
     """One three-port transformer per constraint of ``sp`` (see
     :class:`~transgen.model.SteppedPlanetary`): member ``A`` (the first), member ``B``, carrier,
     with coefficients ``sigma_A*N_A*Np_b``, ``-sigma_B*N_B*Np_a`` and minus their sum."""
@@ -117,17 +226,17 @@ def _add_stepped(g: nx.DiGraph, sp: SteppedPlanetary) -> None:
             g.add_edge(member, node, bond="port", port=port, terms=terms[port])
 
 
-def link_nodes(g: nx.DiGraph) -> list[str]:
+def link_nodes(g: Graph) -> list[str]:
     """Links (1-junctions) in declaration order."""
     return [n for n, d in g.nodes(data=True) if d["kind"] == "link"]
 
 
-def element_nodes(g: nx.DiGraph) -> list[str]:
+def element_nodes(g: Graph) -> list[str]:
     """Shift elements in declaration order."""
     return [n for n, d in g.nodes(data=True) if d["kind"] in ("clutch", "brake", "oneway", "dog")]
 
 
-def transformer_ports(g: nx.DiGraph, node: str) -> list[tuple[str, str, tuple]]:
+def transformer_ports(g: Graph, node: str) -> list[tuple[str, str, tuple]]:
     """``(link, port, terms)`` of a transformer node, in port order."""
     ports = [(u, d["port"], d["terms"]) for u, _, d in g.in_edges(node, data=True) if d.get("bond") == "port"]
     return sorted(ports, key=lambda p: _PORT_ORDER[p[1]])

@@ -21,13 +21,16 @@ import itertools
 import math
 import warnings
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
-import networkx as nx
 import numpy as np
 
 from .errors import CombinationLimitWarning, Diagnostic
-from .graph import TRANSFORMER_KINDS, build_graph, coefficient, element_nodes, link_nodes, transformer_ports
+from .graph import TRANSFORMER_KINDS, bond_graph, coefficient, element_nodes, link_nodes, transformer_ports
 from .model import HOUSING, Mechanism
+
+if TYPE_CHECKING:
+    from .graph import Graph
 
 __all__ = [
     "Constraint",
@@ -62,14 +65,14 @@ class Constraint:
     coeffs: dict = field(compare=False)
 
 
-def _values(g: nx.DiGraph) -> dict:
+def _values(g: Graph) -> dict:
     values = {}
     for _, data in g.nodes(data=True):
         values.update(data.get("params", {}))
     return values
 
 
-def constraints(g: nx.DiGraph, locked=(), values: dict | None = None) -> list[Constraint]:
+def constraints(g: Graph, locked=(), values: dict | None = None) -> list[Constraint]:
     """Kinematic constraints of the graph with the shift elements ``locked`` engaged.
 
     ``values`` maps the transformer parameters (``Ns_P1``, ``N1_G``, ...) to numbers (default:
@@ -90,7 +93,7 @@ def constraints(g: nx.DiGraph, locked=(), values: dict | None = None) -> list[Co
     return rows
 
 
-def constraint_matrix(g: nx.DiGraph, locked=()) -> np.ndarray:
+def constraint_matrix(g: Graph, locked=()) -> np.ndarray:
     """Numeric constraint matrix ``A`` (rows: transformers, then locked elements; columns: links)."""
     links = link_nodes(g)
     index = {name: i for i, name in enumerate(links)}
@@ -141,9 +144,9 @@ class Combination:
     detail: str = ""
 
 
-def analyze(mech: Mechanism, engaged=(), graph: nx.DiGraph | None = None) -> Combination:
+def analyze(mech: Mechanism, engaged=(), graph: Graph | None = None) -> Combination:
     """Degrees of freedom, ratio and kind of ``mech`` with the elements ``engaged``."""
-    g = build_graph(mech) if graph is None else graph
+    g = bond_graph(mech) if graph is None else graph
     links = link_nodes(g)
     a = constraint_matrix(g, engaged)
     basis = null_space(a, len(links))
@@ -196,7 +199,7 @@ def engaged_combinations(names, limit: int = MAX_COMBINATIONS) -> list[tuple[str
 def combinations(mech: Mechanism, max_engaged: int | None = None) -> list[Combination]:
     """Every combination of engaged shift elements (all 2^k, or up to ``max_engaged``; at most
     :data:`MAX_COMBINATIONS`, see :func:`engaged_combinations`)."""
-    g = build_graph(mech)
+    g = bond_graph(mech)
     names = element_nodes(g)
     if max_engaged is None:
         return [analyze(mech, combo, g) for combo in engaged_combinations(names)]
@@ -206,7 +209,7 @@ def combinations(mech: Mechanism, max_engaged: int | None = None) -> list[Combin
 
 def gear_ratios(mech: Mechanism) -> dict[str, float | None]:
     """Input/output speed ratio of every declared gear (``None`` where not determined)."""
-    g = build_graph(mech)
+    g = bond_graph(mech)
     return {gear.name: analyze(mech, gear.engaged, g).ratio for gear in mech.gears if gear.kind == "gear"}
 
 
@@ -312,7 +315,7 @@ class GearTable:
 
 def gear_table(mech: Mechanism, all_combinations: bool = True) -> GearTable:
     """Analyse the declared gears and (optionally) every combination of engaged elements."""
-    g = build_graph(mech)
+    g = bond_graph(mech)
     rows = [GearRow(gear.name, gear.kind, gear.engaged, analyze(mech, gear.engaged, g), None, gear.ratio,
                     gear.tolerance, gear.rounding, gear.alternative)
             for gear in mech.gears]
@@ -370,14 +373,14 @@ def check_gears(mech: Mechanism, published: bool = True) -> list[Diagnostic]:
     return problems
 
 
-def link_speeds(mech: Mechanism, engaged=(), graph: nx.DiGraph | None = None) -> dict[str, float | None]:
+def link_speeds(mech: Mechanism, engaged=(), graph: Graph | None = None) -> dict[str, float | None]:
     """Speed of every link per unit input speed with the elements ``engaged`` (``w_link / w_in``).
 
     Links whose speed the input speed does not fix (floating members, or every link but the
     input in a neutral) get ``None``; the input link gets 1. Raises ``ValueError`` when the
     combination holds the input (a tie-up, or the input braked).
     """
-    g = build_graph(mech) if graph is None else graph
+    g = bond_graph(mech) if graph is None else graph
     links = link_nodes(g)
     a = constraint_matrix(g, engaged)
     basis = null_space(a, len(links))

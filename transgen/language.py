@@ -3,8 +3,9 @@
 Parsing happens in three steps, each a plain function:
 
 1. :func:`parse_tree` parses the text with the lark grammar ``grammars/mech.lark`` (LALR, with
-   positions). A syntax error in one line does not hide those in the others: since every
-   statement is one line, the lines are re-parsed one by one to report them all.
+   positions; lark's generated standalone parser, see :mod:`transgen.grammar_cache`). A syntax
+   error in one line does not hide those in the others: since every statement is one line, the
+   lines are re-parsed one by one to report them all.
 2. :func:`_read_statements` turns the tree into statement records, checking each statement's
    parameters (known keys, types, ranges).
 3. :func:`_resolve` builds the frozen :class:`Mechanism`, checking names (unknown names with the
@@ -18,19 +19,17 @@ located diagnostics are one pass over the text; splitting them would hand positi
 """
 from __future__ import annotations
 
-import difflib
 import functools
 import math
 import sys
 from dataclasses import dataclass, field
-from importlib import resources
 from pathlib import Path
-
-from lark import Lark, Token, Tree
-from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
+from types import ModuleType
+from typing import TYPE_CHECKING
 
 from .errors import Diagnostic, MechSyntaxError, MechValidationError
-from .grammar_cache import cached_lark
+from .grammar_cache import parser_module
+from .library import package_folder
 from .model import (
     HOUSING,
     ExternalTorque,
@@ -45,6 +44,10 @@ from .model import (
     Span,
     SteppedPlanetary,
 )
+
+if TYPE_CHECKING:
+    from lark import Token, Tree
+    from lark.exceptions import UnexpectedInput
 
 __all__ = ["parse_mechanism", "load_mechanism", "parse_tree", "grammar_text", "format_mechanism"]
 
@@ -63,12 +66,16 @@ RESERVED = frozenset(
 
 def grammar_text() -> str:
     """The text of ``mech.lark`` as installed with the package."""
-    return resources.files("transgen.grammars").joinpath("mech.lark").read_text(encoding="utf-8")
+    return (package_folder("transgen.grammars") / "mech.lark").read_text(encoding="utf-8")
 
 
 @functools.lru_cache(maxsize=1)
-def _parser() -> Lark:
-    return cached_lark(grammar_text(), parser="lalr", propagate_positions=True, maybe_placeholders=False)
+def _grammar() -> ModuleType:
+    """The generated parser module of ``mech.lark`` (:func:`transgen.grammar_cache.parser_module`)
+    with its parser as ``parser``: the tree and the exceptions are that module's classes."""
+    module = parser_module(grammar_text(), parser="lalr", propagate_positions=True, maybe_placeholders=False)
+    module.parser = module.Lark_StandAlone()
+    return module
 
 
 # ---------------------------------------------------------------------------------------------
@@ -103,16 +110,17 @@ def _describe_expected(expected: set[str]) -> str:
 def _syntax_diagnostic(exc: UnexpectedInput, filename: str, lines: list[str], line_offset: int) -> Diagnostic:
     line = (exc.line if exc.line and exc.line > 0 else len(lines)) + line_offset
     column = exc.column if exc.column and exc.column > 0 else 1
-    if isinstance(exc, UnexpectedCharacters):
+    grammar = _grammar()
+    if isinstance(exc, grammar.UnexpectedCharacters):
         char = lines[line - 1][column - 1] if 0 < line <= len(lines) and column <= len(lines[line - 1]) else "?"
         message = f"unexpected character {char!r}"
         if exc.allowed:
             message += f"; expected {_describe_expected(set(exc.allowed))}"
-    elif isinstance(exc, UnexpectedToken):
+    elif isinstance(exc, grammar.UnexpectedToken):
         token = exc.token
         what = "end of line" if token.type == "_NL" else ("end of file" if token.type == "$END" else repr(str(token)))
         message = f"unexpected {what}; expected {_describe_expected(set(exc.expected))}"
-    elif isinstance(exc, UnexpectedEOF):
+    elif isinstance(exc, grammar.UnexpectedEOF):
         message = f"unexpected end of file; expected {_describe_expected(set(exc.expected))}"
     else:  # pragma: no cover - lark has no other kinds
         message = str(exc)
@@ -131,19 +139,21 @@ MAX_SYNTAX_ERRORS = 100
 
 
 def parse_tree(text: str, filename: str = "<string>") -> Tree:
-    """Parse ``.mech`` text into a lark tree; raise :class:`MechSyntaxError` with every bad line."""
+    """Parse ``.mech`` text into a lark tree (the ``Tree`` class of the generated parser, a copy of
+    lark's: :mod:`transgen.grammar_cache`); raise :class:`MechSyntaxError` with every bad line."""
     if not text.endswith("\n"):
         text += "\n"
+    grammar = _grammar()
     try:
-        return _parser().parse(text)
-    except UnexpectedInput:
+        return grammar.parser.parse(text)
+    except grammar.UnexpectedInput:
         pass
     lines = _lines(text)
     diagnostics = []
     for number, line in enumerate(lines, start=1):
         try:
-            _parser().parse(line + "\n")
-        except UnexpectedInput as exc:
+            grammar.parser.parse(line + "\n")
+        except grammar.UnexpectedInput as exc:
             diagnostics.append(_syntax_diagnostic(exc, filename, lines, number - 1))
             if len(diagnostics) == MAX_SYNTAX_ERRORS and number < len(lines):
                 diagnostics.append(Diagnostic(filename, number + 1, 1, f"too many syntax errors: stopped after "
@@ -201,11 +211,11 @@ class _Reporter:
 def _statements(tree: Tree, report: _Reporter) -> list[_Statement]:
     statements = []
     for node in tree.children:
-        if not isinstance(node, Tree):
+        if isinstance(node, str):  # a token (lark's Token is a str), not a statement's tree
             continue
         stmt = _Statement(str(node.data), Span(node.meta.line, node.meta.column), [])
         for child in node.children:
-            if isinstance(child, Token):
+            if isinstance(child, str):  # a Token
                 stmt.words.append(_word(child))
             elif child.data == "param":
                 key, value = child.children
@@ -278,7 +288,8 @@ _PARAMS: dict[str, dict[str, object]] = {
     "dog": {"static": CAPACITY, "max_slip_rpm": SLIP_SPEED},
     "gear": {"ratio": RATIO, "tol": RATIO_TOL, "rounding": ("nearest", "truncated")},
     "stepped": {"carrier": "name", "sun1": "name", "sun2": "name", "ring1": "name", "ring2": "name",
-                "Ns1": TEETH, "Ns2": TEETH, "Nr1": TEETH, "Nr2": TEETH, "Np1": TEETH, "Np2": TEETH},
+                "Ns1": TEETH, "Ns2": TEETH, "Nr1": TEETH, "Nr2": TEETH, "Np1": TEETH, "Np2": TEETH,
+                "eta0": EFFICIENCY},
 }
 _REQUIRED: dict[str, tuple[str, ...]] = {
     "link": ("J",),
@@ -294,6 +305,8 @@ _NOT_FINITE = frozenset({"nan", "inf", "infinity"})
 def _suggest(name: str, known) -> str:
     if len(name) > 100:
         return ""
+    import difflib  # only for a message
+
     close = difflib.get_close_matches(name, list(known), n=1, cutoff=0.5)
     return f"; did you mean '{close[0]}'?" if close else ""
 
@@ -674,7 +687,7 @@ def _stepped(stmt: _Statement, params: dict, report: _Reporter, link_refs: list)
     if len(report.diagnostics) > before or carrier is None:
         return None
     return SteppedPlanetary(name, carrier.text, tuple((r, w.text, t) for r, w, t in members),
-                            params.get("Np1"), params.get("Np2"), stmt.words[0].span)
+                            params.get("Np1"), params.get("Np2"), stmt.words[0].span, eta0=params.get("eta0"))
 
 
 def parse_mechanism(text: str, filename: str = "<string>", unknown_teeth: bool = False) -> Mechanism:
@@ -761,7 +774,7 @@ def format_mechanism(m: Mechanism) -> str:
         members = " ".join(f"{role}={link} {'Ns' if role.startswith('sun') else 'Nr'}{role[-1]}={teeth}"
                            for role, link, teeth in sp.members)
         steps = "".join(f" Np{k}={n}" for k, n in (("1", sp.np1), ("2", sp.np2)) if n is not None)
-        out.append(f"stepped {sp.name} carrier={sp.carrier} {members}{steps}")
+        out.append(f"stepped {sp.name} carrier={sp.carrier} {members}{steps}" + _optional("eta0", sp.eta0))
     for g in m.gear_pairs:
         k1, k2 = ("N1", "N2") if g.by == "teeth" else ("r1", "r2")
         v1, v2 = (int(g.n1), int(g.n2)) if g.by == "teeth" else (_number(g.n1), _number(g.n2))

@@ -1,14 +1,21 @@
 """The bundled library of real transmissions (the ``mechanisms/`` folder)."""
 from __future__ import annotations
 
-from importlib import resources
+import importlib.util
 from pathlib import Path
 
-__all__ = ["bundled_mechanisms", "bundled_path"]
+__all__ = ["bundled_mechanisms", "bundled_path", "package_folder"]
+
+
+def package_folder(package: str) -> Path:
+    """The folder of the data package ``package`` (``"transgen.mechanisms"``) as installed (the
+    package's own path, found without importing ``importlib.resources``, whose import costs
+    start-up time)."""
+    return Path(importlib.util.find_spec(package).submodule_search_locations[0])
 
 
 def _folder() -> Path:
-    return Path(str(resources.files("transgen.mechanisms")))
+    return package_folder("transgen.mechanisms")
 
 
 def bundled_mechanisms() -> dict[str, Path]:

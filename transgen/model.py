@@ -122,6 +122,10 @@ class SteppedPlanetary:
     np1: int | None = None
     np2: int | None = None
     span: Span = _span()
+    eta0: float | None = None
+    """Standing (carrier-fixed) efficiency between two of its central gears (two meshes, one on
+    each of their pinion steps), as a planetary's ``eta0``: see :mod:`transgen.powerflow`;
+    ``None``: the default of :func:`transgen.powerflow.power_flow`."""
 
     def step_teeth(self, role: str) -> int:
         """Teeth of the pinion step the member ``role`` meshes."""

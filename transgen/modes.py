@@ -33,17 +33,20 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
-import networkx as nx
 import numpy as np
 
 from .blas import one_blas_thread
 from .equations import (LockingGroup, ModeEquations, assemble, complete_locked, diagnose_singular, locked_constraints,
                         solve)
 from .errors import ModeError
-from .graph import build_graph
+from .graph import bond_graph
 from .kinematics import analyze, engaged_combinations, numeric_rank
 from .model import Mechanism
+
+if TYPE_CHECKING:
+    from .graph import Graph
 
 __all__ = [
     "Mode",
@@ -119,7 +122,7 @@ def select_modes(mech: Mechanism, which: str = "auto") -> list[Mode]:
     ``"declared"`` or ``"all"``; named M1, M2, ... unless declared with names."""
     if which == "auto":
         which = "declared" if mech.modes else "default"
-    g = build_graph(mech)
+    g = bond_graph(mech)
     if which == "declared":
         return [Mode(d.name, complete_locked(g, d.locked), "declared") for d in mech.modes]
     if which == "all":
@@ -166,12 +169,12 @@ def select_modes(mech: Mechanism, which: str = "auto") -> list[Mode]:
     return [Mode(f"M{i + 1}", locked, _join_labels(labels[frozenset(locked)])) for i, locked in enumerate(order)]
 
 
-def default_neutral(mech: Mechanism, first, reverse, graph: nx.DiGraph | None = None) -> tuple[str, ...] | None:
+def default_neutral(mech: Mechanism, first, reverse, graph: Graph | None = None) -> tuple[str, ...] | None:
     """The neutral between first gear ``first`` and reverse gear ``reverse``: the elements they
     share (possibly none: everything open), whatever their DOF (a shift from first to reverse
     through neutral releases every other element), or ``None`` when those elements do not make
     a neutral (the input held, or a ratio fixed) or leave a massless member undetermined."""
-    g = build_graph(mech) if graph is None else graph
+    g = bond_graph(mech) if graph is None else graph
     common = tuple(e for e in first if e in reverse)
     if analyze(mech, common, g).kind != "neutral" or diagnose_singular(g, complete_locked(g, common)):
         return None
@@ -183,7 +186,7 @@ def neutral_note(mech: Mechanism) -> str:
     (or declares its modes, or has no forward gear)."""
     if mech.modes or mech.neutrals:
         return ""
-    g = build_graph(mech)
+    g = bond_graph(mech)
     gears = [(gear, analyze(mech, gear.engaged, g).ratio) for gear in mech.gears if gear.kind == "gear"
              and not gear.alternative]
     forward = [gear for gear, r in gears if not (r is not None and r < 0)]
@@ -217,12 +220,12 @@ def _join_labels(labels: list[str]) -> str:
     return "; ".join(out)
 
 
-def mode_model(mech: Mechanism, mode: Mode, graph: nx.DiGraph | None = None,
+def mode_model(mech: Mechanism, mode: Mode, graph: Graph | None = None,
                symbolic: bool | str = False) -> ModeModel:
     """Kinematics and solved equations of ``mode``; a mode that cannot be solved keeps
     ``equations=None`` and says why in ``problem``. ``symbolic`` (True, ``"all"`` or
     ``"inertias"``) also solves the symbolic equations (:func:`transgen.equations.assemble`)."""
-    g = build_graph(mech) if graph is None else graph
+    g = bond_graph(mech) if graph is None else graph
     combo = analyze(mech, mode.locked, g)
     groups = locked_constraints(g, mode.locked)
     problem = diagnose_singular(g, mode.locked)
@@ -245,7 +248,7 @@ def mode_models(mech: Mechanism, which: str = "auto", symbolic: bool | str = Fal
     """:func:`mode_model` of every mode of :func:`select_modes`; ``progress(i, n, mode)``, if
     given, is called before each of the ``n`` modes (symbolic solves take seconds each). The
     small dense linear algebra uses one BLAS thread (:mod:`transgen.blas`)."""
-    g = build_graph(mech)
+    g = bond_graph(mech)
     modes = select_modes(mech, which)
     out = []
     for i, m in enumerate(modes):

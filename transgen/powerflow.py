@@ -44,7 +44,21 @@ planet-ring through the planet-planet mesh), e.g. ``0.98 * 0.99``: state it per 
 is the same with the housing as carrier and its mesh efficiency ``eta`` (``gears ... eta=0.99``;
 default :data:`DEFAULT_ETA_PAIR`, or the global ``eta0`` when one is given: a gear pair is a
 train whose carrier is the housing, so that ``eta0=1`` alone is lossless); the reaction goes into
-the housing. A set without relative motion (all members at one speed) or without torque is
+the housing.
+
+A **stepped-pinion set** (``stepped``) has one mesh per central gear, each on the pinion step it
+meshes. Its ``eta0`` (``stepped ... eta0=``, else the planetaries' default) is, as for a planetary,
+the standing efficiency between two of its central gears in the carrier frame: two meshes, each of
+efficiency ``sqrt(eta0)``. With ``r_X = sigma_X*Np_k/N_X`` the speed of gear ``X`` relative to the
+pinion's (both in the carrier frame; ``sigma`` -1 sun, +1 ring) and ``f_X = sqrt(eta0)`` when
+``X`` feeds power into the pinion (``t_X*(w_X - w_c) > 0``), ``1/sqrt(eta0)`` when it takes power
+out, the massless pinion and set give ``sum_X f_X*r_X*t_X = 0`` and ``sum t = 0`` (carrier
+included). A two-gear set is thus Müller's planetary with the basic ratio of its steps (ring
+fixed, sun in: ``eta = (1 + eta0*k)/(1 + k)``, ``k = Nr*Np_s/(Ns*Np_r)``; equal steps: the simple
+planetary), and a set with three or four gears loses ``sqrt(eta0)`` per loaded mesh. A dog
+element, when locked, carries torque as a clutch does (its suggested capacity has no dynamic
+part); open, its slip is reported and checked against its ``max_slip_rpm`` like any element's.
+Alternative gears are analysed and marked. A set without relative motion (all members at one speed) or without torque is
 lossless, and so is a set with a floating member (one the input speed does not fix: its relative
 speeds are undetermined, and it carries no torque in the bundled and the randomly generated
 gears). The power directions are first taken from the lossless solution and then iterated until
@@ -64,16 +78,20 @@ the sliding to the static friction coefficient, default 0.85) times it.
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from .graph import Graph
+
 import itertools
 import math
 from dataclasses import dataclass, field
 
-import networkx as nx
 import numpy as np
 
 from .equations import assemble, complete_locked, locked_constraints
 from .errors import TransgenError
-from .graph import build_graph, coefficient, link_nodes, transformer_ports
+from .graph import bond_graph, coefficient, link_nodes, stepped_nodes, transformer_ports
 from .kinematics import analyze, link_speeds, numeric_rank
 from .model import HOUSING, Mechanism
 
@@ -119,14 +137,17 @@ class PowerFlowConvergenceError(TransgenError, RuntimeError):
 
 @dataclass(frozen=True)
 class SetFlow:
-    """One transformer (planetary set or gear pair) in one gear, per unit input torque and speed.
+    """One transformer (planetary set, stepped-pinion set or gear pair) in one gear, per unit
+    input torque and speed.
 
     ``torques[port]``: the torque the member's link exerts on the set (the link feels the
-    opposite), ports ``sun``/``ring``/``carrier`` or ``1``/``2``; ``powers[port] = t * w`` the power
+    opposite), ports ``sun``/``ring``/``carrier``, a stepped set's ``sun1``/``ring2``/.../``carrier``
+    (summed over its constraint nodes) or ``1``/``2``; ``powers[port] = t * w`` the power
     the member feeds into the set (per unit input power); ``throughput`` the sum of the positive
     ones; ``loss`` the power lost in the meshes (``sum(powers)``, >= 0); ``eta`` the standing or
-    mesh efficiency applied; ``driving`` the member that drives in the carrier frame (``None``:
-    no relative motion or no torque, lossless).
+    mesh efficiency applied; ``driving`` the member that drives in the carrier frame (a stepped
+    set: every gear that feeds power into the pinion, joined by ``+``; ``None``: no relative
+    motion or no torque, lossless).
     """
 
     name: str
@@ -169,6 +190,8 @@ class GearFlow:
     overspeed: tuple[str, ...] = ()
     warnings: tuple[str, ...] = ()
     input_torque: float = 1.0
+    alternative: bool = False
+    """An alternative gear of the table (``gear ... alternative``): outside the step sequence."""
 
     @property
     def set_power(self) -> dict[str, float]:
@@ -252,7 +275,7 @@ class PowerFlow:
     def to_dict(self) -> dict:
         """The JSON form of ``transgen powerflow --json``."""
         m = self.mechanism
-        planetaries = {p.name for p in m.planetaries}
+        planetaries = {p.name for p in m.planetaries} | {sp.name for sp in m.stepped}
         return {
             "mechanism": m.name,
             "input": m.input,
@@ -263,7 +286,8 @@ class PowerFlow:
             "input_rpm": self.input_rpm,
             "max_slip_rpm": self.max_slip_rpm,
             "gears": [
-                {"name": g.name, "engaged": list(g.engaged), "ratio": g.ratio, "torque_ratio": g.torque_ratio,
+                {"name": g.name, "alternative": g.alternative, "engaged": list(g.engaged), "ratio": g.ratio,
+                 "torque_ratio": g.torque_ratio,
                  "input_torque": g.input_torque,
                  "efficiency": g.efficiency, "losses": g.losses, "circulating_power": g.circulating_power,
                  "iterations": g.iterations, "element_torques": dict(g.element_torques),
@@ -307,6 +331,8 @@ def _efficiencies(mech: Mechanism, eta0: float | None, eta_pair: float | None) -
     a gear pair ``eta_pair``, else ``eta0``), else the default."""
     out = {p.name: p.eta0 if p.eta0 is not None else (eta0 if eta0 is not None else DEFAULT_ETA0)
            for p in mech.planetaries}
+    out.update({sp.name: sp.eta0 if sp.eta0 is not None else (eta0 if eta0 is not None else DEFAULT_ETA0)
+                for sp in mech.stepped})
     if eta_pair is None:
         eta_pair = eta0 if eta0 is not None else DEFAULT_ETA_PAIR
     out.update({g.name: g.eta if g.eta is not None else eta_pair for g in mech.gear_pairs})
@@ -316,7 +342,8 @@ def _efficiencies(mech: Mechanism, eta0: float | None, eta_pair: float | None) -
 @dataclass(frozen=True)
 class _Transformer:
     """A transformer's ports for the loss relations: ``a`` and ``b`` are the two gear members
-    (sun and ring, or ports 1 and 2), ``base`` the carrier (``None`` for a gear pair: the housing)."""
+    (sun and ring, or ports 1 and 2), ``base`` the carrier (``None`` for a gear pair: the housing).
+    One direction variable: the sign of member ``a``'s carrier-frame power."""
 
     name: str
     kind: str
@@ -325,8 +352,34 @@ class _Transformer:
     b: int
     base: int | None
 
+    @property
+    def n_vars(self) -> int:
+        return 1
 
-def _transformers(g: nx.DiGraph) -> list[_Transformer]:
+
+@dataclass(frozen=True)
+class _SteppedSet:
+    """A stepped-pinion set for the loss relations. ``ports``: ``(link, role, r)`` of its central
+    gears, carrier last (``r = 0``), with ``r = (w_X - w_c) / (w_p - w_c) = sigma_X * Np_k / N_X``
+    the gear's speed relative to the pinion's, both in the carrier frame; ``nodes``: the graph's
+    constraint nodes ``(node, b)``, each between gear 0 and gear ``b``. One direction variable per
+    central gear: the sign of its carrier-frame power."""
+
+    name: str
+    ports: tuple
+    nodes: tuple
+    kind: str = "stepped"
+
+    @property
+    def n_vars(self) -> int:
+        return len(self.ports) - 1
+
+    @property
+    def base(self) -> int:
+        return len(self.ports) - 1
+
+
+def _transformers(mech: Mechanism, g: Graph) -> list:
     out = []
     for node, data in g.nodes(data=True):
         if data["kind"] not in ("planetary", "gearpair"):
@@ -338,6 +391,11 @@ def _transformers(g: nx.DiGraph) -> list[_Transformer]:
             out.append(_Transformer(node, "planetary", ports, 0, 1, 2))
         else:
             out.append(_Transformer(node, "gearpair", ports, 0, 1, None))
+    for sp in mech.stepped:
+        r = [(-1 if role.startswith("sun") else 1) * sp.step_teeth(role) / teeth for role, _, teeth in sp.members]
+        scale = max(abs(x) for x in r)
+        ports = tuple((link, role, x / scale) for (role, link, _), x in zip(sp.members, r)) + ((sp.carrier, "carrier", 0.0),)
+        out.append(_SteppedSet(sp.name, ports, tuple((node, b + 1) for b, node in enumerate(stepped_nodes(sp)))))
     return out
 
 
@@ -347,7 +405,7 @@ class _Gear:
     and ``T = T_out`` for ``T_in = 1`` (drive) or ``T = T_in`` for ``T_out = -sign(w_out)`` (coast:
     the driveline drives the output in its direction of rotation)."""
 
-    def __init__(self, mech: Mechanism, g: nx.DiGraph, engaged, eta: dict[str, float], coast: bool = False):
+    def __init__(self, mech: Mechanism, g: Graph, engaged, eta: dict[str, float], coast: bool = False):
         links = link_nodes(g)
         self.links = links
         self.locked = complete_locked(g, engaged)
@@ -367,14 +425,28 @@ class _Gear:
         value = -np.sign(self.w[links.index(mech.output)]) if coast else 1.0
         self.balance = np.hstack([eq.E[:n, n:], eq.F[:n, [ui[unknown]]]])
         self.rhs_balance = -eq.F[:n, ui[given]] * value
-        self.transformers = _transformers(g)
-        self.port_col = [[col[f"t_{t.name}.{port}"] for _, port, _ in t.ports] for t in self.transformers]
+        self.transformers = _transformers(mech, g)
+        # per transformer: its port columns (a stepped set: (gear 0, gear b, carrier) per node)
+        self.port_col = []
+        for t in self.transformers:
+            if t.kind == "stepped":
+                self.port_col.append([tuple(col[f"t_{node}.{t.ports[k][1]}"] for k in (0, b, t.base))
+                                      for node, b in t.nodes])
+            else:
+                self.port_col.append([col[f"t_{t.name}.{port}"] for _, port, _ in t.ports])
         self.eta = [eta[t.name] for t in self.transformers]
+        # the direction variables: one per planetary or pair, one per central gear of a stepped set
+        self.var_slices, start = [], 0
+        for t in self.transformers:
+            self.var_slices.append(slice(start, start + t.n_vars))
+            start += t.n_vars
+        self.var_names = [t.name if t.n_vars == 1 and t.kind != "stepped" else f"{t.name}.{t.ports[k][1]}"
+                          for t in self.transformers for k in range(t.n_vars)]
         self.group_col = [col[f"t_{grp.label}"] for grp in self.groups]
         speed = dict(zip(links, self.w))
         known = dict(zip(links, self.determined))
         speed[HOUSING], known[HOUSING] = 0.0, True
-        # per transformer: relative speeds of members a and b to the base, and whether they are known
+        # per transformer: relative speeds of its members to the base, and whether they are known
         self.relative = []
         for t in self.transformers:
             base = 0.0 if t.base is None else speed[t.ports[t.base][0]]
@@ -382,24 +454,51 @@ class _Gear:
             ok = all(known[link] for link, _, _ in t.ports)
             self.relative.append((rel, ok))
 
+    @property
+    def n_vars(self) -> int:
+        return len(self.var_names)
+
+    def torques(self, k: int, x) -> list[float]:
+        """The torque every port's link exerts on transformer ``k`` (a stepped set: summed over
+        its constraint nodes), in port order."""
+        t, cols = self.transformers[k], self.port_col[k]
+        if t.kind != "stepped":
+            return [float(x[c]) for c in cols]
+        out = [0.0] * len(t.ports)
+        for (node, b), (ca, cb, cc) in zip(t.nodes, cols):
+            out[0] += float(x[ca])
+            out[b] += float(x[cb])
+            out[t.base] += float(x[cc])
+        return out
+
     def matrix(self, factors) -> tuple[np.ndarray, np.ndarray]:
-        """The equations with the loss factor ``factors[k]`` (``t_b = (c_b/c_a) * f * t_a``)."""
+        """The equations with the loss factors: ``t_b = (c_b/c_a) * f * t_a`` for a planetary or
+        pair; for a stepped set ``f_0*r_0*t_0 + f_b*r_b*t_b = 0`` per constraint node (the pinion's
+        carrier-frame balance, see the module docstring)."""
         n_x = self.balance.shape[1]
         rows = [self.balance]
-        rhs = [self.rhs_balance]
-        for t, cols, f in zip(self.transformers, self.port_col, factors):
+        for t, cols, sl in zip(self.transformers, self.port_col, self.var_slices):
+            f = factors[sl]
+            if t.kind == "stepped":
+                r = [p[2] for p in t.ports]
+                for (node, b), (ca, cb, cc) in zip(t.nodes, cols):
+                    ratio_row, eq_row = np.zeros(n_x), np.zeros(n_x)
+                    ratio_row[ca], ratio_row[cb] = f[0] * r[0], f[b] * r[b]
+                    eq_row[[ca, cb, cc]] = 1.0
+                    rows += [ratio_row[None, :], eq_row[None, :]]
+                continue
             c = [p[2] for p in t.ports]
             ratio_row = np.zeros(n_x)
             ratio_row[cols[t.b]] = c[t.a]
-            ratio_row[cols[t.a]] = -c[t.b] * f
+            ratio_row[cols[t.a]] = -c[t.b] * f[0]
             rows.append(ratio_row[None, :])
-            rhs.append(np.zeros(1))
             if t.base is not None:  # equilibrium of the massless set
                 eq_row = np.zeros(n_x)
                 eq_row[cols] = 1.0
                 rows.append(eq_row[None, :])
-                rhs.append(np.zeros(1))
-        return np.vstack(rows), np.concatenate(rhs)
+        a = np.vstack(rows)
+        rhs = np.concatenate([self.rhs_balance, np.zeros(a.shape[0] - len(self.rhs_balance))])
+        return a, rhs
 
     def solve(self, factors, gear: str) -> np.ndarray:
         a, b = self.matrix(factors)
@@ -414,16 +513,26 @@ class _Gear:
         return x
 
     def directions(self, x) -> list[int]:
-        """Per transformer: +1 when member ``a`` drives in the carrier frame, -1 when ``b`` does,
-        0 when no power flows through its meshes (or a member floats)."""
+        """Per direction variable: +1 when its member drives in the carrier frame (a planetary's
+        or pair's member ``a``; a stepped set's central gear), -1 when it is driven (a planetary's
+        ``b`` drives), 0 when no power flows through its meshes (or a member floats)."""
         out = []
-        for t, cols, (rel, ok) in zip(self.transformers, self.port_col, self.relative):
-            p = x[cols[t.a]] * rel[t.a]
-            out.append(0 if not ok or abs(p) <= _POWER_TOL else (1 if p > 0 else -1))
+        for k, (t, (rel, ok)) in enumerate(zip(self.transformers, self.relative)):
+            torques = self.torques(k, x)
+            for m in range(t.n_vars):
+                i = m if t.kind == "stepped" else t.a
+                p = torques[i] * rel[i]
+                out.append(0 if not ok or abs(p) <= _POWER_TOL else (1 if p > 0 else -1))
         return out
 
     def factors(self, directions) -> list[float]:
-        return [1.0 if d == 0 else eta ** d for d, eta in zip(directions, self.eta)]
+        """The loss factor of every direction variable: ``eta0**d`` for a planetary or pair,
+        ``sqrt(eta0)**d`` (one mesh of the two between two gears) for a stepped set's gear."""
+        out = []
+        for t, eta, sl in zip(self.transformers, self.eta, self.var_slices):
+            e = math.sqrt(eta) if t.kind == "stepped" else eta
+            out += [1.0 if d == 0 else e ** d for d in directions[sl]]
+        return out
 
 
 def _consistent(gear: _Gear, x, directions) -> bool:
@@ -432,7 +541,7 @@ def _consistent(gear: _Gear, x, directions) -> bool:
 
 def _solve_directions(gear: _Gear, name: str) -> tuple[np.ndarray, list[int], int]:
     """Iterate the assumed power directions to a consistent solution (see the module docstring)."""
-    x = gear.solve([1.0] * len(gear.transformers), name)
+    x = gear.solve([1.0] * gear.n_vars, name)
     directions = gear.directions(x)
     seen = []
     for iteration in range(1, _MAX_ITERATIONS + 1):
@@ -447,7 +556,7 @@ def _solve_directions(gear: _Gear, name: str) -> tuple[np.ndarray, list[int], in
         seen.append(directions)
         directions = new
     active = [k for k, d in enumerate(directions) if d != 0]
-    cycling = [gear.transformers[k].name for k in active if any(s[k] != directions[k] for s in seen)]
+    cycling = [gear.var_names[k] for k in active if any(s[k] != directions[k] for s in seen)]
     if len(active) <= _MAX_ENUMERATED:
         found = []
         for signs in itertools.product((1, -1), repeat=len(active)):
@@ -466,7 +575,7 @@ def _solve_directions(gear: _Gear, name: str) -> tuple[np.ndarray, list[int], in
     raise PowerFlowConvergenceError(f"gear {name}: the power directions of {', '.join(cycling)} do not settle")
 
 
-def _gear_flow(mech: Mechanism, g: nx.DiGraph, gear_decl, eta: dict, input_rpm, max_slip_rpm,
+def _gear_flow(mech: Mechanism, g: Graph, gear_decl, eta: dict, input_rpm, max_slip_rpm,
                coast: bool = False) -> GearFlow:
     name = gear_decl.name
     combo = analyze(mech, gear_decl.engaged, g)
@@ -489,15 +598,24 @@ def _gear_flow(mech: Mechanism, g: nx.DiGraph, gear_decl, eta: dict, input_rpm, 
     known_speeds = {k: (speed[k] if ok else None) for k, ok in zip(gear.links, gear.determined)}
 
     sets = []
-    for t, cols, d, (rel, _) in zip(gear.transformers, gear.port_col, directions, gear.relative):
-        torques = {port: float(x[c]) for (_, port, _), c in zip(t.ports, cols)}
+    for k, (t, sl, (rel, _)) in enumerate(zip(gear.transformers, gear.var_slices, gear.relative)):
+        values = gear.torques(k, x)
+        torques = {port: v for (_, port, _), v in zip(t.ports, values)}
         speeds = {port: (0.0 if link == HOUSING else known_speeds[link]) for link, port, _ in t.ports}
         powers = {port: (0.0 if torques[port] == 0.0 else torques[port] * (speeds[port] or 0.0)) for port in torques}
-        driver = t.a if d > 0 else t.b
-        driving = None if d == 0 else t.ports[driver][1]
-        # the loss from the carrier-frame power of the driving member (exact 0 when lossless);
-        # sum(powers) is the same up to round-off, which the tests check
-        loss = 0.0 if d == 0 else (1.0 - eta[t.name]) * abs(float(x[cols[driver]]) * rel[driver])
+        ds = directions[sl]
+        if t.kind == "stepped":
+            # every gear's mesh: (1 - f) times its carrier-frame power (exact 0 when lossless)
+            fs = gear.factors(directions)[sl]
+            driving = "+".join(t.ports[i][1] for i, d in enumerate(ds) if d > 0) or None
+            loss = sum((1.0 - f) * values[i] * rel[i] for i, (d, f) in enumerate(zip(ds, fs)) if d != 0)
+        else:
+            d = ds[0]
+            driver = t.a if d > 0 else t.b
+            driving = None if d == 0 else t.ports[driver][1]
+            # the loss from the carrier-frame power of the driving member (exact 0 when lossless);
+            # sum(powers) is the same up to round-off, which the tests check
+            loss = 0.0 if d == 0 else (1.0 - eta[t.name]) * abs(values[driver] * rel[driver])
         sets.append(SetFlow(t.name, t.kind, eta[t.name], torques, speeds, powers,
                             sum(p for p in powers.values() if p > 0), loss, driving,
                             {port: link for link, port, _ in t.ports}))
@@ -510,7 +628,7 @@ def _gear_flow(mech: Mechanism, g: nx.DiGraph, gear_decl, eta: dict, input_rpm, 
         element_torques[grp.label] = t
         first = mech.element(grp.first)
         w = speed[first.link1]
-        if first.kind == "clutch" and known_speeds[first.link1] is not None:
+        if first.kind in ("clutch", "dog") and first.link2 != HOUSING and known_speeds[first.link1] is not None:
             branches.append(abs(t * w))
         holding = [e for e, sgn in zip(grp.members, grp.signs) if _holds(mech.element(e), sgn * t)]
         if not holding:
@@ -541,7 +659,7 @@ def _gear_flow(mech: Mechanism, g: nx.DiGraph, gear_decl, eta: dict, input_rpm, 
         warnings.append(f"efficiency {efficiency:.4g} <= 0: the gear self-locks in drive with these efficiencies")
     return GearFlow(name, tuple(gear_decl.engaged), ratio, torque_ratio, efficiency, known_speeds, element_torques,
                     slips, tuple(sets), losses, circulating, iterations, slip_rpm, tuple(overspeed), tuple(warnings),
-                    input_torque)
+                    input_torque, gear_decl.alternative)
 
 
 def _holds(e, t: float) -> bool:
@@ -554,7 +672,7 @@ def _holds(e, t: float) -> bool:
 
 
 def _capacities(mech: Mechanism, gears, design_torque, safety_factor, dynamic_ratio) -> tuple[Capacity, ...]:
-    g = build_graph(mech)
+    g = bond_graph(mech)
     best: dict[str, tuple[float, str | None]] = {e.name: (0.0, None) for e in mech.elements}
     for flow in gears:
         for grp in locked_constraints(g, complete_locked(g, flow.engaged)):
@@ -572,9 +690,10 @@ def _capacities(mech: Mechanism, gears, design_torque, safety_factor, dynamic_ra
         if design_torque is not None:
             torque = top * design_torque
             static = safety_factor * torque
-            dynamic = None if e.kind == "oneway" else dynamic_ratio * static
+            dynamic = None if e.kind in ("oneway", "dog") else dynamic_ratio * static
         out.append(Capacity(e.name, e.kind, top, where, torque, static, dynamic,
-                            None if math.isinf(e.static) else e.static, None if e.kind == "oneway" else e.dynamic))
+                            None if math.isinf(e.static) else e.static,
+                            None if e.kind in ("oneway", "dog") else e.dynamic))
     return tuple(out)
 
 
@@ -640,7 +759,7 @@ def power_flow(mech: Mechanism, eta0: float | None = None, input_rpm: float | No
         raise PowerFlowError(f"the tooth counts of {', '.join(unknown_teeth)} are unknown: choose them first "
                              f"('transgen synthesize teeth')")
     eta = _efficiencies(mech, eta0, eta_pair)
-    g = build_graph(mech)
+    g = bond_graph(mech)
     declared = [gr for gr in mech.gears if gr.kind == "gear"]
     if gears is not None:
         names = [gr.name for gr in declared]
@@ -660,7 +779,7 @@ def _pairs(values: dict, fmt: str = "{:+.4f}") -> str:
 
 def _driver(s: SetFlow) -> str:
     """The driving member: ``sun``/``ring`` of a planetary, the driving link of a gear pair."""
-    return s.driving if s.kind == "planetary" else s.links[s.driving]
+    return s.driving if s.kind in ("planetary", "stepped") else s.links[s.driving]
 
 
 def powerflow_text(flow: PowerFlow) -> str:
@@ -674,7 +793,8 @@ def powerflow_text(flow: PowerFlow) -> str:
            "  torque ratio = output torque to the driveline / input torque; element torques from LINK1 to LINK2"]
     for g in flow.gears:
         out.append("")
-        out.append(f"gear {g.name} ({' '.join(g.engaged)}): ratio {g.ratio:.4f}, torque ratio {g.torque_ratio:.4f}, "
+        alt = ", alternative" if g.alternative else ""
+        out.append(f"gear {g.name} ({' '.join(g.engaged)}{alt}): ratio {g.ratio:.4f}, torque ratio {g.torque_ratio:.4f}, "
                    f"efficiency {100 * g.efficiency:.2f} %, losses {100 * g.losses:.2f} %, "
                    f"circulating power {g.circulating_power:.3f}")
         out.append(f"    link speeds      {_pairs(g.link_speeds)}")

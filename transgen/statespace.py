@@ -26,7 +26,7 @@ import numpy as np
 
 from .equations import kinematic_basis
 from .errors import MAX_SHOWN, ModeError
-from .graph import build_graph, link_nodes
+from .graph import bond_graph, link_nodes
 from .model import Mechanism
 from .modes import (
     ModeModel,
@@ -236,7 +236,7 @@ def state_space(mech: Mechanism, coordinates=None, which: str = "auto", symbolic
     :class:`ModeError` when a chosen mode (declared or default) or every combination cannot be
     modelled, or the coordinates are not valid.
     """
-    g = build_graph(mech)
+    g = bond_graph(mech)
     links = link_nodes(g)
     models = mode_models(mech, which, symbolic) if models is None else models
     bad = [m for m in models if m.equations is None]

@@ -15,12 +15,16 @@ overrun instead, so the gear as declared cannot carry drive torque — typically
 """
 from __future__ import annotations
 
-import networkx as nx
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from .graph import Graph
+
 import numpy as np
 
 from .equations import assemble, complete_locked, diagnose_singular, locked_constraints
 from .errors import Diagnostic
-from .graph import build_graph
+from .graph import bond_graph
 from .kinematics import analyze
 from .model import Mechanism
 
@@ -29,7 +33,7 @@ __all__ = ["drive_torques", "check_oneways"]
 _TOL = 1e-9
 
 
-def drive_torques(mech: Mechanism, engaged, graph: nx.DiGraph | None = None) -> dict[str, float] | None:
+def drive_torques(mech: Mechanism, engaged, graph: Graph | None = None) -> dict[str, float] | None:
     """Torque of each locked constraint of the gear ``engaged`` per unit input torque under drive
     [N*m per N*m], keyed by the group label (``"OWC"``, ``"BLR+OWC"``: elements in parallel share
     one torque, in the first member's direction), from ``link1`` to ``link2``.
@@ -37,7 +41,7 @@ def drive_torques(mech: Mechanism, engaged, graph: nx.DiGraph | None = None) -> 
     ``None`` when the gear does not determine the input/output ratio with one degree of freedom
     or its locked torques are not unique (``transgen check`` and ``modes`` say why).
     """
-    g = build_graph(mech) if graph is None else graph
+    g = bond_graph(mech) if graph is None else graph
     combo = analyze(mech, engaged, g)
     if combo.kind != "gear" or combo.dof != 1 or combo.ratio is None:
         return None
@@ -61,7 +65,7 @@ def check_oneways(mech: Mechanism) -> list[Diagnostic]:
     """Errors, each at the one-way clutch's declaration, for the declared gears in which a
     one-way clutch (alone or with other one-way clutches in parallel, no friction element beside
     it) would have to hold torque in its free direction under drive."""
-    g = build_graph(mech)
+    g = bond_graph(mech)
     kinds = {e.name: e for e in mech.elements}
     problems: list[Diagnostic] = []
     reported: set[str] = set()

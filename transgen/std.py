@@ -37,7 +37,7 @@ from dataclasses import dataclass
 import itertools
 
 from .equations import LockingGroup, diagnose_singular, locking_groups
-from .graph import build_graph
+from .graph import bond_graph
 from .model import Mechanism
 from .modes import Mode, select_modes
 
@@ -195,7 +195,7 @@ def state_transition_diagram(mech: Mechanism, modes: list[Mode] | None = None) -
     """The STD of the modelled modes (default: :func:`~transgen.modes.select_modes`); modes that
     cannot be modelled go to ``unmodellable``."""
     modes = select_modes(mech) if modes is None else modes
-    g = build_graph(mech)
+    g = bond_graph(mech)
     problems = {m.key: diagnose_singular(g, m.locked) for m in modes}
     good = [m for m in modes if not problems[m.key]]
     by_key = {m.key: m for m in good}

@@ -5,7 +5,9 @@ between them: the distance C-S is proportional to the ring teeth ``Nr`` and C-R 
 ``Ns``. A double-pinion set puts the ring between sun and carrier: S-R is ``Nr - Ns`` and R-C is
 ``Ns`` (from ``Nr*w_r - Ns*w_s = (Nr - Ns)*w_c``: the ring speed is the mean of the sun and
 carrier speeds weighted ``Ns/Nr`` and ``(Nr - Ns)/Nr``). A gear pair is a lever that pivots on
-the housing, its gear axes: an external mesh puts the pivot between the two gears (link1-pivot
+the housing, its gear axes. A stepped-pinion set with ``k`` central gears is one lever of ``k + 1``
+nodes, each gear at a distance from the carrier proportional to its speed relative to the pinion
+(``sigma_X*Np_k/N_X``; see :func:`_stepped_lever`). For a gear pair, an external mesh puts the pivot between the two gears (link1-pivot
 ``n2``, pivot-link2 ``n1``), an internal mesh puts both gears on the same side (pivot-link1
 ``n2``, pivot-link2 ``n1``).
 
@@ -40,8 +42,9 @@ class LeverNode:
     """A node of a lever: the link (or :data:`~transgen.model.HOUSING`) at ``position``.
 
     ``members`` names the gear members at this node, ``"SET.sun"``, ``"SET.ring"``,
-    ``"SET.carrier"`` of a planetary and ``"SET.1"``, ``"SET.2"``, ``"SET.axis"`` (the housing
-    pivot) of a gear pair.
+    ``"SET.carrier"`` of a planetary, ``"SET.sun1"``, ``"SET.ring2"``, ... and ``"SET.carrier"`` of
+    a stepped-pinion set, and ``"SET.1"``, ``"SET.2"``, ``"SET.axis"`` (the housing pivot) of a
+    gear pair.
     """
 
     link: str
@@ -91,6 +94,8 @@ def _set_levers(mech: Mechanism) -> list[tuple[list[str], dict[str, Fraction], d
             pos = {p.sun: Fraction(0), p.ring: nr - ns, p.carrier: nr}
         members = {p.sun: [f"{p.name}.sun"], p.ring: [f"{p.name}.ring"], p.carrier: [f"{p.name}.carrier"]}
         out.append(([p.name], pos, members))
+    for sp in mech.stepped:
+        out.append(_stepped_lever(sp))
     for g in mech.gear_pairs:
         n1, n2 = Fraction(g.n1), Fraction(g.n2)
         if g.mesh == "external":  # w1 = -(n2/n1) w2 about the pivot
@@ -100,6 +105,27 @@ def _set_levers(mech: Mechanism) -> list[tuple[list[str], dict[str, Fraction], d
         members = {g.link1: [f"{g.name}.1"], g.link2: [f"{g.name}.2"], HOUSING: [f"{g.name}.axis"]}
         out.append(([g.name], pos, members))
     return out
+
+
+def _stepped_lever(sp):
+    """A stepped-pinion set as one lever of its carrier and central gears: gear ``X`` turns
+    relative to the carrier at ``(w_X - w_c) = r_X*(w_p - w_c)``, ``r_X = sigma_X*Np_k/N_X``, so its
+    node sits at ``r_X`` times a common scale from the carrier (suns below it, rings above). The
+    scale ``prod(N_X)/max(Np)`` keeps whole tooth units and gives the simple planetary's lever for
+    one sun and one ring on equal steps; for a sun on step 1 and a ring on step 2 the distances
+    C-S and C-R are in the ratio ``Nr*Np1 : Ns*Np2``, the coefficients of the stepped relation."""
+    scale = Fraction(1)
+    for _, _, teeth in sp.members:
+        scale *= teeth
+    scale /= max(n for n in (sp.np1, sp.np2) if n is not None)
+    pos = {sp.carrier: Fraction(0)}
+    members = {sp.carrier: [f"{sp.name}.carrier"]}
+    for role, link, teeth in sp.members:
+        sigma = -1 if role.startswith("sun") else 1
+        pos[link] = sigma * Fraction(sp.step_teeth(role), teeth) * scale
+        members[link] = [f"{sp.name}.{role}"]
+    low = min(pos.values())
+    return [sp.name], {k: x - low for k, x in pos.items()}, members
 
 
 def _merge(a, b):
@@ -131,7 +157,8 @@ def _merge(a, b):
 def lever_layout(mech: Mechanism) -> tuple[Lever, ...]:
     """The levers of ``mech``: every gearset a lever, sets that share two nodes combined.
 
-    Returns the levers in declaration order of their first set (planetaries, then gear pairs),
+    Returns the levers in declaration order of their first set (planetaries, stepped-pinion sets,
+    then gear pairs),
     then one single-node lever for every link on no gearset, in declaration order.
 
     Examples

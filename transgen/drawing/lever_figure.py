@@ -36,7 +36,7 @@ _JOIN_COLOR = "#7a7a7a"
 
 
 def _element_kind_label(e) -> str:
-    return e.name + (" (1-way)" if e.kind == "oneway" else "")
+    return e.name + {"oneway": " (1-way)", "dog": " (dog)"}.get(e.kind, "")
 
 
 @dataclass
@@ -232,7 +232,11 @@ def draw_levers(mech: Mechanism, gears=None, topology: bool | None = None, ax=No
     pivot = any(n.link == HOUSING for lv in levers for n in lv.nodes)
     twice = any(n.link != HOUSING and home[n.link][0] != k for k, lv in enumerate(levers) for n in lv.nodes)
     shown = {"lever", "input", "output"}
-    for text, present in (("brake engaged (ground)", brakes), ("clutch engaged", clutches),
+    dogs = [e for e in mech.elements if e.kind == "dog"]
+    for text, present in (("brake engaged (ground)", [e for e in brakes if e.kind != "dog"]),
+                          ("clutch engaged", [e for e in clutches if e.kind != "dog"]),
+                          ("dog brake engaged", [e for e in dogs if e.link2 == HOUSING]),
+                          ("dog clutch engaged", [e for e in dogs if e.link2 != HOUSING]),
                           ("open element", mech.elements), ("same link on two levers", twice),
                           ("housing (gear axes)", pivot)):
         if present:
@@ -263,7 +267,8 @@ def draw_levers(mech: Mechanism, gears=None, topology: bool | None = None, ax=No
             engaged = row.engaged
             w_out = speeds.get(mech.output)
             ratio = f"ratio {1 / w_out:.3f}" if w_out else "ratio -"
-            head, sub = f"gear {pname}", f"{' '.join(engaged)} engaged \u00b7 {ratio}"
+            head = f"gear {pname}" + (" (alternative)" if row.alternative else "")
+            sub = f"{' '.join(engaged)} engaged \u00b7 {ratio}"
         ax.text(px + panel_w / 2, top - 0.12, head, ha="center", va="center", fontsize=TITLE_FONT * fs,
                 fontweight="bold", parse_math=False, gid=f"title:{pname}")
         ax.text(px + panel_w / 2, top - 0.34, sub, ha="center", va="center", fontsize=SMALL_FONT * fs * 1.1,
@@ -355,6 +360,8 @@ def draw_levers(mech: Mechanism, gears=None, topology: bool | None = None, ax=No
             on = speeds is None or e.name in engaged
             color = _BRAKE_COLOR if on else _OPEN_COLOR
             ground(x0 - 0.07, yn, color, z=4)
+            if e.kind == "dog":
+                _dog_teeth(ax, x0 - 0.07, yn, color)
             if speeds is not None and on:
                 xn = xy(k, e.link1)[0]
                 if abs(xn - x0) > 0.08:
@@ -399,7 +406,7 @@ def draw_levers(mech: Mechanism, gears=None, topology: bool | None = None, ax=No
                     t = t0
                 mx, my, vertical = x1 + t * (x2 - x1), y1 + t * (y2 - y1), abs(x2 - x1) < abs(y2 - y1)
                 placed.append(Rect(mx, my, 0.18, 0.18))
-            _plates(ax, mx, my, vertical, color)
+            (_dog if e.kind == "dog" else _plates)(ax, mx, my, vertical, color)
             label = _element_kind_label(e)
             tw, th = text_size(label, SMALL_FONT)
             cands = [(mx + 0.12 + tw / 2, my), (mx - 0.12 - tw / 2, my), (mx, my + 0.16), (mx, my - 0.16),
@@ -433,11 +440,13 @@ def _frame(x, y, w, h):
                           edgecolor="#d0d0d0", linewidth=0.8, zorder=0)
 
 
-_LEGEND = ("lever", "brake engaged (ground)", "housing (gear axes)", "clutch engaged", "open element",
+_LEGEND = ("lever", "brake engaged (ground)", "dog brake engaged", "housing (gear axes)", "clutch engaged",
+           "dog clutch engaged", "open element",
            "same link on two levers", "input", "output")
 _NOTE = ("Horizontal: the speed of each node per unit input speed (the numbers; thin line 0, dotted line 1 = "
          "the input speed). Vertical: the position along the lever, spaced by the tooth counts: simple set "
-         "S-C : C-R = Nr : Ns, double-pinion set S-R : R-C = (Nr - Ns) : Ns.")
+         "S-C : C-R = Nr : Ns, double-pinion set S-R : R-C = (Nr - Ns) : Ns, stepped pinions: each gear X "
+         "at C-X proportional to Np/N_X of the pinion step it meshes (suns below C, rings above).")
 
 
 def _legend_rows(width: float, shown) -> tuple[list[list[tuple[str, float]]], list[str]]:
@@ -482,6 +491,34 @@ def _plates(ax, x: float, y: float, vertical: bool, color: str) -> None:
         ax.add_line(Line2D(xs, ys, color=color, linewidth=2.2, zorder=4))
 
 
+def _dog(ax, x: float, y: float, vertical: bool, color: str) -> None:
+    """The dog-clutch symbol at ``(x, y)``: two toothed halves whose teeth interleave across a join
+    (drawn for a horizontal join; ``vertical`` turns it a quarter)."""
+    from matplotlib.lines import Line2D
+
+    def seg(a, b):  # (along the join, across it) -> inches
+        (u1, v1), (u2, v2) = a, b
+        if vertical:
+            return [x + v1, x + v2], [y + u1, y + u2]
+        return [x + u1, x + u2], [y + v1, y + v2]
+
+    for side, teeth in ((-1, (-0.065, 0.015)), (1, (-0.015, 0.065))):
+        xs, ys = seg((0.055 * side, -0.09), (0.055 * side, 0.09))
+        ax.add_line(Line2D(xs, ys, color=color, linewidth=2.0, zorder=4, solid_capstyle="butt"))
+        for v in teeth:
+            xs, ys = seg((0.055 * side, v), (-0.02 * side, v))
+            ax.add_line(Line2D(xs, ys, color=color, linewidth=2.0, zorder=4, solid_capstyle="butt"))
+
+
+def _dog_teeth(ax, x: float, y: float, color: str) -> None:
+    """The teeth of a dog brake on its ground wall at ``x`` (pointing at the node, to the right)."""
+    from matplotlib.lines import Line2D
+
+    for v in (-0.075, 0.075):  # clear of the node's circle (radius 0.055) at the wall
+        ax.add_line(Line2D([x, x + 0.05], [y + v, y + v], color=color, linewidth=2.2, zorder=4,
+                           solid_capstyle="butt"))
+
+
 def _legend(ax, fs, rows, note, top, Line2D):
     """The key to the symbols under the panels."""
     def line(xs, ys, **kw):
@@ -491,7 +528,17 @@ def _legend(ax, fs, rows, note, top, Line2D):
         line([x - 0.2, x + 0.2], [y, y], color=LOCK_COLOR, linewidth=2.0)
         _plates(ax, x, y, False, LOCK_COLOR)
 
+    def dog_clutch(x, y):
+        line([x - 0.2, x + 0.2], [y, y], color=LOCK_COLOR, linewidth=2.0)
+        _dog(ax, x, y, False, LOCK_COLOR)
+
+    def dog_brake(x, y):
+        _ground(ax, x, y, _BRAKE_COLOR)
+        _dog_teeth(ax, x, y, _BRAKE_COLOR)
+
     symbols = {
+        "dog clutch engaged": dog_clutch,
+        "dog brake engaged": dog_brake,
         "lever": lambda x, y: line([x - 0.15, x + 0.15], [y - 0.06, y + 0.06], color=_LEVER_COLOR, linewidth=3.2),
         "brake engaged (ground)": lambda x, y: _ground(ax, x, y, _BRAKE_COLOR),
         "housing (gear axes)": lambda x, y: _ground(ax, x, y, "#222222"),

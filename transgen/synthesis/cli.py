@@ -88,7 +88,7 @@ def cmd_table(args) -> int:
     mech = load_mechanism(args.file)
     forward = args.forward
     if forward is None:
-        declared = [g for g in mech.gears if g.kind == "gear"]
+        declared = [g for g in mech.gears if g.kind == "gear" and not g.alternative]
         if not declared:
             raise ValueError("--forward N is needed: the file declares no gear table to take the number from")
         forward = sum(1 for g in declared if g.ratio is None or float(g.ratio) > 0)
@@ -109,7 +109,8 @@ def cmd_table(args) -> int:
     for i, t in enumerate(result.tables, start=1):
         steps = " ".join(f"{s:.3f}" for s in t.steps)
         print(f"\ntable {i}: score {t.score:.3f}, spread {t.spread:.3f}, steps {steps}"
-              + (f", double swaps {' '.join(a + '-' + b for a, b in t.double_swaps)}" if t.double_swaps else ""))
+              + (f", double swaps {' '.join(a + '-' + b for a, b in t.double_swaps)}" if t.double_swaps else "")
+              + (f", dogs engage in {' '.join(f'{d} {shift}' for shift, d in t.dog_shifts)}" if t.dog_shifts else ""))
         for line in t.mech_lines(order):
             print(f"  {line}")
     return 0 if result.tables else 1

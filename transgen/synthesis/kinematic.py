@@ -2,7 +2,9 @@
 
 A planetary's constraint is homogeneous in its tooth counts (thesis eq. 3.37: simple set
 ``Ns*w_s + Nr*w_r = (Ns + Nr)*w_c``; double-pinion set ``Nr*w_r - Ns*w_s = (Nr - Ns)*w_c``),
-so every speed ratio depends on a set only through ``k = Nr/Ns``. With the shift elements of a
+so every speed ratio depends on a set only through ``k = Nr/Ns``. Only planetaries can have
+unknown teeth; gear pairs and stepped-pinion sets (``stepped``: the language refuses ``?`` there)
+enter with their own tooth counts. With the shift elements of a
 gear engaged, the constraint matrix of the links is affine in ``k``::
 
     A(k) = A0 + sum_p k_p * A_p
@@ -19,8 +21,8 @@ from fractions import Fraction
 
 import numpy as np
 
-from ..graph import build_graph, link_nodes
-from ..kinematics import constraints
+from ..graph import bond_graph, link_nodes
+from ..kinematics import _values, constraints
 from ..model import Mechanism
 
 __all__ = ["GearKinematics", "gear_kinematics"]
@@ -113,16 +115,15 @@ def gear_kinematics(mech: Mechanism, engaged, name: str, unknown: tuple[str, ...
     Known sets keep their tooth counts; an unknown set gets ``Ns = 1, Nr = k``. The independent
     rows are chosen at a random ``k`` inside ``[k_low, k_high]`` (a generic point).
     """
-    g = build_graph(mech)
+    g = bond_graph(mech)
     links = link_nodes(g)
     index = {link: j for j, link in enumerate(links)}
-    values: dict = {}
+    # every transformer's own parameters (gear pairs, stepped-pinion sets, known planetaries);
+    # an unknown planetary Ns = 1, Nr = 0 (its k enters through ak)
+    values: dict = _values(g)
     for p in mech.planetaries:
         values[f"Ns_{p.name}"] = p.n_sun if p.n_sun is not None else 1
         values[f"Nr_{p.name}"] = p.n_ring if p.n_ring is not None else 0
-    for pair in mech.gear_pairs:
-        keys = ("N1", "N2") if pair.by == "teeth" else ("r1", "r2")
-        values[f"{keys[0]}_{pair.name}"], values[f"{keys[1]}_{pair.name}"] = pair.n1, pair.n2
 
     def matrix(vals) -> np.ndarray:
         rows = constraints(g, tuple(engaged), vals)

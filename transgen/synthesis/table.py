@@ -19,6 +19,7 @@ Score (larger is better), with the steps ``phi_i = i_i / i_(i+1)`` of the forwar
             - 2.0 * sum_i out(phi_i)             out(phi) = max(0, ln(1.1/phi), ln(phi/1.8))
             - 1.0 * sum_i max(0, ln(phi_(i+1)/phi_i))   (a step larger than the one before it)
             - 0.5 * double swaps
+            - 0.5 * upshifts that engage a dog element
             - 0.25 * gears whose number of engaged elements differs from the most common one
             + 0.05 * upshifts in which a one-way clutch releases (by itself: no clutch-to-clutch timing)
             + 0.01 * one-way clutches holding in the forward gears (no apply pressure: a tie-break)
@@ -27,6 +28,15 @@ Score (larger is better), with the steps ``phi_i = i_i / i_(i+1)`` of the forwar
 
 A large spread is rewarded, steps outside about 1.1-1.8 and steps that grow toward the top gears
 are penalised (a geometric or progressive table has none), double swaps cost half a unit each.
+
+Dog clutches and brakes (``dog``) are shift elements like the others, but they engage only at
+synchronous speed and carry no torque while slipping. In a power-on downshift the engine speeds up
+while the offgoing element slips, and an oncoming dog locks when it reaches synchronism (the 9HP's
+4th-to-5th and 7th-to-8th gears release its dogs on the upshift and engage them on the downshift);
+in a power-on upshift the oncoming element must carry the torque while it slips to pull the engine
+down, which a dog cannot: such a shift needs a torque interruption, and it costs as much as a double
+swap. Every table lists the shifts in which a dog engages (``dog_shifts``: ``"4-5"`` an upshift,
+``"5-4"`` a downshift, with the dog's name).
 """
 from __future__ import annotations
 
@@ -39,7 +49,7 @@ from dataclasses import dataclass
 from ..errors import TransgenError
 import numpy as np
 
-from ..graph import build_graph, coefficient, element_nodes, link_nodes, transformer_ports
+from ..graph import TRANSFORMER_KINDS, bond_graph, coefficient, element_nodes, link_nodes, transformer_ports
 from ..kinematics import _values, analyze
 from ..model import Mechanism
 
@@ -47,6 +57,9 @@ __all__ = ["ShiftTable", "TableSynthesis", "gear_candidates", "synthesize_table"
 
 STEP_RANGE = (1.1, 1.8)
 """Comfortable range of the step between neighbouring forward gears."""
+
+DOG_UPSHIFT_PENALTY = 0.5
+"""Score per upshift whose oncoming elements include a dog (it cannot carry torque while slipping)."""
 
 ONEWAY_BONUS = 0.05
 """Score per upshift in which a one-way clutch releases (by itself: no clutch-to-clutch timing)."""
@@ -70,6 +83,7 @@ class Candidate:
     oneways: frozenset = frozenset()  # the engaged one-way clutches (each holding in drive)
     positions: frozenset = frozenset()  # the (link1, link2) pairs the engaged elements join
     where: tuple = ()  # (element, (link1, link2)) of each engaged element
+    dogs: frozenset = frozenset()  # the engaged dog elements
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -85,6 +99,9 @@ class ShiftTable:
     reverse: tuple[Candidate, ...]
     score: float
     double_swaps: tuple[tuple[str, str], ...]
+    dog_shifts: tuple[tuple[str, str], ...] = ()
+    """``(shift, dog)`` for every shift between neighbouring forward gears in which a dog engages:
+    ``("4-5", "A")`` on the upshift, ``("5-4", "F")`` on the downshift."""
 
     @property
     def spread(self) -> float:
@@ -119,7 +136,8 @@ class ShiftTable:
     def to_dict(self) -> dict:
         return {"gears": {k: list(v) for k, v in self.gears.items()}, "ratios": self.ratios,
                 "steps": list(self.steps), "spread": self.spread, "score": self.score,
-                "double_swaps": [list(p) for p in self.double_swaps]}
+                "double_swaps": [list(p) for p in self.double_swaps],
+                "dog_shifts": [list(p) for p in self.dog_shifts]}
 
 
 @dataclass(frozen=True)
@@ -146,6 +164,7 @@ class TableSynthesis:
 
 
 SCORE_FORMULA = ("ln(spread) - 2*sum out(step) - 1*sum max(0, ln(step[i+1]/step[i])) - 0.5*double swaps "
+                 "- 0.5*upshifts that engage a dog "
                  "- 0.25*gears with an unusual element count + 0.05*upshifts released by a one-way clutch + 0.01*one-way clutches holding in forward gears - per reverse gear (0.5*(changes from 1st - 2)/2 "
                  "+ 0.5*|ln(|i_R|/i_1)|); out(step) = max(0, ln(1.1/step), ln(step/1.8))")
 
@@ -153,7 +172,7 @@ SCORE_FORMULA = ("ln(spread) - 2*sum out(step) - 1*sum max(0, ln(step[i+1]/step[
 def gear_candidates(mech: Mechanism) -> list[Candidate]:
     """Every combination of engaged elements with one degree of freedom, a determined ratio and
     no superfluous element (see the module docstring)."""
-    g = build_graph(mech)
+    g = bond_graph(mech)
     names = element_nodes(g)
     free = analyze(mech, (), g).dof
     out = []
@@ -165,7 +184,8 @@ def gear_candidates(mech: Mechanism) -> list[Candidate]:
             if _oneways_hold(mech, combo, g) is not False:
                 oneways = frozenset(e for e in combo if g.nodes[e]["kind"] == "oneway")
                 where = tuple((e, (g.nodes[e]["link1"], g.nodes[e]["link2"])) for e in combo)
-                out.append(Candidate(frozenset(combo), c.ratio, oneways, frozenset(p for _, p in where), where))
+                dogs = frozenset(e for e in combo if g.nodes[e]["kind"] == "dog")
+                out.append(Candidate(frozenset(combo), c.ratio, oneways, frozenset(p for _, p in where), where, dogs))
     return out
 
 
@@ -178,10 +198,10 @@ def oneway_torques(mech: Mechanism, engaged, g=None) -> dict[str, float] | None:
     coefficients ``c_k``), the torque of each engaged element and the output torque; one torque
     balance per link.
     """
-    g = build_graph(mech) if g is None else g
+    g = bond_graph(mech) if g is None else g
     links = link_nodes(g)
     row = {name: i for i, name in enumerate(links)}
-    transformers = [n for n, d in g.nodes(data=True) if d["kind"] in ("planetary", "gearpair")]
+    transformers = [n for n, d in g.nodes(data=True) if d["kind"] in TRANSFORMER_KINDS]
     values = _values(g)
     engaged = list(engaged)
     m = np.zeros((len(links), len(transformers) + len(engaged) + 1))
@@ -238,13 +258,20 @@ def _oneway_releases(a: Candidate, b: Candidate) -> int:
     return sum(1 for e, position in a.where if e in a.oneways and position not in b.positions)
 
 
-def table_score(ratios: list[float], counts: list[int], doubles: int, releases: int = 0, holding: int = 0) -> float:
+def _dog_engagements(a: Candidate, b: Candidate) -> frozenset:
+    """The dogs that engage in the shift from ``a`` to ``b``."""
+    return b.dogs - a.dogs
+
+
+def table_score(ratios: list[float], counts: list[int], doubles: int, releases: int = 0, holding: int = 0,
+                dog_upshifts: int = 0) -> float:
     """The forward part of the score (see the module docstring)."""
     steps = [a / b for a, b in zip(ratios, ratios[1:])]
     score = math.log(ratios[0] / ratios[-1]) if len(ratios) > 1 else 0.0
     score -= 2.0 * sum(_out(s) for s in steps)
     score -= 1.0 * sum(max(0.0, math.log(b / a)) for a, b in zip(steps, steps[1:]))
     score -= 0.5 * doubles
+    score -= DOG_UPSHIFT_PENALTY * dog_upshifts
     usual = Counter(counts).most_common(1)[0][0]
     score -= 0.25 * sum(1 for c in counts if c != usual)
     return score + ONEWAY_BONUS * releases + HOLD_BONUS * holding
@@ -293,7 +320,8 @@ def synthesize_table(mech: Mechanism, forward: int, reverse: int = 1, top: int =
             doubles = sum(1 for a, b in zip(path, path[1:]) if _changes(fwd[a], fwd[b]) > 2)
             releases = sum(_oneway_releases(fwd[a], fwd[b]) for a, b in zip(path, path[1:]))
             holding = sum(len(fwd[k].oneways) for k in path)
-            score = table_score(ratios, counts, doubles, releases, holding)
+            dog_up = sum(1 for a, b in zip(path, path[1:]) if _dog_engagements(fwd[a], fwd[b]))
+            score = table_score(ratios, counts, doubles, releases, holding, dog_up)
             tick += 1
             item = (score, -tick, tuple(path))
             if len(heap) < keep:
@@ -329,7 +357,12 @@ def synthesize_table(mech: Mechanism, forward: int, reverse: int = 1, top: int =
                 total -= _reverse_term(first, c)
         doubles = tuple((str(k + 1), str(k + 2)) for k, (a, b) in enumerate(zip(seq, seq[1:]))
                         if _changes(fwd[a], fwd[b]) > 2)
-        tables.append(ShiftTable(tuple(fwd[k] for k in seq), tuple(chosen), total, doubles))
+        dog_shifts = []
+        for k, (a, b) in enumerate(zip(seq, seq[1:])):
+            up, down = f"{k + 1}-{k + 2}", f"{k + 2}-{k + 1}"
+            dog_shifts += [(up, d) for d in sorted(_dog_engagements(fwd[a], fwd[b]))]
+            dog_shifts += [(down, d) for d in sorted(_dog_engagements(fwd[b], fwd[a]))]
+        tables.append(ShiftTable(tuple(fwd[k] for k in seq), tuple(chosen), total, doubles, tuple(dog_shifts)))
     tables.sort(key=lambda t: -t.score)
     notes = []
     if not complete:
