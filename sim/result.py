@@ -38,7 +38,9 @@ class Result:
     ``signals`` holds one array per named signal over ``time`` (at a mode change the time
     appears twice, once for each side; :mod:`transgen.sim.result_files` writes files with one row
     per time on request). ``success`` is False when the run stopped early;
-    ``message`` says why (time, mode, reason).
+    ``message`` says why (time, mode, reason). ``state``: the run's state at its end
+    (:class:`~transgen.sim.restart.SimState`, mode-switching runs), from which another run can
+    start.
     """
 
     time: np.ndarray
@@ -51,6 +53,7 @@ class Result:
     energy: dict[str, float] = field(default_factory=dict)
     stats: dict[str, float] = field(default_factory=dict)
     meta: dict = field(default_factory=dict)
+    state: object = None
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.signals[name]

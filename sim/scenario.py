@@ -26,7 +26,7 @@ from __future__ import annotations
 import difflib
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -66,11 +66,18 @@ class Scenario:
     data: dict = field(default_factory=dict)
     lockup: list[str] = field(default_factory=list)  # converter lock-up clutches (not gear shifts)
 
-    def run(self, progress=None):
-        """Simulate; returns a :class:`~transgen.sim.result.Result`."""
+    def run(self, progress=None, start=None, t_end: float | None = None):
+        """Simulate; returns a :class:`~transgen.sim.result.Result`. ``start``: a saved state
+        (:mod:`.restart`) to run from, at its time; ``t_end``: stop there instead of at the
+        scenario's end [s] (the result's ``state`` then starts a later run)."""
         from .simulate import simulate
 
-        result = simulate(self.powertrain, self.options, progress)
+        options = self.options
+        if start is not None:
+            options = replace(options, t_start=start.t)
+        if t_end is not None:
+            options = replace(options, t_end=t_end)
+        result = simulate(self.powertrain, options, progress, start)
         result.meta.update({"scenario": str(self.path), "title": self.title, "lockup": list(self.lockup),
                             "input_link": self.mechanism.input, "output_link": self.mechanism.output})
         return result
@@ -317,10 +324,21 @@ def _build(data: dict, source: Source, path: Path, overrides=None, access: FileA
                     for key in ("upshift_rpm", "downshift_rpm"))
         throttle = r.signal(auto_t.get("throttle_signal", 1.0), keys + ("throttle_signal",))
         template = _template(r, data, keys + ("template",))
+        shifts_of_order = {f"{a}-{b}" for a, b in zip(order, order[1:])} | {f"{b}-{a}" for a, b in zip(order, order[1:])}
+        templates = {}
+        for name in r.table(data, keys + ("templates",), None):
+            if name not in shifts_of_order:
+                close = difflib.get_close_matches(name, sorted(shifts_of_order), n=1)
+                raise r.error(keys + ("templates", name), f"templates: {shown(name)} is no shift of the order (\"SOURCE-TARGET\" "
+                              f"of neighbouring gears" + (f"; did you mean '{close[0]}'?)" if close else ")"))
+            where = keys + ("templates", name)
+            given = r.table(data, where, set(ShiftTemplate.__dataclass_fields__))  # over the schedule's template
+            templates[name] = replace(template, **{k: r.number(given, where, k, minimum=0.0) for k in given})
         min_interval = r.number(auto_t, keys, "min_interval", 2.0, minimum=0.0)
         try:
             controllers.append(AutoShift(order, thr, up, down, throttle, tr.link_index[mech.output], gears,
-                                         template, min_interval, gear=init_gear if "gear" in init_t else order[0]))
+                                         template, min_interval, gear=init_gear if "gear" in init_t else order[0],
+                                         templates=templates))
         except ValueError as exc:
             raise r.error(keys, str(exc)) from None
     out_t = r.table(data, ("output",), S.OUTPUT_KEYS)

@@ -24,8 +24,8 @@ FRICTION_KEYS = frozenset({"slip", "factor"})
 INITIAL_KEYS = frozenset({"gear", "locked", "speeds", "speeds_rpm", "driveshaft"})
 SHIFTS_KEYS = frozenset({"template", "events"})
 EVENT_KEYS = frozenset({"t", "from", "to", "template"})
-AUTO_SHIFT_KEYS = frozenset({"order", "throttle", "upshift_rpm", "downshift_rpm", "template", "min_interval",
-                             "throttle_signal"})
+AUTO_SHIFT_KEYS = frozenset({"order", "throttle", "upshift_rpm", "downshift_rpm", "template", "templates",
+                             "min_interval", "throttle_signal"})
 OUTPUT_KEYS = frozenset({"signals", "dt"})
 INPUT_KEYS = frozenset({"type", "torque", "speed_rpm", "throttle", "torque_table", "throttle_signal", "converter",
                         "J_engine", "engine_speed_rpm", "idle_rpm", "engine", "turbo", "fuel_signal", "governor",
@@ -77,7 +77,7 @@ def key_tree(elements=None, links=None) -> dict:
                  elements=names(elements, element),
                  initial=table(INITIAL_KEYS, speeds=names(links, LEAF), speeds_rpm=names(links, LEAF)),
                  shifts=table(SHIFTS_KEYS, template=template, events=[table(EVENT_KEYS, template=template)]),
-                 auto_shift=table(AUTO_SHIFT_KEYS, template=template), output=_leaves(OUTPUT_KEYS),
+                 auto_shift=table(AUTO_SHIFT_KEYS, template=template, templates={ANY: template}), output=_leaves(OUTPUT_KEYS),
                  input=table(INPUT_KEYS, governor=_leaves(GOVERNOR_KEYS), engine=_leaves(ENGINE_KEYS),
                              shaft=_leaves(SHAFT_KEYS), ports=_leaves(PORT_KEYS), air=_leaves(GAS_KEYS),
                              exhaust=_leaves(GAS_KEYS), turbo_solver=_leaves(SOLVER_KEYS)),

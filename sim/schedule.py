@@ -136,7 +136,8 @@ class AutoShift:
     shifts up to ``order[k+1]``; ``downshift[k]``: speeds below which ``order[k+1]`` shifts down
     (must lie below the upshift line: hysteresis). ``min_interval``: no new shift within this time
     after one starts [s]. Commands shifts with :class:`ShiftTemplate` trajectories by replacing the
-    apply signals of the elements concerned from the command time on.
+    apply signals of the elements concerned from the command time on: ``templates["1-2"]`` for the
+    shift from gear 1 to 2 where given (a calibration per shift), else ``template``.
     """
 
     order: list[str]
@@ -151,6 +152,7 @@ class AutoShift:
     gear: str = ""
     last_shift: float = -1e9
     history: list = field(default_factory=list)
+    templates: dict = field(default_factory=dict)  # "SOURCE-TARGET" -> the template of that shift
 
     def __post_init__(self):
         for up, down in zip(self.upshift, self.downshift):
@@ -189,7 +191,8 @@ class AutoShift:
         target = self.order[k + 1] if kind == "up" else self.order[k - 1]
         oneway = frozenset(name for name, e in elements.items() if e.kind == "oneway")
         on, off = gear_swap(self.gears, self.gear, target, oneway)
-        for names, pts in ((on, self.template.oncoming(t)), (off, self.template.offgoing(t))):
+        template = self.templates.get(f"{self.gear}-{target}", self.template)
+        for names, pts in ((on, template.oncoming(t)), (off, template.offgoing(t))):
             for name in names:
                 e = elements[name]
                 e.apply = Spliced(t, e.apply, _merge([(t, e.apply.value(t))] + pts[1:]))

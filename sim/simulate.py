@@ -18,9 +18,13 @@ _MODELS = {"switching": simulate_switching, "compliant": simulate_compliant}
 
 
 @one_blas_thread("scipy.linalg")
-def simulate(pt: Powertrain, options: SolverOptions = SolverOptions(), progress=None) -> Result:
+def simulate(pt: Powertrain, options: SolverOptions = SolverOptions(), progress=None, start=None) -> Result:
     """Simulate ``pt`` from ``options.t_start`` to ``options.t_end`` with the clutch model
     ``options.model``.
+
+    ``start``: a saved state (:class:`~transgen.sim.restart.SimState`, the ``state`` of an earlier
+    mode-switching run's result, at ``options.t_start``) to start from instead of the powertrain's
+    initial speeds and states; the switching model only.
 
     ``progress``: optional callable ``progress(t)`` called after every integration segment.
     Returns a :class:`Result`; on failure ``success`` is False and ``message`` says when, in which
@@ -31,4 +35,8 @@ def simulate(pt: Powertrain, options: SolverOptions = SolverOptions(), progress=
         run = _MODELS[options.model]
     except KeyError:
         raise ValueError(f"unknown clutch model {options.model!r}: choose 'switching' or 'compliant'") from None
+    if start is not None:
+        if options.model != "switching":
+            raise ValueError("a run from a saved state needs the switching clutch model")
+        return run(pt, options, progress, start)
     return run(pt, options, progress)

@@ -36,29 +36,42 @@ from transgen.errors import ModeError, SimulationError
 from .integration import (ComponentEvaluator, Powertrain, Recorder, Segment, SolverOptions, StateLayout, apply_events,
                           collect, memo_last, next_stop, sample_block, signal_time,
                           slip_event)
+from .restart import SimState, check_compatible, controller_state, restore_controllers
 from .result import Event, Result
 
 __all__ = ["simulate_switching"]
 
 
-def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None) -> Result:
-    """Simulate ``pt`` with Runde's mode-switching method (see the module docstring)."""
+def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None, start: SimState | None = None) -> Result:
+    """Simulate ``pt`` with Runde's mode-switching method (see the module docstring); from the
+    saved state ``start`` (:mod:`.restart`, at ``options.t_start``) when given. The result's
+    ``state`` is the run's state at its end."""
     tr = pt.transmission
     model = ComponentEvaluator(pt)
     wall = _time.perf_counter()
-    w0 = np.asarray(pt.initial_speeds, dtype=float)
-    comp_states = [c.initial_state(w0) for c in pt.components]
     t = options.t_start
     recorder = Recorder(pt, options, _sample)
     events: list[Event] = []
     message, success = "completed", True
-    locked: frozenset | None = None
-    directions = np.sign(tr.P @ w0).astype(int)
-    energy = np.zeros(3)
     zeno_time, zeno_count = -math.inf, 0
     n_events = 0
-    w = w0.copy()
-    forced: dict[int, int] = {}
+    if start is None:
+        w = np.asarray(pt.initial_speeds, dtype=float).copy()
+        comp_states = [c.initial_state(w) for c in pt.components]
+        locked: frozenset | None = None
+        directions = np.sign(tr.P @ w).astype(int)
+        energy = np.zeros(3)
+        forced: dict[int, int] = {}
+    else:
+        check_compatible(pt, start, t)
+        restore_controllers(pt, start)
+        w, locked, directions = start.w.copy(), start.locked, start.directions.copy()
+        comp_states = [np.array(x, dtype=float) for x in start.components]
+        energy, forced = start.energy.copy(), dict(start.forced)
+        if locked is not None:  # else the first decision is still to come, as in a fresh run
+            events.append(Event(t, "start", tuple(tr.elements[i].name for i in sorted(locked)), "",
+                                tr.mode_name(locked), "from a saved state"))
+    own_applies = {e.name: e.apply for e in tr.elements}  # what the controllers command differs
 
     def slip_tol(w):
         return max(1e-9, options.slip_tol * max(1.0, float(np.max(np.abs(w)))))
@@ -191,7 +204,14 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None) ->
         if progress is not None:
             progress(t)
 
-    return collect(pt, options, recorder, events, success, message, model, wall)
+    result = collect(pt, options, recorder, events, success, message, model, wall)
+    commanded = {e.name: e.apply for e in tr.elements if e.apply is not own_applies[e.name]}
+    if start is not None:
+        commanded = {**start.commanded, **commanded}
+    result.state = SimState(t, w.copy(), locked, directions.copy(),
+                            dict(forced), tuple(np.array(x, dtype=float) for x in comp_states), np.array(energy),
+                            tuple(controller_state(c) for c in pt.controllers), commanded, SimState.shape_of(pt))
+    return result
 
 
 def _sample(pt: Powertrain, seg: Segment, ts: np.ndarray, ys: np.ndarray) -> dict[str, np.ndarray]:

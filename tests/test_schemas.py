@@ -44,6 +44,8 @@ COMMANDS = [
     (["scenario", "keys", "ht740_improved", "--json"], "transgen.scenario-keys/1"),
     (["sweep", "ht740_improved", "--grid", "simulation.t_end=4.6", "--grid", "driveline.vehicle_mass=20000,36000",
       "--workers", "1", "-o", "results.csv", "--json"], "transgen.sweep/1"),
+    (["optimize", "simple2_upshift", "--workers", "1", "--evaluations", "10", "--population", "9", "--allow-bindup",
+      "--max-flare", "1000", "-o", "tuned.toml", "--json"], "transgen.optimize/1"),
     # the language's constructs through every command: stepped pinions, dogs, alternative gears
     (["check", str(_STEPPED), "--json"], "transgen.check/1"),
     (["powerflow", str(_STEPPED), "--json"], "transgen.powerflow/1"),

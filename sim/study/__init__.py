@@ -10,18 +10,23 @@ per shift (``shift1.torque_hole``, ...) and the turbocharger figures where an en
 * :mod:`.executors` - serial, local process pool, Dask distributed;
 * :mod:`.table` - :class:`SweepTable`, CSV in and out, units of the columns;
 * :mod:`.runner` - :func:`sweep`: validation, resume, progress, atomic results file;
-* :mod:`.plots` - metrics over one parameter, heat maps over two.
+* :mod:`.plots` - metrics over one parameter, heat maps over two;
+* :mod:`.optimize` - :func:`~.optimize.optimize`: shift calibration, one shift window per candidate from a
+  saved state, candidates evaluated in batches on an executor (``transgen optimize``,
+  :mod:`.optimize_cli`).
 """
 from __future__ import annotations
 
 __all__ = ["sweep", "SweepTable", "SweepProgress", "SerialExecutor", "LocalExecutor", "DaskExecutor",
-           "make_executor", "full_grid", "latin_hypercube", "row_key", "column_unit", "validate_variants"]
+           "make_executor", "full_grid", "latin_hypercube", "row_key", "column_unit", "validate_variants", "Objective",
+           "Constraints"]
 
 # loaded on first use, so that the command line's parser (which adds `sweep`) imports no numeric library
 _WHERE = {"sweep": "runner", "SweepProgress": "runner", "validate_variants": "runner", "SweepTable": "table",
           "column_unit": "table", "SerialExecutor": "executors", "LocalExecutor": "executors",
           "DaskExecutor": "executors", "make_executor": "executors", "full_grid": "design",
-          "latin_hypercube": "design", "row_key": "design"}
+          "latin_hypercube": "design", "row_key": "design", "Objective": "optimize",
+          "Constraints": "optimize"}
 
 
 def __getattr__(name: str):

@@ -42,6 +42,9 @@ def add_commands(sub) -> None:
     s.add_argument("--format", default="png", help="plot formats, comma-separated: png,svg,pdf (default png)")
     s.add_argument("--quiet", action="store_true", help="no progress on standard error")
     s.set_defaults(func=cmd_sweep)
+    from .optimize_cli import add_optimize_command
+
+    add_optimize_command(sub)
 
 
 def _values(spec: str) -> list[str]:

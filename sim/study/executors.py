@@ -13,6 +13,10 @@ error, Ctrl-C) cancels the runs not started.
 * :class:`DaskExecutor` - a Dask distributed cluster by scheduler address
   (``tcp://HOST:PORT``) or an existing ``distributed.Client``; the optional extra
   ``transgen[distributed]``, imported only here.
+
+Every executor is also a context manager: inside ``with executor:`` the local pool (or the Dask
+client) stays open across calls of :meth:`run`, so that a study that runs many small batches one
+after the other (an optimizer's generations) starts its workers once.
 """
 from __future__ import annotations
 
@@ -36,6 +40,12 @@ class SerialExecutor:
         for task in tasks:
             yield fn(shared, task)
 
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        return None
+
     def __repr__(self) -> str:
         return "SerialExecutor()"
 
@@ -47,19 +57,37 @@ class LocalExecutor:
         if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
             raise ValueError(f"--workers: error: the number of workers is a whole number >= 1, not {workers!r}")
         self.workers = workers or os.cpu_count() or 1
+        self._pool = None
 
-    def run(self, fn: Callable, shared, tasks: Iterable) -> Iterator:
+    def _new_pool(self):
         import multiprocessing
-        from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-
-        from concurrent.futures.process import BrokenProcessPool
+        from concurrent.futures import ProcessPoolExecutor
 
         # spawn, not fork (threads of the parent, e.g. a BLAS pool, are unsafe to fork) and not
         # forkserver: Python 3.11's fork server ignores the parent's sys.path and imports from its
         # working directory first, so a folder named transgen there (a source checkout) shadows the
         # installed package
         context = multiprocessing.get_context("spawn")
-        pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=context, initializer=_start_worker)
+        return ProcessPoolExecutor(max_workers=self.workers, mp_context=context, initializer=_start_worker)
+
+    def __enter__(self):
+        if self._pool is None:
+            self._pool = self._new_pool()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        pool, self._pool = self._pool, None
+        if pool is not None:
+            pool.shutdown(wait=True, cancel_futures=True)
+
+    def run(self, fn: Callable, shared, tasks: Iterable) -> Iterator:
+        from concurrent.futures import FIRST_COMPLETED, wait
+
+        from concurrent.futures.process import BrokenProcessPool
+
+        kept = self._pool is not None
+        pool = self._pool if kept else self._new_pool()
+        pending: set = set()
         try:
             pending = {pool.submit(fn, shared, task) for task in tasks}
             while pending:
@@ -72,7 +100,11 @@ class LocalExecutor:
                                            "finished so far are kept: run the sweep again to resume") from None
                     yield row
         finally:
-            pool.shutdown(wait=True, cancel_futures=True)
+            if not kept:
+                pool.shutdown(wait=True, cancel_futures=True)
+            else:
+                for future in pending:
+                    future.cancel()
 
     def __repr__(self) -> str:
         return f"LocalExecutor(workers={self.workers})"
@@ -90,7 +122,22 @@ class DaskExecutor:
         if (address is None) == (client is None):
             raise ValueError("DaskExecutor: give the scheduler address or a distributed.Client (one of them)")
         self.address, self.client = address, client
+        self._opened = False
         _distributed()  # a missing extra is an error before anything runs
+
+    def __enter__(self):
+        if self.client is None:
+            try:
+                self.client = _distributed().Client(self.address, timeout="20s")
+            except (OSError, TimeoutError) as exc:
+                raise ClusterError(f"cannot reach the Dask scheduler at {self.address}: {exc}") from None
+            self._opened = True
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self._opened:
+            client, self.client, self._opened = self.client, None, False
+            client.close()
 
     @property
     def workers(self) -> int:

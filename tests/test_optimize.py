@@ -1,0 +1,242 @@
+"""Shift calibration (:mod:`transgen.sim.study.optimize`, ``transgen optimize``): template fitting
+of raw apply tables, the overrides that carry a calibration, a small optimization on simple2 in
+this process (a seeded run is repeatable and never worse than its start), an infeasible constraint
+said with the binding constraint, command-line errors (exit 2)."""
+from __future__ import annotations
+
+import csv
+import math
+
+import numpy as np
+import pytest
+
+from transgen.cli import main
+from transgen.sim import load_scenario
+from transgen.sim.report import shift_report
+from transgen.sim.schedule import ShiftTemplate
+from transgen.sim.signals import Table
+from transgen.sim.study.optimize import (Constraints, Objective, fit_template, optimize, parse_objective,
+                                         plan_calibration, score)
+
+SMALL = {"max_evaluations": 10, "population": 9}  # the start and one generation of nine candidates
+
+
+def _signal(points, before):
+    from transgen.sim.schedule import _merge
+
+    return _merge([(0.0, before)] + list(points))
+
+
+def test_fit_template_recovers_a_template_from_its_tables():
+    true = ShiftTemplate(fill_time=0.08, fill_level=0.15, ramp_time=0.4, ramp_end=0.5, hold_time=0.3,
+                         final_time=0.15, offgoing_delay=0.1, offgoing_level=0.35, offgoing_ramp=0.25)
+    on, off = _signal(true.oncoming(2.0), 0.0), _signal(true.offgoing(2.0), 1.0)
+    fitted, residual = fit_template(on, off, 2.0, 3.2)
+    assert residual < 0.02
+    ts = np.linspace(2.0, 3.2, 500)
+    for a, b in ((_signal(fitted.oncoming(2.0), 0.0), on), (_signal(fitted.offgoing(2.0), 1.0), off)):
+        assert np.max(np.abs(a.sample(ts) - b.sample(ts))) < 0.02
+
+
+def test_fit_of_a_linear_ramp_and_a_late_release():
+    """The raw tables of ht740_original: a one-second linear ramp, the release at its end."""
+    on = Table((0.0, 4.0, 5.0), (0.0, 0.0, 1.0))
+    off = Table((0.0, 5.0, 5.1), (1.0, 1.0, 0.0))
+    fitted, residual = fit_template(on, off, 4.0, 5.2)
+    assert residual < 1e-3
+    assert fitted.fill_time + fitted.offgoing_delay == pytest.approx(1.0, abs=5e-3)
+
+
+@pytest.fixture(scope="module")
+def ht740_plans():
+    scenario = load_scenario("ht740_original")
+    result = scenario.run()
+    return scenario, result, *plan_calibration(scenario.path, {}, result, scenario)
+
+
+def test_raw_tables_fitted_reproduce_the_run(ht740_plans):
+    scenario, result, calibration, plans = ht740_plans
+    assert calibration.kind == "tables"
+    assert [(p.name, p.oncoming, p.offgoing) for p in plans] == [("1-2", "C4", "C5"), ("2-3", "C3", "C4"),
+                                                                  ("3-4", "C2", "C3")]
+    assert all(p.fit_residual < 1e-3 for p in plans)
+    overrides = calibration.overrides(plans, {p.number: p.template for p in plans})
+    assert set(overrides) == {f"elements.{e}.apply" for e in ("C2", "C3", "C4", "C5")}
+    again = load_scenario("ht740_original", overrides).run()
+    for a, b in zip(shift_report(result), shift_report(again)):
+        assert b.energy_total == pytest.approx(a.energy_total, rel=2e-3)
+        assert b.bindup == a.bindup
+
+
+def test_one_shift_changed_leaves_the_others(ht740_plans):
+    scenario, result, calibration, plans = ht740_plans
+    tmpl = ShiftTemplate(fill_time=0.1, fill_level=0.1, ramp_time=0.5, ramp_end=0.6, hold_time=0.3, final_time=0.2,
+                         offgoing_delay=0.1, offgoing_level=0.3, offgoing_ramp=0.2)
+    overrides = calibration.overrides(plans, {2: tmpl})
+    c4 = overrides["elements.C4.apply"]
+    table = Table(tuple(c4["t"]), tuple(c4["value"]))
+    raw = scenario.powertrain.transmission.elements[[e.name for e in scenario.powertrain.transmission.elements].index("C4")].apply
+    for t in (3.0, 4.5, 5.5, 8.9):  # its 1-2 apply is the raw one
+        assert table.value(t) == pytest.approx(raw.value(t))
+    assert table.value(9.0 + 0.1 + 0.1 + 0.2 + 0.01) == 0.0  # released by the new template
+
+
+def test_score_puts_every_feasible_candidate_first():
+    ref = {"success": True, "completed": True, "energy": 1000.0, "duration": 0.5, "hole": 40.0, "flare": 0.0,
+           "bindup": False, "bindup_torque": 0.0, "offgoing_torque": 100.0, "chatter": False, "locks": 1, "jerk": None}
+    objective, constraints = Objective({"energy": 1.0}), Constraints()
+    good, terms, violations = score({**ref, "energy": 500.0}, ref, objective, constraints)
+    assert good == pytest.approx(0.5) and not violations and terms == {"energy": pytest.approx(0.5)}
+    bad, _, violations = score({**ref, "energy": 10.0, "bindup": True, "bindup_torque": 50.0}, ref, objective,
+                               constraints)
+    assert bad > 1e3 and set(violations) == {"no bindup"}
+    worse, _, _ = score({**ref, "bindup": True, "bindup_torque": 90.0}, ref, objective, constraints)
+    assert worse > bad
+    failed, _, _ = score({"success": False, "message": "x"}, ref, objective, constraints)
+    assert failed > worse
+
+
+def test_parse_objective():
+    assert parse_objective("energy=1,jerk=0.2,duration=0.1").weights == {"energy": 1.0, "jerk": 0.2, "duration": 0.1}
+    for bad, what in (("energy=1,comfort=2", "unknown term"), ("energy=x", "not a number"),
+                      ("energy=-1", ">= 0"), ("energy=0", "at least one")):
+        with pytest.raises(ValueError, match=what):
+            parse_objective(bad)
+
+
+def test_small_optimization_on_simple2_is_repeatable_and_no_worse():
+    runs = [optimize("simple2_upshift", seed=3, **SMALL) for _ in range(2)]
+    a, b = runs
+    [s] = a.shifts
+    assert s.plan.oncoming == "C2" and s.plan.offgoing == "C1"
+    assert s.evaluations == 10 and len(a.history) == 10
+    assert s.best_score <= s.start_score
+    assert [r["score"] for r in a.history] == [r["score"] for r in b.history]  # the same seed, the same search
+    assert a.overrides == b.overrides
+    assert set(a.overrides) == {"elements.C1.apply", "elements.C2.apply"}
+    tuned = load_scenario("simple2_upshift", a.overrides).run()
+    assert tuned.success
+
+
+def test_cli_writes_a_scenario_that_simulate_runs(tmp_path, capsys):
+    out = tmp_path / "tuned.toml"
+    code = main(["optimize", "simple2_upshift", "--workers", "1", "--evaluations", "10", "--population", "9",
+                 "--allow-bindup", "--max-flare", "1000", "-o", str(out), "--report", "--quiet"])
+    text = capsys.readouterr().out
+    assert code == 0, text
+    assert "evaluations/s" in text and "before" in text and "after" in text
+    head = out.read_text()
+    assert head.startswith("# Shift calibration by 'transgen optimize'") and "# objective:" in head
+    assert "# constraints:" in head and "[elements.C2]" in head
+    rows = list(csv.DictReader(open(tmp_path / "tuned.history.csv")))
+    assert len(rows) == 10 and {"fill_time", "energy", "score", "feasible"} <= set(rows[0])
+    assert main(["simulate", str(out), "--report", "--quiet"]) == 0
+
+
+def test_infeasible_constraints_name_the_binding_one(tmp_path, capsys):
+    out = tmp_path / "tuned.toml"
+    code = main(["optimize", "simple2_upshift", "--workers", "1", "--evaluations", "10", "--population", "9",
+                 "--max-duration", "0.001", "-o", str(out), "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 1
+    assert "no candidate met the constraints" in err and "binding: max duration" in err
+    assert out.exists()  # the best candidate found is kept
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--objective", "comfort=1"], "--objective: error: unknown term 'comfort'"),
+    (["--max-flare", "-5"], "--max-flare: error"),
+    (["--max-hole", "nan"], "--max-hole: error"),
+    (["--shift", "5-6"], "--shift 5-6: error: no such shift"),
+    (["--set", "driveline.mass=3"], "--set driveline.mass: error"),
+    (["--evaluations", "1"], "--evaluations: error"),
+])
+def test_cli_errors_exit_2(argv, message, tmp_path, capsys):
+    out = tmp_path / "tuned.toml"
+    assert main(["optimize", "simple2_upshift", "--workers", "1", "-o", str(out), "--quiet"] + argv) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+    assert not out.exists()
+
+
+def test_cli_refuses_another_output_kind_and_a_missing_scenario(tmp_path, capsys):
+    assert main(["optimize", "simple2_upshift", "-o", str(tmp_path / "x.csv")]) == 2
+    assert main(["optimize", "no_such_scenario", "--workers", "1", "-o", str(tmp_path / "x.toml")]) == 2
+    err = capsys.readouterr().err
+    assert "-o" in err and "no such scenario" in err
+
+
+def test_events_and_automatic_schedules_carry_their_templates(tmp_path):
+    """A scenario with shift events tunes each event's template; a launch tunes the automatic
+    schedule's template of each shift (``[auto_shift] templates."1-2"``)."""
+    path = tmp_path / "launch.toml"
+    assert main(["scenario", "new", "simple2", "-o", str(path)]) == 0
+    scenario = load_scenario(path)
+    result = scenario.run()
+    calibration, plans = plan_calibration(path, {}, result, scenario)
+    assert calibration.kind == "auto" and plans and plans[0].name == "1-2"
+    from dataclasses import replace
+
+    from transgen.errors import ScenarioError
+    from transgen.sim.study.optimize import _refresh
+
+    moved = replace(plans[0], t_start=plans[0].t_start + 1.5)  # found again by its place in the run
+    assert _refresh(moved, result).t_start == pytest.approx(plans[0].t_start)
+    with pytest.raises(ScenarioError, match="no longer commands it"):
+        _refresh(replace(plans[0], number=len(plans) + 1), result)
+    tmpl = ShiftTemplate(fill_time=0.05)
+    overrides = calibration.overrides(plans, {1: tmpl})
+    assert overrides == {"auto_shift.templates.1-2": {**ShiftTemplate().__dict__, "fill_time": 0.05}}
+    tuned = load_scenario(path, overrides)
+    assert tuned.powertrain.controllers[0].templates["1-2"] == tmpl
+    assert not math.isnan(tuned.run().time[-1])
+
+
+EVENTS = """
+mechanism = "simple2"
+[simulation]
+t_start = 4.0
+t_end = 7.0
+[initial]
+gear = "1"
+speeds_rpm = { Li = 1500 }
+[input]
+type = "torque"
+torque = 400.0
+[driveline]
+output_inertia = 100.0
+stiffness = 12000.0
+damping = 200.0
+[shifts]
+template = { ramp_end = 0.8 }
+events = [{ t = 5.0, from = "1", to = "2" }]
+"""
+
+
+def test_shift_events_carry_a_template_each(tmp_path):
+    path = tmp_path / "events.toml"
+    path.write_text(EVENTS)
+    scenario = load_scenario(path)
+    calibration, plans = plan_calibration(path, {}, scenario.run(), scenario)
+    assert calibration.kind == "events" and [(p.name, p.oncoming, p.offgoing) for p in plans] == [("1-2", "C2", "C1")]
+    assert plans[0].template == ShiftTemplate(ramp_end=0.8)
+    tmpl = ShiftTemplate(ramp_time=0.3)
+    overrides = calibration.overrides(plans, {1: tmpl})
+    assert overrides == {"shifts.events": [{"t": 5.0, "from": "1", "to": "2", "template": ShiftTemplate(ramp_time=0.3).__dict__}]}
+    assert load_scenario(path, overrides).run().success
+
+
+def test_local_processes_and_dask_give_the_same_calibration():
+    """The same seed gives the same search on every executor (the batches are put back in order)."""
+    distributed = pytest.importorskip("distributed")
+    from transgen.sim.study import DaskExecutor, LocalExecutor
+
+    serial = optimize("simple2_upshift", seed=1, **SMALL)
+    local = optimize("simple2_upshift", seed=1, executor=LocalExecutor(2), **SMALL)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                  dashboard_address=None) as cluster:
+        on_dask = optimize("simple2_upshift", seed=1, executor=DaskExecutor(cluster.scheduler_address), **SMALL)
+    scores = [r["score"] for r in serial.history]
+    assert [r["score"] for r in local.history] == scores
+    assert [r["score"] for r in on_dask.history] == scores
+    assert local.overrides == serial.overrides == on_dask.overrides
