@@ -7,17 +7,24 @@ such calls. These subclasses call the same LAPACK routines (``getrf``, ``getrs``
 the same finiteness checks (a NaN from a rejected trial state raises the same ``ValueError``) and
 the same singular-matrix warning: the results are those of the scipy classes, bit for bit.
 Sparse Jacobians keep scipy's ``splu``.
+
+:func:`solve_segment` is ``solve_ivp``'s driver loop for the simulator's segments (dense output,
+terminal events), the same steps, event roots and solution, without its per-step array
+conversions.
 """
 from __future__ import annotations
 
 import warnings
+from types import SimpleNamespace
 
 import numpy as np
-from scipy.integrate import BDF, Radau
+from scipy.integrate import BDF, LSODA, OdeSolution, Radau
+from scipy.integrate._ivp.ivp import METHODS, MESSAGES
+from scipy.optimize import brentq
 from scipy.linalg import LinAlgWarning, get_lapack_funcs
 from scipy.sparse import issparse
 
-__all__ = ["LeanBDF", "LeanRadau", "SOLVERS"]
+__all__ = ["LeanBDF", "LeanRadau", "SOLVERS", "solve_segment"]
 
 
 class _LeanLU:
@@ -67,3 +74,67 @@ class LeanRadau(_LeanLU, Radau):
 
 SOLVERS = {"BDF": LeanBDF, "Radau": LeanRadau}
 """Solver classes used for these method names (the others are passed to ``solve_ivp`` by name)."""
+
+
+_EPS = np.finfo(float).eps
+
+
+def solve_segment(fun, t0: float, t1: float, y0: np.ndarray, method, events: list, **options) -> SimpleNamespace:
+    """``solve_ivp(fun, (t0, t1), y0, method=method, events=events, dense_output=True, **options)``
+    for events that are all terminal (each stops the integration at its first root): the same
+    solver steps, event detection (a sign change between step ends in the event's direction),
+    roots (Brent's method on the step's dense output, ``xtol = rtol = 4 eps``) and result fields
+    (``t``, ``y``, ``sol``, ``t_events``, ``y_events``, ``status``, ``message``, ``success``, ``nfev``).
+
+    Why not ``solve_ivp`` itself: on the simulator's small systems its per-step bookkeeping (event
+    values through arrays, the active-event search, the event counts) cost as much as a
+    right-hand-side evaluation; here the event values stay Python floats.
+    """
+    if any(getattr(e, "terminal", None) != 1 and getattr(e, "terminal", None) is not True for e in events):
+        raise ValueError("solve_segment takes terminal events only")
+    if isinstance(method, str):
+        method = METHODS[method]
+    t0, t1 = float(t0), float(t1)
+    solver = method(fun, t0, y0, t1, vectorized=False, **options)
+    ts, ys, interpolants = [t0], [y0], []
+    directions = [getattr(e, "direction", 0) for e in events]
+    g = [e(t0, y0) for e in events]
+    hit, root, y_root = None, None, None
+    status, message = None, None
+    while status is None:
+        message = solver.step()
+        if solver.status == "finished":
+            status = 0
+        elif solver.status == "failed":
+            status = -1
+            break
+        t_old, t, y = solver.t_old, solver.t, solver.y
+        sol = solver.dense_output()
+        interpolants.append(sol)
+        if events:
+            g_new = [e(t, y) for e in events]
+            active = [k for k, (a, b, d) in enumerate(zip(g, g_new, directions))
+                      if (d > 0 and a <= 0 <= b) or (d < 0 and a >= 0 >= b) or (d == 0 and (a <= 0 <= b or a >= 0 >= b))]
+            if active:
+                roots = [brentq(lambda tt, e=events[k]: e(tt, sol(tt)), t_old, t, xtol=4 * _EPS, rtol=4 * _EPS)
+                         for k in active]
+                # the first root in the direction of integration (ties: the first event, as a stable sort)
+                first = min(range(len(active)), key=(roots.__getitem__ if t > t_old else lambda j: -roots[j]))
+                hit, root = active[first], roots[first]
+                status = 1
+                t = root
+                y = y_root = sol(t)
+            g = g_new
+        if len(ts) > 1 and ts[-1] == t:
+            interpolants.pop()
+        else:
+            ts.append(t)
+            ys.append(y)
+    t_events = [np.array([root]) if k == hit else np.zeros(0) for k in range(len(events))]
+    y_events = [np.array([y_root]) if k == hit else np.zeros(0) for k in range(len(events))]
+    ts_arr = np.array(ts)
+    return SimpleNamespace(t=ts_arr, y=np.vstack(ys).T,
+                           sol=OdeSolution(ts_arr, interpolants, alt_segment=method in (BDF, LSODA)),
+                           t_events=t_events, y_events=y_events, nfev=solver.nfev, njev=solver.njev,
+                           nlu=solver.nlu, status=status, message=MESSAGES.get(status, message),
+                           success=status >= 0)

@@ -146,7 +146,7 @@ class TurbodieselSource(Component):
         return self.engine.derivatives(t, x, float(w[self.link]))
 
     def torques(self, t, x, w):
-        return {"T_in": self.engine.torque(t, x, float(w[self.link]))}
+        return {"T_in": self.engine.crank_torque(t, x, float(w[self.link]))}
 
     def power_in(self, t, x, w):
         omega = float(w[self.link])

@@ -228,6 +228,7 @@ class Transmission:
         self.input_index = {name: i for i, name in enumerate(self.inputs)}
         self.element_input = np.array([self.input_index[f"t_{e.name}"] for e in self.elements], dtype=int)
         self._modes: dict[frozenset, ModeData] = {}
+        self._implied: dict[tuple, frozenset] = {}  # :meth:`_without_implied`'s answers
         self.std_modes = []
         for m in ss.modes:
             data = self._data(m, in_std=True)
@@ -588,15 +589,21 @@ class Transmission:
         """``locked`` without the groups whose lock the other locked elements already imply
         kinematically (their slip row lies in the span of the gear constraints and the other
         locks): the group ``first`` tried first, then the newcomers (not in ``previous``)."""
-        current = set(locked)
         groups = [m for m, _ in self.groups if any(i in locked for i in m)]
+        # a pure function of the gearing: remembered (the decision asks it for every candidate
+        # at every event, and each answer costs two rank tests of the constraint matrix)
+        key = (locked, first, frozenset(i for m in groups for i in m if i in previous))
+        if key in self._implied:
+            return self._implied[key]
+        current = set(locked)
         groups.sort(key=lambda m: (m != first, any(i in previous for i in m)))
         for members in groups:
             rest = sorted(current - set(members))
             a = constraint_matrix(self.graph, [self.elements[i].name for i in rest])
             if numeric_rank(np.vstack([a, self.P[members[0]]])) == numeric_rank(a):
                 current -= set(members)
-        return frozenset(current)
+        self._implied[key] = frozenset(current)
+        return self._implied[key]
 
     def _choices(self, members: tuple[int, ...], signs: tuple[int, ...], forced: dict[int, int]) -> tuple[int, ...]:
         """A group's options at zero slip: lock (0) or slip +1/-1 in its first member's
