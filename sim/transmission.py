@@ -51,6 +51,7 @@ from transgen.model import HOUSING, Mechanism
 from transgen.modes import Mode, mode_model, mode_models
 from transgen.statespace import _mode_state_space, state_space
 
+from .interp import interp_like_numpy
 from .signals import Constant, Signal
 
 __all__ = ["ElementConfig", "ModeData", "Transmission", "APPLY_THRESHOLD"]
@@ -139,7 +140,7 @@ class ElementConfig:
         if a <= 0.0:
             return 0.0
         if friction and self.friction is not None:
-            a *= float(np.interp(abs(slip), self.friction[0], self.friction[1]))
+            a *= interp_like_numpy(abs(slip), self.friction[0], self.friction[1])
         return scale * a
 
     def slip_torques(self, ts: np.ndarray, slips: np.ndarray, direction: int) -> np.ndarray:

@@ -63,6 +63,7 @@ import numpy as np
 from transgen.errors import SimulationError, StateOutOfDomain
 
 from ..causality import Block, Causality, ports
+from ..interp import interp_like_numpy
 from .gas import AIR, EXHAUST, RPM, Gas
 from .turbocharger import BasicTurbo, TurboShaft, make_turbo
 
@@ -143,7 +144,7 @@ class EngineParams:
         """Full-load fuel [kg per cycle per cylinder] at an engine speed [rad/s]."""
         if omega_engine < self.firing_speed:
             return 0.0
-        return float(np.interp(omega_engine, self.full_load_speed, self.full_load_fuel))
+        return interp_like_numpy(float(omega_engine), self.full_load_speed, self.full_load_fuel)
 
 
 @dataclass(frozen=True)
