@@ -86,6 +86,10 @@ def solve_segment(fun, t0: float, t1: float, y0: np.ndarray, method, events: lis
     roots (Brent's method on the step's dense output, ``xtol = rtol = 4 eps``) and result fields
     (``t``, ``y``, ``sol``, ``t_events``, ``y_events``, ``status``, ``message``, ``success``, ``nfev``).
 
+    An event with the attribute ``linear = (row, offset)`` is the linear function ``row @
+    y[:len(row)] + offset`` of the state: at the step ends those are evaluated together, in one
+    matrix product (the roots are found with the event functions themselves).
+
     Why not ``solve_ivp`` itself: on the simulator's small systems its per-step bookkeeping (event
     values through arrays, the active-event search, the event counts) cost as much as a
     right-hand-side evaluation; here the event values stay Python floats.
@@ -98,7 +102,8 @@ def solve_segment(fun, t0: float, t1: float, y0: np.ndarray, method, events: lis
     solver = method(fun, t0, y0, t1, vectorized=False, **options)
     ts, ys, interpolants = [t0], [y0], []
     directions = [getattr(e, "direction", 0) for e in events]
-    g = [e(t0, y0) for e in events]
+    values = _event_values(events)
+    g = values(t0, y0)
     hit, root, y_root = None, None, None
     status, message = None, None
     while status is None:
@@ -112,7 +117,7 @@ def solve_segment(fun, t0: float, t1: float, y0: np.ndarray, method, events: lis
         sol = solver.dense_output()
         interpolants.append(sol)
         if events:
-            g_new = [e(t, y) for e in events]
+            g_new = values(t, y)
             active = [k for k, (a, b, d) in enumerate(zip(g, g_new, directions))
                       if (d > 0 and a <= 0 <= b) or (d < 0 and a >= 0 >= b) or (d == 0 and (a <= 0 <= b or a >= 0 >= b))]
             if active:
@@ -138,3 +143,25 @@ def solve_segment(fun, t0: float, t1: float, y0: np.ndarray, method, events: lis
                            t_events=t_events, y_events=y_events, nfev=solver.nfev, njev=solver.njev,
                            nlu=solver.nlu, status=status, message=MESSAGES.get(status, message),
                            success=status >= 0)
+
+
+def _event_values(events: list):
+    """``values(t, y)``: the list of the events' values at a step end, the linear ones
+    (:func:`solve_segment`) from one matrix product."""
+    linear = [k for k, e in enumerate(events) if getattr(e, "linear", None) is not None]
+    if len({len(events[k].linear[0]) for k in linear}) != 1:
+        return lambda t, y: [e(t, y) for e in events]
+    others = [(k, events[k]) for k in range(len(events)) if k not in set(linear)]
+    rows = np.array([events[k].linear[0] for k in linear], dtype=float)
+    offsets = np.array([events[k].linear[1] for k in linear], dtype=float)
+    width = rows.shape[1]
+
+    def values(t, y):
+        g = [0.0] * len(events)
+        for k, v in zip(linear, (rows @ y[:width] + offsets).tolist()):
+            g[k] = v
+        for k, e in others:
+            g[k] = e(t, y)
+        return g
+
+    return values

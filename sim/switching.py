@@ -129,18 +129,19 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None) ->
 
         evaluate = memo_last(model, point, t_stop, t_sig)
 
-        def inputs(tt, y, C=mode.C, PC=tr.P @ mode.C, dof=mode.dof, layout=layout,
-                   active=tr.slipping_set(locked, seg_dirs, t, t_stop)):
-            # the input vector of ``point`` alone: the torque events' need at every step end
+        def locked_torques(tt, y, C=mode.C, PC=tr.P @ mode.C, D=mode.D, dof=mode.dof, layout=layout,
+                           active=tr.slipping_set(locked, seg_dirs, t, t_stop)):
+            # the torques of the locked rows from the input vector of ``point`` alone: what the torque
+            # events need at every step end
             q = y[:dof]
             u = model.inputs(tt, y, C @ q, layout)
             if active:
                 s = (PC @ q).tolist()
                 for i, col, e, scale in active:
                     u[col] += e.torque_at(tt, s[i], scale)
-            return u
+            return (D @ u).tolist()
 
-        event_inputs = memo_last(model, inputs, t_stop, t_sig, "input_calls")
+        event_torques = memo_last(model, locked_torques, t_stop, t_sig, "input_calls")
 
         def rhs(tt, y, mode=mode, layout=layout):
             ww, u, derivs, p_in, diss, p_load, _ = evaluate(tt, y)
@@ -153,7 +154,7 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None) ->
         for row, i in enumerate(mode.locked_order):  # one row per locked element or group in parallel
 
             def torque_event(tt, y, row=row, mode=mode):
-                return tr.holding_margin(mode, row, tt, mode.D[row] @ event_inputs(tt, y))
+                return tr.holding_margin(mode, row, tt, event_torques(tt, y)[row])
 
             torque_event.terminal = True
             torque_event.direction = -1
