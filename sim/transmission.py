@@ -65,6 +65,22 @@ APPLY_THRESHOLD = 1e-12
 APPLY_LOOKAHEAD = 1e-9
 
 
+_DERIVED: dict[tuple, tuple[dict, dict]] = {}
+_DERIVED_MECHANISMS = 16  # the most recent mechanisms whose derived data is kept
+
+
+def _derived(mech: Mechanism, coordinates: tuple, modes: str) -> tuple[dict, dict]:
+    """The caches of :class:`Transmission` that depend on the mechanism alone (see there), one
+    pair per mechanism, coordinates and mode selection (the models are immutable: equal ones
+    share them); the least recently built of more than :data:`_DERIVED_MECHANISMS` is dropped."""
+    key = (mech, coordinates, modes)
+    pair = _DERIVED.pop(key, None) or ({}, {})
+    _DERIVED[key] = pair
+    while len(_DERIVED) > _DERIVED_MECHANISMS:
+        del _DERIVED[next(iter(_DERIVED))]
+    return pair
+
+
 @dataclass
 class ElementConfig:
     """Run-time data of one shift element.
@@ -229,7 +245,10 @@ class Transmission:
         self.input_index = {name: i for i, name in enumerate(self.inputs)}
         self.element_input = np.array([self.input_index[f"t_{e.name}"] for e in self.elements], dtype=int)
         self._modes: dict[frozenset, ModeData] = {}
-        self._implied: dict[tuple, frozenset] = {}  # :meth:`_without_implied`'s answers
+        # what the gearing alone decides, shared by the transmissions of one mechanism in a process
+        # (a sweep's runs, a benchmark's repeats): the modes computed on demand (or why a lock set
+        # is no mode) and :meth:`_without_implied`'s answers
+        self._on_demand, self._implied = _derived(mech, tuple(ss.coordinates), modes)
         self.std_modes = []
         for m in ss.modes:
             data = self._data(m, in_std=True)
@@ -281,12 +300,19 @@ class Transmission:
         for modes outside the STD, with coordinates taken from the STD's first)."""
         key = frozenset(locked)
         if key not in self._modes:
-            names = tuple(self.elements[i].name for i in sorted(key))
-            model = mode_model(self.mech, Mode("+".join(names) or "none", names, "on demand"), self.graph)
-            if model.equations is None:
-                raise ModeError(model.problem)
-            order = list(self.coordinates) + [k for k in self.links if k not in self.coordinates]
-            self._modes[key] = self._data(_mode_state_space(model, self.links, order, False), in_std=False)
+            data = self._on_demand.get(key)
+            if data is None:
+                names = tuple(self.elements[i].name for i in sorted(key))
+                model = mode_model(self.mech, Mode("+".join(names) or "none", names, "on demand"), self.graph)
+                if model.equations is None:
+                    data = model.problem
+                else:
+                    order = list(self.coordinates) + [k for k in self.links if k not in self.coordinates]
+                    data = self._data(_mode_state_space(model, self.links, order, False), in_std=False)
+                self._on_demand[key] = data
+            if isinstance(data, str):
+                raise ModeError(data)
+            self._modes[key] = data
         return self._modes[key]
 
     def mode_name(self, locked) -> str:

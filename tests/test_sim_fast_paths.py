@@ -1,5 +1,7 @@
-"""The simulator's integration driver (transgen.sim.ode_solvers.solve_segment) against
-scipy's solve_ivp: the same steps, event roots, end state and dense output, bit for bit."""
+"""The simulator's fast paths give the numbers of the plain ones: its integration driver
+(transgen.sim.ode_solvers.solve_segment) against scipy's solve_ivp (the same steps, event roots,
+end state and dense output, bit for bit), the torque events' input vector against the full
+evaluation's, the mechanism-derived caches shared between transmissions."""
 from __future__ import annotations
 
 import numpy as np
@@ -120,3 +122,25 @@ def test_crank_torque_is_the_engines_torque():
             x = x0 * (1.0 + 0.03 * np.array([np.sin(k), np.cos(k), np.sin(2 * k)]))
             cheap = eng.crank_torque(0.1 * k, x, n * RPM)
             assert cheap == eng.torque(0.1 * k, x, n * RPM) == eng.crank_torque(0.1 * k, x, n * RPM)
+
+
+# ----------------------------------------------------------------------------- shared caches
+def test_transmissions_of_one_mechanism_share_what_the_gearing_decides():
+    from transgen.errors import ModeError
+    from transgen.sim.scenario import load_scenario
+
+    a, b = load_scenario("ht740_improved").powertrain.transmission, load_scenario("ht740_improved").powertrain.transmission
+    assert a is not b and a._on_demand is b._on_demand and a._implied is b._implied
+    names = [e.name for e in a.elements]
+    odd = frozenset(range(len(names)))  # every element locked: no mode (the gearing is overconstrained)
+    with pytest.raises(ModeError) as first:
+        a.mode(odd)
+    with pytest.raises(ModeError) as again:  # from the cache, the same message
+        b.mode(odd)
+    assert str(first.value) == str(again.value)
+    on_demand = next(k for k in map(frozenset, ([0], [1], [0, 1], [2], [0, 2])) if k not in {m.locked for m in a.std_modes})
+    try:
+        data = a.mode(on_demand)
+    except ModeError:
+        return
+    assert b.mode(on_demand) is data and not data.in_std
