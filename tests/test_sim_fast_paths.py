@@ -144,3 +144,25 @@ def test_transmissions_of_one_mechanism_share_what_the_gearing_decides():
     except ModeError:
         return
     assert b.mode(on_demand) is data and not data.in_std
+
+
+def _stiff(t, y):
+    """A stiff chain (rates 1 to 1e4) driven by a kinked forcing, with a quadratic coupling."""
+    k = np.array([1.0, 30.0, 900.0, 1e4])
+    return np.concatenate([[np.sin(5 * t) + abs(np.cos(2 * t)) - k[0] * y[0]],
+                           k[:-1] * y[:-1] - k[1:] * y[1:] + 0.1 * y[:-1] ** 2])
+
+
+@pytest.mark.parametrize("options", [dict(rtol=1e-5, atol=1e-5), dict(rtol=1e-8, atol=1e-10, max_step=0.05),
+                                     dict(rtol=1e-3, atol=1e-6, first_step=1e-5)])
+def test_lean_bdf_steps_as_scipys_bdf_bit_for_bit(options):
+    from scipy.integrate import BDF
+
+    y0 = np.array([0.5, 0.0, 0.2, 0.0])
+    ref = solve_ivp(_stiff, (0.0, 6.0), y0, method=BDF, dense_output=True, **options)
+    got = solve_ivp(_stiff, (0.0, 6.0), y0, method=LeanBDF, dense_output=True, **options)
+    assert got.status == ref.status == 0
+    assert np.array_equal(got.t, ref.t) and np.array_equal(got.y, ref.y)
+    assert (got.nfev, got.njev, got.nlu) == (ref.nfev, ref.njev, ref.nlu)
+    ts = np.linspace(0.0, 6.0, 301)
+    assert np.array_equal(got.sol(ts), ref.sol(ts))
