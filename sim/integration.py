@@ -98,12 +98,15 @@ class StateLayout:
     def derivative(self, head: np.ndarray, derivs: list, p_in: float, dissipated: float, p_load: float) -> np.ndarray:
         """The state derivative: ``head`` (the transmission's states), the components'
         derivatives, the three energy rates."""
-        out = np.empty(self.size)
-        out[: self.offset] = head
-        for sl, dx in zip(self.slices, derivs):
-            out[sl] = dx
-        out[self.energy] = (p_in, dissipated, p_load)
-        return out
+        # the slices are consecutive: one list, one array (cheaper than item assignments)
+        out = head.tolist()
+        for dx in derivs:
+            out.extend(dx)
+        out += (p_in, dissipated, p_load)
+        if len(out) != self.size:
+            raise ValueError(f"component derivatives of {len(out) - self.offset - 3} states, expected "
+                             f"{self.size - self.offset - 3}")
+        return np.array(out, dtype=float)
 
 
 def signal_time(pt: Powertrain, t: float) -> float:
@@ -159,7 +162,7 @@ class ComponentEvaluator:
     def external(self, t: float, y: np.ndarray, w: np.ndarray, layout: StateLayout):
         """External input vector (component torques), component derivatives (in the order of
         ``layout.slices``) and the power in, dissipated and passed to the load [W]."""
-        u = np.zeros(self.n_u)
+        u = [0.0] * self.n_u  # a list while summing: item updates of an array cost more
         derivs = []
         p_in = dissipated = p_load = 0.0
         index = self.tr.input_index
@@ -171,18 +174,18 @@ class ComponentEvaluator:
             p_in += pi
             dissipated += di
             p_load += pl
-        return u, derivs, p_in, dissipated, p_load
+        return np.array(u), derivs, p_in, dissipated, p_load
 
     def inputs(self, t: float, y: np.ndarray, w: np.ndarray, layout: StateLayout) -> np.ndarray:
         """The external input vector of :meth:`external` alone (each component's ``torques``):
         what an event function on the locked torques needs at every step, without the components'
         derivatives and powers (an engine's air path, a road load)."""
-        u = np.zeros(self.n_u)
+        u = [0.0] * self.n_u
         index = self.tr.input_index
         for c, sl in zip(self.components, layout.slices):
             for name, value in c.torques(t, y[sl], w).items():
                 u[index[name]] += value
-        return u
+        return np.array(u)
 
 
 def memo_last(model: "ComponentEvaluator", func, t_stop: float = math.inf, t_from: float = -math.inf,
@@ -196,16 +199,16 @@ def memo_last(model: "ComponentEvaluator", func, t_stop: float = math.inf, t_fro
     signals are evaluated at :func:`left_of` it, so that its last step and its events see the value
     the segment integrated, not the one after the jump; before ``t_from`` (:func:`signal_time`)
     they are evaluated at it."""
-    last = {}
+    last = [None, None]  # key, value
     t_left = left_of(t_stop)
 
     def wrapper(t, y):
         key = (t, y.tobytes())
-        if key not in last:
+        if key != last[0]:
             setattr(model, counter, getattr(model, counter) + 1)
-            last.clear()
-            last[key] = func(min(max(t, t_from), t_left), y)
-        return last[key]
+            last[1] = func(min(max(t, t_from), t_left), y)
+            last[0] = key
+        return last[1]
 
     return wrapper
 
