@@ -120,11 +120,7 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None) ->
             u, derivs, p_in, diss, p_load = model.external(tt, y, ww, layout)
             slips = PC @ q
             if active:
-                s = slips.tolist()
-                for i, col, e, scale in active:
-                    torque = e.torque_at(tt, s[i], scale)
-                    u[col] += torque
-                    diss += torque * s[i]
+                diss = _add_slipping(u, tt, slips.tolist(), active, diss)
             return ww, u, derivs, p_in, diss, p_load, slips
 
         evaluate = memo_last(model, point, t_stop, t_sig)
@@ -136,9 +132,7 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None) ->
             q = y[:dof]
             u = model.inputs(tt, y, C @ q, layout)
             if active:
-                s = (PC @ q).tolist()
-                for i, col, e, scale in active:
-                    u[col] += e.torque_at(tt, s[i], scale)
+                _add_slipping(u, tt, (PC @ q).tolist(), active)
             return (D @ u).tolist()
 
         event_torques = memo_last(model, locked_torques, t_stop, t_sig, "input_calls")
@@ -206,6 +200,17 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None) ->
             progress(t)
 
     return collect(pt, options, recorder, events, success, message, model, wall)
+
+
+def _add_slipping(u: np.ndarray, t: float, slips: list, active: tuple, dissipated: float = 0.0) -> float:
+    """Add the torques of the slipping elements ``active`` (:meth:`Transmission.slipping_set`) at
+    the slips ``slips`` [rad/s] to the input vector ``u``; returns ``dissipated`` [W] plus their
+    dissipation."""
+    for i, col, e, scale in active:
+        torque = e.torque_at(t, slips[i], scale)
+        u[col] += torque
+        dissipated += torque * slips[i]
+    return dissipated
 
 
 def _sample(pt: Powertrain, seg: Segment, ts: np.ndarray, ys: np.ndarray) -> dict[str, np.ndarray]:

@@ -369,8 +369,13 @@ class TurbochargedDiesel:
         dx = np.array(derivs)
         return dx, torque, (p_im, p_em, w_tc, omega_e, u_f, lam, T_em, T_e, x_r, torque, eta_vol, W_ei, W_f, tp)
 
+    @staticmethod
+    def _key(t: float, x, omega_engine: float) -> tuple:
+        """What an evaluation depends on: the cache key of :meth:`_cached`."""
+        return t, float(x[0]), float(x[1]), float(x[2]), omega_engine
+
     def _cached(self, t: float, x, omega_engine: float):
-        key = (t, float(x[0]), float(x[1]), float(x[2]), omega_engine)
+        key = self._key(t, x, omega_engine)
         if key != self._cache_key:
             self._cache = self._evaluate(t, x, omega_engine, self.fuel(t, omega_engine))
             self._cache_key = key
@@ -401,8 +406,7 @@ class TurbochargedDiesel:
         temperature and the turbocharger, most of an evaluation's cost, only set the state
         derivatives. What a torque event of the simulator needs at every step; the state checks
         are the same, the turbocharger's own checks come with the next full evaluation."""
-        key = (t, float(x[0]), float(x[1]), float(x[2]), omega_engine)
-        if key == self._cache_key:
+        if self._key(t, x, omega_engine) == self._cache_key:
             return self._cache[1]
         return self._cylinders(t, x, omega_engine, self.fuel(t, omega_engine))[-1]
 
