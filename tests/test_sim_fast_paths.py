@@ -166,3 +166,22 @@ def test_lean_bdf_steps_as_scipys_bdf_bit_for_bit(options):
     assert (got.nfev, got.njev, got.nlu) == (ref.nfev, ref.njev, ref.nlu)
     ts = np.linspace(0.0, 6.0, 301)
     assert np.array_equal(got.sol(ts), ref.sol(ts))
+
+
+@pytest.mark.parametrize("method", ["RK45", "DOP853", LeanBDF])  # (LSODA: its Fortran loops on an infinite derivative)
+def test_solve_segment_fails_as_solve_ivp_does(method):
+    """A right-hand side that blows up: the same status, message and last state."""
+    def blow_up(t, y):
+        return np.array([1.0 / np.float64(0.5 - t), y[0]])
+
+    y0 = np.array([0.0, 0.0])
+    with np.errstate(all="ignore"):
+        try:
+            ref = solve_ivp(blow_up, (0.0, 1.0), y0, method=method, dense_output=True, rtol=1e-6, atol=1e-9)
+        except ValueError as exc:  # a LAPACK refusal of the non-finite Jacobian: the same for both
+            with pytest.raises(ValueError, match=str(exc)[:20]):
+                solve_segment(blow_up, 0.0, 1.0, y0, method, [], rtol=1e-6, atol=1e-9)
+            return
+        got = solve_segment(blow_up, 0.0, 1.0, y0, method, [], rtol=1e-6, atol=1e-9)
+    assert (got.status, got.message, got.success) == (ref.status, ref.message, ref.success)
+    assert np.array_equal(got.t, ref.t) and np.array_equal(got.y, ref.y, equal_nan=True)
