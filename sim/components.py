@@ -53,7 +53,7 @@ __all__ = [
 GRAVITY = 9.81
 
 
-def _each(func, n_out: int = 1):
+def elementwise(func, n_out: int = 1):
     """``func`` of scalars applied element by element to arrays (one implementation serves the
     right-hand side's scalar calls and the output sampling)."""
     return np.frompyfunc(func, 2, n_out)
@@ -250,9 +250,9 @@ class EngineWithConverter(Component):
 
     def sample(self, ts, X, W):
         omega_e, omega_t = X[0], W[self.link]
-        pump, turbine = (a.astype(float) for a in _each(self.converter.torques, 2)(omega_e, omega_t))
-        throttle = _each(self._throttle)(ts, omega_e).astype(float)
-        t_engine = _each(self.engine)(omega_e, throttle).astype(float)
+        pump, turbine = (a.astype(float) for a in elementwise(self.converter.torques, 2)(omega_e, omega_t))
+        throttle = elementwise(self._throttle)(ts, omega_e).astype(float)
+        t_engine = elementwise(self.engine)(omega_e, throttle).astype(float)
         ratio = np.divide(omega_t, omega_e, out=np.zeros_like(omega_e), where=omega_e > 1e-6)
         signals = {"omega_engine": omega_e, "T_engine": t_engine, "T_pump": pump, "T_in": turbine,
                    "throttle": throttle, "converter_speed_ratio": ratio}

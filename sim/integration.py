@@ -98,12 +98,15 @@ class StateLayout:
     def derivative(self, head: np.ndarray, derivs: list, p_in: float, dissipated: float, p_load: float) -> np.ndarray:
         """The state derivative: ``head`` (the transmission's states), the components'
         derivatives, the three energy rates."""
-        out = np.empty(self.size)
-        out[: self.offset] = head
-        for sl, dx in zip(self.slices, derivs):
-            out[sl] = dx
-        out[self.energy] = (p_in, dissipated, p_load)
-        return out
+        # the slices are consecutive: one list, one array (cheaper than item assignments)
+        out = head.tolist()
+        for dx in derivs:
+            out.extend(dx)
+        out += (p_in, dissipated, p_load)
+        if len(out) != self.size:
+            raise ValueError(f"component derivatives of {len(out) - self.offset - 3} states, expected "
+                             f"{self.size - self.offset - 3}")
+        return np.array(out, dtype=float)
 
 
 def signal_time(pt: Powertrain, t: float) -> float:
@@ -154,11 +157,12 @@ class ComponentEvaluator:
         self.components = pt.components
         self.n_u = len(self.tr.inputs)
         self.calls = 0
+        self.input_calls = 0  # evaluations of the input vector alone (:meth:`inputs`)
 
     def external(self, t: float, y: np.ndarray, w: np.ndarray, layout: StateLayout):
         """External input vector (component torques), component derivatives (in the order of
         ``layout.slices``) and the power in, dissipated and passed to the load [W]."""
-        u = np.zeros(self.n_u)
+        u = [0.0] * self.n_u  # a list while summing: item updates of an array cost more
         derivs = []
         p_in = dissipated = p_load = 0.0
         index = self.tr.input_index
@@ -170,29 +174,41 @@ class ComponentEvaluator:
             p_in += pi
             dissipated += di
             p_load += pl
-        return u, derivs, p_in, dissipated, p_load
+        return np.array(u), derivs, p_in, dissipated, p_load
+
+    def inputs(self, t: float, y: np.ndarray, w: np.ndarray, layout: StateLayout) -> np.ndarray:
+        """The external input vector of :meth:`external` alone (each component's ``torques``):
+        what an event function on the locked torques needs at every step, without the components'
+        derivatives and powers (an engine's air path, a road load)."""
+        u = [0.0] * self.n_u
+        index = self.tr.input_index
+        for c, sl in zip(self.components, layout.slices):
+            for name, value in c.torques(t, y[sl], w).items():
+                u[index[name]] += value
+        return np.array(u)
 
 
-def memo_last(model: "ComponentEvaluator", func, t_stop: float = math.inf, t_from: float = -math.inf):
+def memo_last(model: "ComponentEvaluator", func, t_stop: float = math.inf, t_from: float = -math.inf,
+              counter: str = "calls"):
     """``func(t, y)`` remembered for the last ``(t, y)``: the integrator calls the right-hand side
     and every event function with the same point, which then costs one evaluation
-    (counted in ``model.calls``).
+    (counted in ``model.calls``, or the attribute ``counter`` of ``model``).
 
     ``t_stop``: the segment's end. Signals are right-continuous (a step takes its new value at its
     time), but a segment ending at a breakpoint integrates the piece before it: at ``t_stop`` the
     signals are evaluated at :func:`left_of` it, so that its last step and its events see the value
     the segment integrated, not the one after the jump; before ``t_from`` (:func:`signal_time`)
     they are evaluated at it."""
-    last = {}
+    last = [None, None]  # key, value
     t_left = left_of(t_stop)
 
     def wrapper(t, y):
         key = (t, y.tobytes())
-        if key not in last:
-            model.calls += 1
-            last.clear()
-            last[key] = func(min(max(t, t_from), t_left), y)
-        return last[key]
+        if key != last[0]:
+            setattr(model, counter, getattr(model, counter) + 1)
+            last[1] = func(min(max(t, t_from), t_left), y)
+            last[0] = key
+        return last[1]
 
     return wrapper
 
@@ -210,12 +226,19 @@ def slip_event(slips_of, i: int, moving: int, tol: float, row: np.ndarray | None
     round-off of it on the wrong side (an element whose slip accelerates against the direction it
     was given) is caught at once instead of running away without a crossing.
 
-    ``row``: the slip as a linear function of the first states (``slip = row @ y[:len(row)]``),
-    which lets :func:`integrate` look for a crossing inside a step (:func:`missed_crossing`)."""
+    ``row``: the slip as a linear function of the first states (``slip = row @ y[:len(row)]``):
+    the event is then that product, with no evaluation of the right-hand side at the end of every
+    step, and :func:`integrate` can look for a crossing inside a step (:func:`missed_crossing`)."""
     half = 1e-3 * tol
+    if row is None:
+        def event(tt, y):
+            return moving * slips_of(tt, y)[i] + half
+    else:
+        coef = moving * np.asarray(row, dtype=float)
+        n = len(coef)
 
-    def event(tt, y):
-        return moving * slips_of(tt, y)[i] + half
+        def event(tt, y):
+            return float(coef @ y[:n]) + half
 
     event.terminal, event.direction, event.info = True, -1, ("slip", i)
     event.linear = None if row is None else (moving * np.asarray(row, dtype=float), half)
@@ -412,6 +435,7 @@ def collect(pt: Powertrain, options: SolverOptions, recorder: Recorder, events: 
                   "work_to_load": float(e_load[-1]), "residual": float(residual),
                   "relative_residual": float(abs(residual) / energy_scale(arrays))}
     stats = {"wall_time": _time.perf_counter() - wall, "rhs_evaluations": model.calls,
+             "input_evaluations": model.input_calls,
              "events": sum(1 for e in events if e.kind != "start"), "segments": len(recorder.segments)}
     if recorder.monitor is not None:
         stats["invariants"] = recorder.monitor.summary()
@@ -477,16 +501,15 @@ def sample_block(pt: Powertrain, seg: Segment, ts: np.ndarray, ys: np.ndarray, n
 
 def integrate(rhs, t0: float, t1: float, y0: np.ndarray, options: SolverOptions, events: list,
               n_dynamic: int | None = None):
-    """One integration segment with ``solve_ivp`` (dense output, terminal events); raises
+    """One integration segment with ``solve_ivp``'s method (:func:`.ode_solvers.solve_segment`: dense
+    output, terminal events); raises
     :class:`SimulationError` when the integrator fails.
 
     ``n_dynamic``: the right-hand side depends on the first ``n_dynamic`` states only (the rest
     are quadratures, the energy integrals); the implicit methods then get a finite-difference
     Jacobian over those columns, the others being zero, instead of differencing every state.
     """
-    from scipy.integrate import solve_ivp  # here, not at import: reading a scenario needs no scipy
-
-    from .ode_solvers import SOLVERS
+    from .ode_solvers import SOLVERS, solve_segment  # here, not at import: reading a scenario needs no scipy
 
     outside: list[StateOutOfDomain] = []
 
@@ -508,9 +531,8 @@ def integrate(rhs, t0: float, t1: float, y0: np.ndarray, options: SolverOptions,
         # the Jacobian is taken at accepted states: a state outside the domain there stops the run
         extra["jac"] = _partial_jacobian(rhs, len(y0), n_dynamic)
     try:
-        sol = solve_ivp(guarded, (t0, t1), y0, method=SOLVERS.get(options.method, options.method),
-                        rtol=options.rtol, atol=options.atol,
-                        max_step=max_step, events=events, dense_output=True, **extra)
+        sol = solve_segment(guarded, t0, t1, y0, SOLVERS.get(options.method, options.method), events,
+                            rtol=options.rtol, atol=options.atol, max_step=max_step, **extra)
     except ValueError as exc:  # a solver's linear algebra refusing the NaN of a rejected trial state
         if outside:
             raise outside[-1] from None

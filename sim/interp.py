@@ -5,6 +5,10 @@
 right-hand-side evaluation. All clamp outside the table (constant extrapolation).
 
 * :func:`interp1` - piecewise-linear ``y(x)`` (signals, torque-converter curves);
+* :func:`interp1_pair` - two tables over one grid at one point, one cell search (a converter's
+  capacity and torque-ratio curves);
+* :func:`interp_like_numpy` - the same with ``numpy.interp``'s arithmetic, bit for bit (where a
+  result must not change when a ``numpy.interp`` call is replaced, e.g. the engine's fuel curve);
 * :func:`locate` - the cell and weight of a value in a grid, and whether it was outside: the
   one grid search of every 2-D look-up;
 * :func:`bilinear` - the value in a cell of ``z[i_x][i_y]`` (the compressor and turbine causal
@@ -16,7 +20,7 @@ from __future__ import annotations
 
 from bisect import bisect_right
 
-__all__ = ["interp1", "interp2", "locate", "bilinear"]
+__all__ = ["interp1", "interp1_pair", "interp_like_numpy", "interp2", "locate", "bilinear"]
 
 
 def interp1(x: float, xs: tuple, ys: tuple) -> float:
@@ -28,6 +32,41 @@ def interp1(x: float, xs: tuple, ys: tuple) -> float:
     i = bisect_right(xs, x) - 1
     x0 = xs[i]
     return ys[i] + (ys[i + 1] - ys[i]) * (x - x0) / (xs[i + 1] - x0)
+
+
+def interp1_pair(x: float, xs: tuple, ys: tuple, zs: tuple) -> tuple[float, float]:
+    """``(interp1(x, xs, ys), interp1(x, xs, zs))`` with one search of the cell (the same
+    arithmetic: the same numbers, bit for bit)."""
+    if x <= xs[0]:
+        return ys[0], zs[0]
+    if x >= xs[-1]:
+        return ys[-1], zs[-1]
+    i = bisect_right(xs, x) - 1
+    x0 = xs[i]
+    dx, span = x - x0, xs[i + 1] - x0
+    return ys[i] + (ys[i + 1] - ys[i]) * dx / span, zs[i] + (zs[i + 1] - zs[i]) * dx / span
+
+
+def interp_like_numpy(x: float, xs, ys) -> float:
+    """``float(numpy.interp(x, xs, ys))`` for one value, bit for bit (numpy's slope form
+    ``slope*(x - xs[i]) + ys[i]``, an end value at or beyond the ends and at a grid point, NaN for
+    NaN) without its array conversions; ``xs`` increasing, at least two points."""
+    if x != x:
+        return x
+    if x < xs[0]:
+        return float(ys[0])
+    if x >= xs[-1]:
+        return float(ys[-1])
+    i = bisect_right(xs, x) - 1
+    if xs[i] == x:
+        return float(ys[i])
+    slope = (ys[i + 1] - ys[i]) / (xs[i + 1] - xs[i])
+    y = slope * (x - xs[i]) + ys[i]
+    if y != y:  # numpy's second try from the other end of the cell
+        y = slope * (x - xs[i + 1]) + ys[i + 1]
+        if y != y and ys[i] == ys[i + 1]:
+            y = ys[i]
+    return float(y)
 
 
 def locate(grid, v: float) -> tuple[int, float, bool]:

@@ -7,17 +7,26 @@ such calls. These subclasses call the same LAPACK routines (``getrf``, ``getrs``
 the same finiteness checks (a NaN from a rejected trial state raises the same ``ValueError``) and
 the same singular-matrix warning: the results are those of the scipy classes, bit for bit.
 Sparse Jacobians keep scipy's ``splu``.
+
+:func:`solve_segment` is ``solve_ivp``'s driver loop for the simulator's segments (dense output,
+terminal events), the same steps, event roots and solution, without its per-step array
+conversions.
 """
 from __future__ import annotations
 
+import math
 import warnings
+from types import SimpleNamespace
 
 import numpy as np
-from scipy.integrate import BDF, Radau
+from scipy.integrate import BDF, LSODA, OdeSolution, Radau
+from scipy.integrate._ivp.bdf import MAX_FACTOR, MAX_ORDER, MIN_FACTOR, NEWTON_MAXITER, compute_R
+from scipy.integrate._ivp.ivp import METHODS, MESSAGES
+from scipy.optimize import brentq
 from scipy.linalg import LinAlgWarning, get_lapack_funcs
 from scipy.sparse import issparse
 
-__all__ = ["LeanBDF", "LeanRadau", "SOLVERS"]
+__all__ = ["LeanBDF", "LeanRadau", "SOLVERS", "solve_segment"]
 
 
 class _LeanLU:
@@ -57,8 +66,156 @@ class _LeanLU:
         return x
 
 
+_UNIT_R: dict[int, np.ndarray] = {}
+
+
+def change_D(D: np.ndarray, order: int, factor: float) -> None:
+    """scipy's ``change_D`` (the differences array rescaled to a new step size, in place) with
+    its step-independent factor ``compute_R(order, 1)`` computed once per order: the same
+    products, bit for bit."""
+    U = _UNIT_R.get(order)
+    if U is None:
+        U = _UNIT_R[order] = compute_R(order, 1)
+    RU = compute_R(order, factor).dot(U)
+    D[:order + 1] = np.dot(RU.T, D[:order + 1])
+
+
+def _rms(x: np.ndarray) -> float:
+    """scipy's RMS norm of its step control (``np.linalg.norm(x) / sqrt(x.size)``) without the
+    dispatch of ``np.linalg.norm``: the same ``sqrt(x.dot(x))``, bit for bit."""
+    return math.sqrt(x.dot(x)) / x.size ** 0.5
+
+
 class LeanBDF(_LeanLU, BDF):
-    """:class:`scipy.integrate.BDF` with the lean dense LU."""
+    """:class:`scipy.integrate.BDF` with the lean dense LU and a lean step: scipy's
+    ``_step_impl`` and Newton iteration (version 1.17) with the RMS norms taken directly and the
+    Newton loop inline; the same arithmetic, so the same steps and states, bit for bit (a
+    scipy whose BDF lacks the attributes this step reads runs its own step)."""
+
+    _STATE = ("D", "alpha", "gamma", "error_const", "newton_tol", "n_equal_steps", "I", "LU", "J", "h_abs", "order")
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._lean_step = not issparse(self.J) and all(hasattr(self, a) for a in self._STATE)
+
+    def _step_impl(self):
+        if not self._lean_step:
+            return super()._step_impl()
+        t = self.t
+        D = self.D
+        max_step = self.max_step
+        min_step = 10 * abs(math.nextafter(t, self.direction * math.inf) - t)
+        if self.h_abs > max_step:
+            h_abs = max_step
+            change_D(D, self.order, max_step / self.h_abs)
+            self.n_equal_steps = 0
+        elif self.h_abs < min_step:
+            h_abs = min_step
+            change_D(D, self.order, min_step / self.h_abs)
+            self.n_equal_steps = 0
+        else:
+            h_abs = self.h_abs
+        atol, rtol, order = self.atol, self.rtol, self.order
+        alpha, gamma, error_const = self.alpha, self.gamma, self.error_const
+        J, LU = self.J, self.LU
+        current_jac = self.jac is None
+        fun, solve_lu, newton_tol = self.fun, self.solve_lu, self.newton_tol
+        step_accepted = False
+        while not step_accepted:
+            if h_abs < min_step:
+                return False, self.TOO_SMALL_STEP
+            h = h_abs * self.direction
+            t_new = t + h
+            if self.direction * (t_new - self.t_bound) > 0:
+                t_new = self.t_bound
+                change_D(D, order, np.abs(t_new - t) / h_abs)
+                self.n_equal_steps = 0
+                LU = None
+            h = t_new - t
+            h_abs = np.abs(h)
+            y_predict = D[:order + 1].sum(axis=0)
+            scale = atol + rtol * np.abs(y_predict)
+            psi = np.dot(D[1: order + 1].T, gamma[1: order + 1]) / alpha[order]
+            converged = False
+            c = h / alpha[order]
+            while not converged:
+                if LU is None:
+                    LU = self.lu(self.I - c * J)
+                # scipy's solve_bdf_system
+                d = 0
+                y_new = y_predict.copy()
+                dy_norm_old = None
+                for n_iter in range(1, NEWTON_MAXITER + 1):
+                    f = fun(t_new, y_new)
+                    if not np.all(np.isfinite(f)):
+                        break
+                    dy = solve_lu(LU, c * f - psi - d)
+                    dy_norm = _rms(dy / scale)
+                    rate = None if dy_norm_old is None else dy_norm / dy_norm_old
+                    if rate is not None and (rate >= 1 or rate ** (NEWTON_MAXITER - n_iter + 1) / (1 - rate) * dy_norm > newton_tol):
+                        break
+                    y_new += dy
+                    d += dy
+                    if dy_norm == 0 or rate is not None and rate / (1 - rate) * dy_norm < newton_tol:
+                        converged = True
+                        break
+                    dy_norm_old = dy_norm
+                if not converged:
+                    if current_jac:
+                        break
+                    J = self.jac(t_new, y_predict)
+                    LU = None
+                    current_jac = True
+            if not converged:
+                factor = 0.5
+                h_abs *= factor
+                change_D(D, order, factor)
+                self.n_equal_steps = 0
+                LU = None
+                continue
+            safety = 0.9 * (2 * NEWTON_MAXITER + 1) / (2 * NEWTON_MAXITER + n_iter)
+            scale = atol + rtol * np.abs(y_new)
+            error = error_const[order] * d
+            error_norm = _rms(error / scale)
+            if error_norm > 1:
+                factor = max(MIN_FACTOR, safety * error_norm ** (-1 / (order + 1)))
+                h_abs *= factor
+                change_D(D, order, factor)
+                self.n_equal_steps = 0
+            else:
+                step_accepted = True
+        self.n_equal_steps += 1
+        self.t = t_new
+        self.y = y_new
+        self.h_abs = h_abs
+        self.J = J
+        self.LU = LU
+        D[order + 2] = d - D[order + 1]
+        D[order + 1] = d
+        for i in reversed(range(order + 1)):
+            D[i] += D[i + 1]
+        if self.n_equal_steps < order + 1:
+            return True, None
+        if order > 1:
+            error_m_norm = _rms(error_const[order - 1] * D[order] / scale)
+        else:
+            error_m_norm = np.inf
+        if order < MAX_ORDER:
+            error_p_norm = _rms(error_const[order + 1] * D[order + 2] / scale)
+        else:
+            error_p_norm = np.inf
+        error_norms = np.array([error_m_norm, error_norm, error_p_norm])
+        with np.errstate(divide="ignore"):
+            factors = error_norms ** (-1 / np.arange(order, order + 3))
+        delta_order = np.argmax(factors) - 1
+        order += delta_order
+        self.order = order
+        factor = min(MAX_FACTOR, safety * np.max(factors))
+        self.h_abs *= factor
+        change_D(D, order, factor)
+        self.n_equal_steps = 0
+        self.LU = None
+        return True, None
 
 
 class LeanRadau(_LeanLU, Radau):
@@ -67,3 +224,94 @@ class LeanRadau(_LeanLU, Radau):
 
 SOLVERS = {"BDF": LeanBDF, "Radau": LeanRadau}
 """Solver classes used for these method names (the others are passed to ``solve_ivp`` by name)."""
+
+
+_EPS = np.finfo(float).eps
+
+
+def solve_segment(fun, t0: float, t1: float, y0: np.ndarray, method, events: list, **options) -> SimpleNamespace:
+    """``solve_ivp(fun, (t0, t1), y0, method=method, events=events, dense_output=True, **options)``
+    for events that are all terminal (each stops the integration at its first root): the same
+    solver steps, event detection (a sign change between step ends in the event's direction),
+    roots (Brent's method on the step's dense output, ``xtol = rtol = 4 eps``) and result fields
+    (``t``, ``y``, ``sol``, ``t_events``, ``y_events``, ``status``, ``message``, ``success``, ``nfev``).
+
+    An event with the attribute ``linear = (row, offset)`` is the linear function ``row @
+    y[:len(row)] + offset`` of the state: at the step ends those are evaluated together, in one
+    matrix product (the roots are found with the event functions themselves).
+
+    Why not ``solve_ivp`` itself: on the simulator's small systems its per-step bookkeeping (event
+    values through arrays, the active-event search, the event counts) cost as much as a
+    right-hand-side evaluation; here the event values stay Python floats.
+    """
+    if any(getattr(e, "terminal", None) != 1 and getattr(e, "terminal", None) is not True for e in events):
+        raise ValueError("solve_segment takes terminal events only")
+    if isinstance(method, str):
+        method = METHODS[method]
+    t0, t1 = float(t0), float(t1)
+    solver = method(fun, t0, y0, t1, vectorized=False, **options)
+    ts, ys, interpolants = [t0], [y0], []
+    directions = [getattr(e, "direction", 0) for e in events]
+    values = _event_values(events)
+    g = values(t0, y0)
+    hit, root, y_root = None, None, None
+    status, message = None, None
+    while status is None:
+        message = solver.step()
+        if solver.status == "finished":
+            status = 0
+        elif solver.status == "failed":
+            status = -1
+            break
+        t_old, t, y = solver.t_old, solver.t, solver.y
+        sol = solver.dense_output()
+        interpolants.append(sol)
+        if events:
+            g_new = values(t, y)
+            active = [k for k, (a, b, d) in enumerate(zip(g, g_new, directions))
+                      if (d > 0 and a <= 0 <= b) or (d < 0 and a >= 0 >= b) or (d == 0 and (a <= 0 <= b or a >= 0 >= b))]
+            if active:
+                roots = [brentq(lambda tt, e=events[k]: e(tt, sol(tt)), t_old, t, xtol=4 * _EPS, rtol=4 * _EPS)
+                         for k in active]
+                # the first root in the direction of integration (ties: the first event, as a stable sort)
+                first = min(range(len(active)), key=(roots.__getitem__ if t > t_old else lambda j: -roots[j]))
+                hit, root = active[first], roots[first]
+                status = 1
+                t = root
+                y = y_root = sol(t)
+            g = g_new
+        if len(ts) > 1 and ts[-1] == t:
+            interpolants.pop()
+        else:
+            ts.append(t)
+            ys.append(y)
+    t_events = [np.array([root]) if k == hit else np.zeros(0) for k in range(len(events))]
+    y_events = [np.array([y_root]) if k == hit else np.zeros(0) for k in range(len(events))]
+    ts_arr = np.array(ts)
+    return SimpleNamespace(t=ts_arr, y=np.vstack(ys).T,
+                           sol=OdeSolution(ts_arr, interpolants, alt_segment=method in (BDF, LSODA)),
+                           t_events=t_events, y_events=y_events, nfev=solver.nfev, njev=solver.njev,
+                           nlu=solver.nlu, status=status, message=MESSAGES.get(status, message),
+                           success=status >= 0)
+
+
+def _event_values(events: list):
+    """``values(t, y)``: the list of the events' values at a step end, the linear ones
+    (:func:`solve_segment`) from one matrix product."""
+    linear = [k for k, e in enumerate(events) if getattr(e, "linear", None) is not None]
+    if len({len(events[k].linear[0]) for k in linear}) != 1:
+        return lambda t, y: [e(t, y) for e in events]
+    others = [(k, events[k]) for k in range(len(events)) if k not in set(linear)]
+    rows = np.array([events[k].linear[0] for k in linear], dtype=float)
+    offsets = np.array([events[k].linear[1] for k in linear], dtype=float)
+    width = rows.shape[1]
+
+    def values(t, y):
+        g = [0.0] * len(events)
+        for k, v in zip(linear, (rows @ y[:width] + offsets).tolist()):
+            g[k] = v
+        for k, e in others:
+            g[k] = e(t, y)
+        return g
+
+    return values

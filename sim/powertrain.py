@@ -32,7 +32,7 @@ import numpy as np
 from transgen.errors import SimulationError
 
 from .causality import Block, Causality
-from .components import Component
+from .components import Component, elementwise
 from .engine.diesel import EngineParams, SpeedGovernor, TurbochargedDiesel
 from .engine.gas import RPM, Gas
 from .engine.map_file import DATA_DIR, CompressorMap, MapError, TurbineMap, parse_map
@@ -146,7 +146,7 @@ class TurbodieselSource(Component):
         return self.engine.derivatives(t, x, float(w[self.link]))
 
     def torques(self, t, x, w):
-        return {"T_in": self.engine.torque(t, x, float(w[self.link]))}
+        return {"T_in": self.engine.crank_torque(t, x, float(w[self.link]))}
 
     def power_in(self, t, x, w):
         omega = float(w[self.link])
@@ -170,6 +170,13 @@ class TurbodieselSource(Component):
         sig["dT_c"] = sig["T_c_out"] - p.T_amb
         sig["dT_t"] = sig["T_em"] - sig["T_t_out"]
         return sig
+
+    def sample(self, ts, X, W):
+        """The signals at the output times, one engine evaluation each (:meth:`signals`); the
+        torque is the signal ``T_in`` and the engine stores no energy of the mechanism."""
+        rows = [self.signals(ts[k], X[:, k], W[:, k]) for k in range(len(ts))]
+        signals = {name: np.array([r[name] for r in rows], dtype=float) for name in (rows[0] if rows else ())}
+        return ({"T_in": signals["T_in"]} if rows else {}), signals, np.zeros(len(ts))
 
     def breakpoints(self, t0=float("-inf"), t1=float("inf")):
         return self.fuel.breakpoints(t0, t1) if self.fuel is not None else ()
@@ -233,6 +240,15 @@ class ConverterComponent(Component):
         wp, wt = float(w[self.pump]), float(w[self.turbine])
         tp, tt = self.converter.torques(wp, wt)
         return {self.pump_torque: -tp, self.turbine_torque: tt}, [], 0.0, tp * wp - tt * wt, 0.0
+
+    def sample(self, ts, X, W):
+        """The signals at the output times: the converter's torques once per time."""
+        wp, wt = W[self.pump], W[self.turbine]
+        tp, tt = (a.astype(float) for a in elementwise(self.converter.torques, 2)(wp, wt))
+        signals = {"converter_speed_ratio": np.divide(wt, wp, out=np.zeros(len(ts)), where=np.abs(wp) > 1e-9),
+                   "converter_torque_ratio": np.divide(tt, tp, out=np.ones(len(ts)), where=np.abs(tp) > 1e-9),
+                   "T_pump": tp, "T_turbine": tt, "P_converter": tp * wp - tt * wt}
+        return {self.pump_torque: -tp, self.turbine_torque: tt}, signals, np.zeros(len(ts))
 
     def signals(self, t, x, w):
         wp, wt = float(w[self.pump]), float(w[self.turbine])

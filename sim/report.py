@@ -182,7 +182,7 @@ def simulate_units(turbo: bool = False) -> dict[str, str]:
 
     units = {"t": "s", "t0": "s", "t1": "s", "t_start": "s", "t_end": "s", "work_in": "J", "stored_change": "J",
              "dissipated": "J", "work_to_load": "J", "residual": "J", "relative_residual": "1", "tolerance": "J",
-             "tolerance_relative": "1", "wall_time": "s", "rhs_evaluations": "1", "events": "1", "segments": "1",
+             "tolerance_relative": "1", "wall_time": "s", "rhs_evaluations": "1", "input_evaluations": "1", "events": "1", "segments": "1",
              "onset_fraction": "1", "ratio_tol": "1", "bindup_fraction": "1", "flare_fraction": "1", "ramp_tol": "1",
              "overlap_fraction": "1", "energy_tol": "1"} | SHIFT_UNITS
     if turbo:

@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .interp import interp_like_numpy
 from .signals import Signal, Spliced, Table
 
 __all__ = ["ShiftTemplate", "ShiftEvent", "shift_trajectories", "gear_elements", "gear_swap", "AutoShift"]
@@ -163,7 +164,7 @@ class AutoShift:
         self.gear = self.gear or self.order[0]
 
     def _line(self, table, k, t):
-        return float(np.interp(self.throttle.value(t), self.throttle_points, table[k]))
+        return interp_like_numpy(float(self.throttle.value(t)), self.throttle_points, table[k])
 
     def _wait(self, t: float) -> float:
         """Time [s] left before ``min_interval`` allows the next shift (<= 0: allowed)."""

@@ -133,14 +133,22 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None, st
             u, derivs, p_in, diss, p_load = model.external(tt, y, ww, layout)
             slips = PC @ q
             if active:
-                s = slips.tolist()
-                for i, col, e, scale in active:
-                    torque = e.torque_at(tt, s[i], scale)
-                    u[col] += torque
-                    diss += torque * s[i]
+                diss = _add_slipping(u, tt, slips.tolist(), active, diss)
             return ww, u, derivs, p_in, diss, p_load, slips
 
         evaluate = memo_last(model, point, t_stop, t_sig)
+
+        def locked_torques(tt, y, C=mode.C, PC=tr.P @ mode.C, D=mode.D, dof=mode.dof, layout=layout,
+                           active=tr.slipping_set(locked, seg_dirs, t, t_stop)):
+            # the torques of the locked rows from the input vector of ``point`` alone: what the torque
+            # events need at every step end
+            q = y[:dof]
+            u = model.inputs(tt, y, C @ q, layout)
+            if active:
+                _add_slipping(u, tt, (PC @ q).tolist(), active)
+            return (D @ u).tolist()
+
+        event_torques = memo_last(model, locked_torques, t_stop, t_sig, "input_calls")
 
         def rhs(tt, y, mode=mode, layout=layout):
             ww, u, derivs, p_in, diss, p_load, _ = evaluate(tt, y)
@@ -153,7 +161,7 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None, st
         for row, i in enumerate(mode.locked_order):  # one row per locked element or group in parallel
 
             def torque_event(tt, y, row=row, mode=mode):
-                return tr.holding_margin(mode, row, tt, mode.D[row] @ evaluate(tt, y)[1])
+                return tr.holding_margin(mode, row, tt, event_torques(tt, y)[row])
 
             torque_event.terminal = True
             torque_event.direction = -1
@@ -212,6 +220,17 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None, st
                             dict(forced), tuple(np.array(x, dtype=float) for x in comp_states), np.array(energy),
                             tuple(controller_state(c) for c in pt.controllers), commanded, SimState.shape_of(pt))
     return result
+
+
+def _add_slipping(u: np.ndarray, t: float, slips: list, active: tuple, dissipated: float = 0.0) -> float:
+    """Add the torques of the slipping elements ``active`` (:meth:`Transmission.slipping_set`) at
+    the slips ``slips`` [rad/s] to the input vector ``u``; returns ``dissipated`` [W] plus their
+    dissipation."""
+    for i, col, e, scale in active:
+        torque = e.torque_at(t, slips[i], scale)
+        u[col] += torque
+        dissipated += torque * slips[i]
+    return dissipated
 
 
 def _sample(pt: Powertrain, seg: Segment, ts: np.ndarray, ys: np.ndarray) -> dict[str, np.ndarray]:

@@ -56,6 +56,7 @@ from transgen.model import HOUSING, Mechanism
 from transgen.modes import Mode, mode_model, mode_models
 from transgen.statespace import _mode_state_space, state_space
 
+from .interp import interp_like_numpy
 from .signals import Constant, Signal
 
 __all__ = ["ElementConfig", "ModeData", "Transmission", "APPLY_THRESHOLD"]
@@ -67,6 +68,22 @@ APPLY_THRESHOLD = 1e-12
 #: How far past ``t`` [s, relative to max(1, |t|)] :meth:`ElementConfig.applied_after` looks for a
 #: rising apply.
 APPLY_LOOKAHEAD = 1e-9
+
+
+_DERIVED: dict[tuple, tuple[dict, dict]] = {}
+_DERIVED_MECHANISMS = 16  # the most recent mechanisms whose derived data is kept
+
+
+def _derived(mech: Mechanism, coordinates: tuple, modes: str) -> tuple[dict, dict]:
+    """The caches of :class:`Transmission` that depend on the mechanism alone (see there), one
+    pair per mechanism, coordinates and mode selection (the models are immutable: equal ones
+    share them); the least recently built of more than :data:`_DERIVED_MECHANISMS` is dropped."""
+    key = (mech, coordinates, modes)
+    pair = _DERIVED.pop(key, None) or ({}, {})
+    _DERIVED[key] = pair
+    while len(_DERIVED) > _DERIVED_MECHANISMS:
+        del _DERIVED[next(iter(_DERIVED))]
+    return pair
 
 
 @dataclass
@@ -148,7 +165,7 @@ class ElementConfig:
         if a <= 0.0:
             return 0.0
         if friction and self.friction is not None:
-            a *= float(np.interp(abs(slip), self.friction[0], self.friction[1]))
+            a *= interp_like_numpy(abs(slip), self.friction[0], self.friction[1])
         return scale * a
 
     def slip_torques(self, ts: np.ndarray, slips: np.ndarray, direction: int) -> np.ndarray:
@@ -237,6 +254,10 @@ class Transmission:
         self.input_index = {name: i for i, name in enumerate(self.inputs)}
         self.element_input = np.array([self.input_index[f"t_{e.name}"] for e in self.elements], dtype=int)
         self._modes: dict[frozenset, ModeData] = {}
+        # what the gearing alone decides, shared by the transmissions of one mechanism in a process
+        # (a sweep's runs, a benchmark's repeats): the modes computed on demand (or why a lock set
+        # is no mode) and :meth:`_without_implied`'s answers
+        self._on_demand, self._implied = _derived(mech, tuple(ss.coordinates), modes)
         self.std_modes = []
         for m in ss.modes:
             data = self._data(m, in_std=True)
@@ -288,12 +309,19 @@ class Transmission:
         for modes outside the STD, with coordinates taken from the STD's first)."""
         key = frozenset(locked)
         if key not in self._modes:
-            names = tuple(self.elements[i].name for i in sorted(key))
-            model = mode_model(self.mech, Mode("+".join(names) or "none", names, "on demand"), self.graph)
-            if model.equations is None:
-                raise ModeError(model.problem)
-            order = list(self.coordinates) + [k for k in self.links if k not in self.coordinates]
-            self._modes[key] = self._data(_mode_state_space(model, self.links, order, False), in_std=False)
+            data = self._on_demand.get(key)
+            if data is None:
+                names = tuple(self.elements[i].name for i in sorted(key))
+                model = mode_model(self.mech, Mode("+".join(names) or "none", names, "on demand"), self.graph)
+                if model.equations is None:
+                    data = model.problem
+                else:
+                    order = list(self.coordinates) + [k for k in self.links if k not in self.coordinates]
+                    data = self._data(_mode_state_space(model, self.links, order, False), in_std=False)
+                self._on_demand[key] = data
+            if isinstance(data, str):
+                raise ModeError(data)
+            self._modes[key] = data
         return self._modes[key]
 
     def mode_name(self, locked) -> str:
@@ -607,15 +635,21 @@ class Transmission:
         """``locked`` without the groups whose lock the other locked elements already imply
         kinematically (their slip row lies in the span of the gear constraints and the other
         locks): the group ``first`` tried first, then the newcomers (not in ``previous``)."""
-        current = set(locked)
         groups = [m for m, _ in self.groups if any(i in locked for i in m)]
+        # a pure function of the gearing: remembered (the decision asks it for every candidate
+        # at every event, and each answer costs two rank tests of the constraint matrix)
+        key = (locked, first, frozenset(i for m in groups for i in m if i in previous))
+        if key in self._implied:
+            return self._implied[key]
+        current = set(locked)
         groups.sort(key=lambda m: (m != first, any(i in previous for i in m)))
         for members in groups:
             rest = sorted(current - set(members))
             a = constraint_matrix(self.graph, [self.elements[i].name for i in rest])
             if numeric_rank(np.vstack([a, self.P[members[0]]])) == numeric_rank(a):
                 current -= set(members)
-        return frozenset(current)
+        self._implied[key] = frozenset(current)
+        return self._implied[key]
 
     def _choices(self, members: tuple[int, ...], signs: tuple[int, ...], forced: dict[int, int]) -> tuple[int, ...]:
         """A group's options at zero slip: lock (0) or slip +1/-1 in its first member's

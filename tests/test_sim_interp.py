@@ -5,7 +5,7 @@ from bisect import bisect_right
 
 import pytest
 
-from transgen.sim.interp import bilinear, interp1, interp2, locate
+from transgen.sim.interp import bilinear, interp1, interp1_pair, interp2, interp_like_numpy, locate
 
 GRID = (0.0, 1.0, 2.5, 4.0)
 
@@ -62,3 +62,29 @@ def test_interp1_clamps_and_interpolates():
     assert interp1(-5.0, GRID, (1.0, 2.0, 3.0, 4.0)) == 1.0
     assert interp1(5.0, GRID, (1.0, 2.0, 3.0, 4.0)) == 4.0
     assert interp1(1.75, GRID, (1.0, 2.0, 3.0, 4.0)) == pytest.approx(2.5)
+
+
+def test_interp_like_numpy_is_numpy_interp_bit_for_bit():
+    import numpy as np
+
+    rng = random.Random(7)
+    for _ in range(200):
+        xs = tuple(sorted({rng.uniform(-5, 5) for _ in range(rng.randint(2, 9))}))
+        if len(xs) < 2:
+            continue
+        ys = tuple(rng.uniform(-1e3, 1e3) for _ in xs)
+        probes = [rng.uniform(-7, 7) for _ in range(30)] + list(xs) + [math.inf, -math.inf, math.nan]
+        for x in probes:
+            got, want = interp_like_numpy(x, xs, ys), float(np.interp(x, xs, ys))
+            assert got == want or (math.isnan(got) and math.isnan(want)), (x, xs, ys)
+
+
+def test_interp1_pair_is_two_interp1_bit_for_bit():
+    rng = random.Random(11)
+    for _ in range(100):
+        xs = tuple(sorted({rng.uniform(0, 1) for _ in range(rng.randint(2, 12))}))
+        if len(xs) < 2:
+            continue
+        ys, zs = (tuple(rng.uniform(-5, 5) for _ in xs) for _ in range(2))
+        for x in [rng.uniform(-0.2, 1.2) for _ in range(40)] + list(xs):
+            assert interp1_pair(x, xs, ys, zs) == (interp1(x, xs, ys), interp1(x, xs, zs))

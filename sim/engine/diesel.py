@@ -63,6 +63,7 @@ import numpy as np
 from transgen.errors import SimulationError, StateOutOfDomain
 
 from ..causality import Block, Causality, ports
+from ..interp import interp_like_numpy
 from .gas import AIR, EXHAUST, RPM, Gas
 from .turbocharger import BasicTurbo, TurboShaft, make_turbo
 
@@ -143,7 +144,7 @@ class EngineParams:
         """Full-load fuel [kg per cycle per cylinder] at an engine speed [rad/s]."""
         if omega_engine < self.firing_speed:
             return 0.0
-        return float(np.interp(omega_engine, self.full_load_speed, self.full_load_fuel))
+        return interp_like_numpy(float(omega_engine), self.full_load_speed, self.full_load_fuel)
 
 
 @dataclass(frozen=True)
@@ -316,10 +317,11 @@ class TurbochargedDiesel:
         return self.params.full_load_fuel_at(omega_engine) * min(max(r, 0.0), 1.0)
 
     # ---------------------------------------------------------------- model
-    def _evaluate(self, t: float, x, omega_e: float, u_f: float):
-        """``(dx, torque, quantities)``: the named signals are built from ``quantities`` by
-        :func:`_named_signals` only when asked for (the right-hand side needs ``dx`` and the
-        torque; building the dictionaries at every call was a fifth of the engine's cost)."""
+    def _cylinders(self, t: float, x, omega_e: float, u_f: float):
+        """The state checks and the cylinders' flow and torque model (no exhaust temperature, no
+        turbocharger): ``(p_im, p_em, w_tc, eta_vol, m_air, m_fuel, W_ei, W_f, W_eo, lam,
+        torque)``. Shared by :meth:`_evaluate` and :meth:`crank_torque`, so both give the same
+        torque to the bit."""
         p = self.params
         p_im, p_em, w_tc = float(x[0]), float(x[1]), float(x[2])
         _check_finite("engine state", t, (p_im, p_em, w_tc), ("p_im", "p_em", "omega_tc", "omega_engine"),
@@ -343,6 +345,14 @@ class TurbochargedDiesel:
         torque = (W_ig - blend * (p.V_d * (p_em - p_im) + p.V_d * 1e5 * fmep)) / (4.0 * math.pi)
         _check_finite("cylinders", t, x, ("eta_vol", "m_dot_air_cyl", "m_dot_fuel", "torque_engine"),
                       (eta_vol, W_ei, W_f, torque))
+        return p_im, p_em, w_tc, eta_vol, m_air, m_fuel, W_ei, W_f, W_eo, lam, torque
+
+    def _evaluate(self, t: float, x, omega_e: float, u_f: float):
+        """``(dx, torque, quantities)``: the named signals are built from ``quantities`` by
+        :func:`_named_signals` only when asked for (the right-hand side needs ``dx`` and the
+        torque; building the dictionaries at every call was a fifth of the engine's cost)."""
+        p = self.params
+        p_im, p_em, w_tc, eta_vol, m_air, m_fuel, W_ei, W_f, W_eo, lam, torque = self._cylinders(t, x, omega_e, u_f)
         # exhaust temperature (algebraic loop hidden inside the block, thesis 2.4.3)
         T_em, T_e, x_r, T_1 = exhaust_temperature(p, p_im, p_em, m_fuel / m_air, W_eo)
         _check_finite("exhaust-temperature model", t, x, ("T_em", "T_e", "x_r", "T_1"), (T_em, T_e, x_r, T_1))
@@ -359,8 +369,13 @@ class TurbochargedDiesel:
         dx = np.array(derivs)
         return dx, torque, (p_im, p_em, w_tc, omega_e, u_f, lam, T_em, T_e, x_r, torque, eta_vol, W_ei, W_f, tp)
 
+    @staticmethod
+    def _key(t: float, x, omega_engine: float) -> tuple:
+        """What an evaluation depends on: the cache key of :meth:`_cached`."""
+        return t, float(x[0]), float(x[1]), float(x[2]), omega_engine
+
     def _cached(self, t: float, x, omega_engine: float):
-        key = (t, float(x[0]), float(x[1]), float(x[2]), omega_engine)
+        key = self._key(t, x, omega_engine)
         if key != self._cache_key:
             self._cache = self._evaluate(t, x, omega_engine, self.fuel(t, omega_engine))
             self._cache_key = key
@@ -385,6 +400,15 @@ class TurbochargedDiesel:
     def torque(self, t: float, x: np.ndarray, omega_engine: float) -> float:
         """Torque [N*m] delivered to the crank link; positive drives it."""
         return self._cached(t, x, omega_engine)[1]
+
+    def crank_torque(self, t: float, x: np.ndarray, omega_engine: float) -> float:
+        """:meth:`torque` from the cylinders' model alone (the same number): the exhaust
+        temperature and the turbocharger, most of an evaluation's cost, only set the state
+        derivatives. What a torque event of the simulator needs at every step; the state checks
+        are the same, the turbocharger's own checks come with the next full evaluation."""
+        if self._key(t, x, omega_engine) == self._cache_key:
+            return self._cache[1]
+        return self._cylinders(t, x, omega_engine, self.fuel(t, omega_engine))[-1]
 
     def signals(self, t: float, x: np.ndarray, omega_engine: float) -> dict[str, float]:
         """Named quantities (SI units): turbo speed, chi, mass flows, PR, ER, temperatures,

@@ -43,7 +43,7 @@ import numpy as np
 from transgen.errors import TransgenError
 
 from ..causality import Causality, ports
-from ..interp import interp1
+from ..interp import interp1, interp1_pair
 from .map_file import DATA_DIR
 
 __all__ = ["TorqueConverter", "TorqueConverterError", "DEFAULT_TORQUE_CONVERTER"]
@@ -154,9 +154,9 @@ class TorqueConverter:
         if wt <= wp:                       # drive, wp > 0 here (or both zero)
             if wp == 0.0:
                 return 0.0, 0.0
-            sr = max(wt / wp, 0.0)
-            tp = wp * wp * interp1(sr, self._sr, self._c)
-            return s * tp, s * tp * interp1(sr, self._sr, self._tr)
+            capacity, ratio = interp1_pair(max(wt / wp, 0.0), self._sr, self._c, self._tr)
+            tp = wp * wp * capacity
+            return s * tp, s * tp * ratio
         t = wt * wt * interp1(wp / wt, self._csr, self._cc)   # coast, wt > wp >= 0
         return -s * t, -s * t
 
