@@ -15,6 +15,7 @@ import warnings
 from pathlib import Path
 
 from . import __version__
+from .cli_args import number_option
 from .errors import MechValidationError, ModeError, SimulationError, TransgenError
 from .schemas import print_document
 
@@ -299,20 +300,6 @@ def cmd_powerflow(args) -> int:
     return 0
 
 
-def _number_option(low: float, high: float, low_open: bool = True):
-    """An argparse type: a finite number in ``(low, high]`` (``[low, high]`` when not ``low_open``)."""
-    def read(text: str) -> float:
-        try:
-            value = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-        if not (value > low if low_open else value >= low) or not value <= high:  # also refuses nan
-            raise argparse.ArgumentTypeError(f"must be a finite number in {'(' if low_open else '['}{low:g}, {high:g}], "
-                                             f"not {text}")
-        return value
-    return read
-
-
 def cmd_list(args) -> int:
     from .library import bundled_mechanisms
     from .language import load_mechanism
@@ -407,20 +394,20 @@ def build_parser() -> argparse.ArgumentParser:
                                    "engaged ones, power through every planetary set (circulating power), torque ratio "
                                    "and efficiency with mesh losses, and a capacity sizing of the shift elements.")
     s.add_argument("file", metavar="FILE")
-    s.add_argument("--eta0", type=_number_option(0, 1), metavar="X",
+    s.add_argument("--eta0", type=number_option(0, 1), metavar="X",
                    help="standing (carrier-fixed) efficiency of the planetary sets without eta0= in the file, "
                         "and of the gear pairs without eta= unless --eta-pair is given (default 0.98; 1 = lossless)")
-    s.add_argument("--eta-pair", type=_number_option(0, 1), metavar="X",
+    s.add_argument("--eta-pair", type=number_option(0, 1), metavar="X",
                    help="mesh efficiency of the gear pairs without eta= in the file (default: --eta0 if given, else 0.99)")
-    s.add_argument("--input-rpm", type=_number_option(0, 1e7), metavar="N",
+    s.add_argument("--input-rpm", type=number_option(0, 1e7), metavar="N",
                    help="input speed [rpm]: slips in rpm, over-speed of the open elements")
-    s.add_argument("--max-slip-rpm", type=_number_option(0, 1e7), metavar="N",
+    s.add_argument("--max-slip-rpm", type=number_option(0, 1e7), metavar="N",
                    help="slip limit [rpm] of the elements without max_slip_rpm= in the file")
-    s.add_argument("--design-torque", type=_number_option(0, 1e9), metavar="N*m",
+    s.add_argument("--design-torque", type=number_option(0, 1e9), metavar="N*m",
                    help="design input torque [N*m] for the capacity sizing")
-    s.add_argument("--safety-factor", type=_number_option(0, 1e3), default=1.4, metavar="X",
+    s.add_argument("--safety-factor", type=number_option(0, 1e3), default=1.4, metavar="X",
                    help="suggested static capacity over the largest element torque (default 1.4)")
-    s.add_argument("--dynamic-ratio", type=_number_option(0, 1), default=0.85, metavar="X",
+    s.add_argument("--dynamic-ratio", type=number_option(0, 1), default=0.85, metavar="X",
                    help="suggested dynamic over static capacity (default 0.85)")
     s.add_argument("--gear", action="append", metavar="NAME", help="only this gear (repeatable; default: every gear)")
     s.add_argument("--coast", action="store_true",

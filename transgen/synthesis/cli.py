@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import sys
 
+from ..cli_args import number_option
+
 __all__ = ["add_commands"]
 
 
@@ -130,7 +132,7 @@ def add_commands(sub) -> None:
     t.add_argument("file", metavar="FILE")
     t.add_argument("--ratios", help="targets GEAR=RATIO,... (default: the gear lines' ratio=); tolerance half a unit "
                                     "of the last digit written")
-    t.add_argument("--tolerance", type=float, help="absolute tolerance of every target ratio (published ratios are "
+    t.add_argument("--tolerance", type=number_option(0, 1e6), help="absolute tolerance of every target ratio (published ratios are "
                                                    "sometimes truncated, not rounded)")
     t.add_argument("--planets", default="3,4,5", help="admissible numbers of equally spaced planets (default 3,4,5)")
     t.add_argument("--min-teeth", type=int, default=17, help="fewest teeth on sun and planets (default 17)")
