@@ -150,6 +150,7 @@ def test_infeasible_constraints_name_the_binding_one(tmp_path, capsys):
     (["--shift", "5-6"], "--shift 5-6: error: no such shift"),
     (["--set", "driveline.mass=3"], "--set driveline.mass: error"),
     (["--evaluations", "1"], "--evaluations: error"),
+    (["--seed", "-1"], "--seed: error"),
 ])
 def test_cli_errors_exit_2(argv, message, tmp_path, capsys):
     out = tmp_path / "tuned.toml"

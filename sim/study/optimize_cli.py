@@ -78,6 +78,8 @@ def _options(args):
     for name, value in (("--evaluations", args.evaluations), ("--population", args.population)):
         if value < 2:
             raise ValueError(f"{name}: error: give a whole number >= 2, not {value}")
+    if not 0 <= args.seed < 2**32:  # the range of numpy's seed
+        raise ValueError(f"--seed: error: give a whole number from 0 to 2**32 - 1, not {args.seed}")
     constraints = Constraints(no_bindup=args.no_bindup, max_flare_rpm=args.max_flare,
                               no_chatter=not args.allow_chatter, max_hole_pct=args.max_hole,
                               max_duration=args.max_duration)
