@@ -7,15 +7,12 @@ stays cheap.
 """
 from __future__ import annotations
 
+from transgen.lazy import lazy_module_attributes
+
 __all__ = ["load_scenario", "scenario_files", "scenario_keys", "parse_override", "Scenario"]
 
 _WHERE = {"load_scenario": "scenario", "scenario_files": "scenario", "scenario_keys": "scenario",
           "Scenario": "scenario", "parse_override": "overrides"}
 
 
-def __getattr__(name: str):
-    if name in _WHERE:
-        from importlib import import_module
-
-        return getattr(import_module(f"{__name__}.{_WHERE[name]}"), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__, __dir__ = lazy_module_attributes(__name__, _WHERE)

@@ -19,6 +19,8 @@ from .errors import (
 )
 from typing import TYPE_CHECKING
 
+from .lazy import lazy_module_attributes
+
 if TYPE_CHECKING:  # the names below are loaded on first use (see __getattr__)
     from .graph import build_graph
     from .kinematics import analyze, gear_ratios, gear_table
@@ -41,19 +43,7 @@ _LAZY = {
 }
 
 
-def __getattr__(name: str):
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    import importlib
-
-    value = getattr(importlib.import_module(f".{module}", __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__ = lazy_module_attributes(__name__, _LAZY)
 
 __all__ = [
     "Diagnostic",

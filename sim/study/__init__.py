@@ -17,6 +17,8 @@ per shift (``shift1.torque_hole``, ...) and the turbocharger figures where an en
 """
 from __future__ import annotations
 
+from transgen.lazy import lazy_module_attributes
+
 __all__ = ["sweep", "SweepTable", "SweepProgress", "SerialExecutor", "LocalExecutor", "DaskExecutor",
            "make_executor", "full_grid", "latin_hypercube", "row_key", "column_unit", "validate_variants", "Objective",
            "Constraints"]
@@ -29,9 +31,4 @@ _WHERE = {"sweep": "runner", "SweepProgress": "runner", "validate_variants": "ru
           "Constraints": "optimize"}
 
 
-def __getattr__(name: str):
-    if name in _WHERE:
-        from importlib import import_module
-
-        return getattr(import_module(f"{__name__}.{_WHERE[name]}"), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__, __dir__ = lazy_module_attributes(__name__, _WHERE)

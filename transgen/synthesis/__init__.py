@@ -5,6 +5,8 @@ The names below load their module on first use, so that ``transgen --help`` stay
 """
 from __future__ import annotations
 
+from ..lazy import lazy_module_attributes
+
 _LAZY = {
     "AssemblyRules": "teeth", "RatioTarget": "teeth", "TeethSynthesis": "teeth", "TeethSolution": "teeth",
     "parse_ratio_targets": "teeth", "ratio_targets": "teeth", "planet_count": "teeth",
@@ -16,12 +18,4 @@ _LAZY = {
 __all__ = sorted(_LAZY)
 
 
-def __getattr__(name: str):
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    import importlib
-
-    value = getattr(importlib.import_module(f".{module}", __name__), name)
-    globals()[name] = value
-    return value
+__getattr__, __dir__ = lazy_module_attributes(__name__, _LAZY)
