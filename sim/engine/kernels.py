@@ -19,8 +19,10 @@ an out-of-range code (``IN_RANGE``, ``BELOW_LOWEST_LINE``, ``OUTSIDE``) and the 
 
 Data layout
 -----------
-* a *device* (compressor or turbine) is the tuple :data:`DEVICE_FIELDS`, built by
-  :meth:`~transgen.sim.engine.turbomachine.Turbomachine.kernel_device`;
+* a *device* (compressor or turbine) is the tuple :data:`DEVICE_FIELDS` inside the kernels,
+  and one float array between Python and the kernels (:func:`pack_device`, built once per
+  device by :meth:`~transgen.sim.engine.turbomachine.Turbomachine.kernel_device`; a call with
+  tuples of arrays costs numba's dispatcher microseconds, a call with one array a tenth);
 * a device's *flow* (one operating point) is the tuple :data:`FLOW_FIELDS`;
 * the engine parameters are the float array of :data:`ENGINE_FIELDS`, the turbocharger's the
   float array of :data:`TURBO_FIELDS`;
@@ -259,6 +261,39 @@ def machine_flow(dev, p_in, T_in, p_out, omega):
             n_corr, m_corr, float(code))
 
 
+def pack_device(compresses, speed, grid, mass_flow, efficiency, pr_stall, pr_span, T_ref, p_ref, kappa,
+                cp, gamma, R, omega_floor):
+    """A device (:data:`DEVICE_FIELDS`) as one float array: a header (compresses, the two grid
+    sizes, the scalars) and the arrays one after the other (interpreter only, once per device;
+    :func:`unpack_device` is its inverse)."""
+    head = [1.0 if compresses else 0.0, speed.size, grid.size, T_ref, p_ref, kappa, cp, gamma, R, omega_floor]
+    parts = [np.asarray(head, dtype=float), speed, grid, mass_flow.ravel(), efficiency.ravel()]
+    if compresses:
+        parts += [pr_stall, pr_span]
+    return np.ascontiguousarray(np.concatenate(parts), dtype=float)
+
+
+def unpack_device(d):
+    """The device tuple (:data:`DEVICE_FIELDS`) of :func:`pack_device`'s array (views, no copies)."""
+    compresses = d[0] != 0.0
+    n, k = int(d[1]), int(d[2])
+    o = 10
+    speed = d[o:o + n]
+    grid = d[o + n:o + n + k]
+    o += n + k
+    mass_flow = d[o:o + n * k].reshape((n, k))
+    efficiency = d[o + n * k:o + 2 * n * k].reshape((n, k))
+    o += 2 * n * k
+    ns = n if compresses else 0
+    return (compresses, speed, grid, mass_flow, efficiency, d[o:o + ns], d[o + ns:o + 2 * ns], d[3], d[4],
+            d[5], d[6], d[7], d[8], d[9])
+
+
+def device_flow(d, p_in, T_in, p_out, omega):
+    """:func:`machine_flow` of the packed device ``d``."""
+    return machine_flow(unpack_device(d), p_in, T_in, p_out, omega)
+
+
 def _note_range(st, flow):
     """Keep the first out-of-range look-up of a solve in ``st[S_RANGE:]``."""
     if flow[9] != IN_RANGE and st[S_RANGE] == IN_RANGE:
@@ -417,7 +452,7 @@ def _brentq(dev, p1, T1, p2, omega, area_in, area_out, inner_maxiter, inner_tol,
     return ST_NOT_CONVERGED, xcur
 
 
-def solve_device(dev, p1, T1, p2, omega, area_in, area_out, warm, xtol, maxiter, inner_tol,
+def solve_device(d, p1, T1, p2, omega, area_in, area_out, warm, xtol, maxiter, inner_tol,
                  inner_maxiter, secant_iterations, st):
     """Solve ``m = m_map(m)`` for one device between static states (p1, T1) and p2 (thesis 4.5).
 
@@ -426,7 +461,9 @@ def solve_device(dev, p1, T1, p2, omega, area_in, area_out, warm, xtol, maxiter,
     ``secant_iterations`` steps), and if that fails Brent's method on a bracket grown from the
     warm start with the outlet temperature converged at every evaluation. Returns a status
     (``OK`` or ``ST_*``); the point (:data:`FLOW_FIELDS`), the Mach numbers and the numbers of an
-    error message are in ``st`` (``S_*``), the warm start is updated on success."""
+    error message are in ``st`` (``S_*``), the warm start is updated on success. ``d`` is the
+    packed device (:func:`pack_device`)."""
+    dev = unpack_device(d)
     gamma, R = dev[11], dev[12]
     for k in range(N_SOLVE):
         st[k] = 0.0
@@ -571,7 +608,8 @@ def engine_evaluate(P, cdev, tdev, TB, warm, p_im, p_em, w_tc, omega_e, u_f, out
 
     ``out``'s flow fields of a device hold its final point except for ``range_code`` and, when
     that is not ``IN_RANGE``, the corrected speed, ratio and chi of the first out-of-range look-up
-    (what the table's warning names); ``warm`` (2 x 3) is the iterative solves' warm start."""
+    (what the table's warning names); ``warm`` (2 x 3) is the iterative solves' warm start;
+    ``cdev``, ``tdev`` are the packed compressor and turbine (:func:`pack_device`)."""
     eta_vol, m_air, m_fuel, W_ei, W_f, W_eo, lam, torque = cylinders(P, p_im, p_em, omega_e, u_f)
     out[O_TORQUE], out[O_ETA_VOL], out[O_W_EI], out[O_W_F], out[O_W_EO], out[O_LAMBDA] = (
         torque, eta_vol, W_ei, W_f, W_eo, lam)
@@ -606,8 +644,8 @@ def engine_evaluate(P, cdev, tdev, TB, warm, p_im, p_em, w_tc, omega_e, u_f, out
         if status != OK:
             return ST_TURBINE + status
     else:
-        _put_flow(out, O_C, machine_flow(cdev, p_amb, T_amb, p_im, w_tc))
-        _put_flow(out, O_T, machine_flow(tdev, p_em, T_em, p_amb, w_tc))
+        _put_flow(out, O_C, device_flow(cdev, p_amb, T_amb, p_im, w_tc))
+        _put_flow(out, O_T, device_flow(tdev, p_em, T_em, p_amb, w_tc))
         for k in range(4):
             out[O_MACH + k] = 0.0
     m_c, m_t = out[O_C], out[O_T]
@@ -631,7 +669,7 @@ COMPILED = ("corrected_speed", "actual_flow", "compression_outlet_temperature",
             "expansion_outlet_temperature", "torque_from_power", "total_temperature", "total_pressure",
             "mach_number", "mach_from_total_temperature", "shaft_damping", "shaft_acceleration",
             "locate", "bilinear", "compressor_lookup_in_range", "compressor_lookup", "turbine_lookup",
-            "machine_flow", "_note_range", "_keep_point", "device_residual", "_secant", "_full_residual",
+            "machine_flow", "unpack_device", "device_flow", "_note_range", "_keep_point", "device_residual", "_secant", "_full_residual",
             "_bracket", "_brentq", "solve_device", "cylinders", "exhaust_temperature", "_finite",
             "_put_flow", "_put_solve", "engine_evaluate")
 """The functions :mod:`~transgen.sim.engine.compiled` compiles (all of them: a compiled function

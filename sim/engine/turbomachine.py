@@ -14,9 +14,8 @@ from dataclasses import dataclass
 from functools import cached_property
 from typing import ClassVar, Mapping
 
-import numpy as np
-
 from ..causality import Causality, ports
+from . import kernels as _k
 from .compiled import kernels
 from .gas import OMEGA_FLOOR, Gas
 
@@ -89,7 +88,7 @@ class Turbomachine:
         iteration over the operating point reads those two; building the frozen point at every
         step cost more than the look-up). The computation is
         :func:`transgen.sim.engine.kernels.machine_flow`."""
-        f = kernels().machine_flow(self.kernel_device, p_in, T_in, p_out, omega)
+        f = kernels().device_flow(self.kernel_device, p_in, T_in, p_out, omega)
         self.table.warn_range(f[9], f[7], f[5], f[6])
         return self.point_fields(f)
 
@@ -101,13 +100,13 @@ class Turbomachine:
         return (*flow[:6], flow[7], flow[8])
 
     @cached_property
-    def kernel_device(self) -> tuple:
-        """This device as the kernels' tuple (``kernels.DEVICE_FIELDS``; the table's arrays, not
-        copies)."""
+    def kernel_device(self) -> np.ndarray:
+        """This device as the kernels' packed array (:func:`transgen.sim.engine.kernels.pack_device`;
+        a copy of the table, made at the first evaluation)."""
         tab, gas = self.table, self.gas
         if self.compresses:
             grid, stall, span = tab.chi, tab.pr_stall, tab.pr_span
         else:
-            grid, stall, span = tab.expansion_ratio, np.empty(0), np.empty(0)
-        return (bool(self.compresses), tab.speed, grid, tab.mass_flow, tab.efficiency, stall, span,
-                tab.T_ref, tab.p_ref, gas.kappa, gas.cp, gas.gamma, gas.R, float(self.omega_floor))
+            grid, stall, span = tab.expansion_ratio, None, None
+        return _k.pack_device(self.compresses, tab.speed, grid, tab.mass_flow, tab.efficiency, stall, span,
+                              tab.T_ref, tab.p_ref, gas.kappa, gas.cp, gas.gamma, gas.R, self.omega_floor)
