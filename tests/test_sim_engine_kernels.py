@@ -2,6 +2,7 @@
 same functions run by the interpreter, against the look-up and root finder they replace
 (transgen.sim.interp, scipy's brentq), and against the engine's equations written out here."""
 import math
+import re
 import warnings
 
 import numpy as np
@@ -157,7 +158,7 @@ def test_engine_derivatives_are_the_manifold_and_shaft_equations(kind):
 def test_engine_errors_name_the_device_time_and_reason():
     tiny = IterativeTurbo(ports=PortAreas(turbine_inlet=1e-5))
     eng = TurbochargedDiesel(turbo=tiny)
-    with pytest.raises(ChokedFlowError, match=r"turbine \(p_in = .*choked flow"):
+    with pytest.raises(ChokedFlowError, match=r"engine at t = 1.25 s: turbine \(p_in = .*choked flow"):
         eng.derivatives(1.25, STATE, 1500 * RPM)
     with pytest.raises(SimulationError, match="residual-gas fixed point did not converge in 1 iterations"):
         exhaust_temperature(eng.params, 2e5, 2.2e5, 0.03, 0.4, maxiter=1)
@@ -173,3 +174,11 @@ def test_out_of_map_warning_from_the_compiled_evaluation_names_the_map_once():
     texts = [str(w.message) for w in caught if issubclass(w.category, MapRangeWarning)]
     assert len([t for t in texts if t.startswith("compressor map")]) == 1
     assert any("rpm" in t and "outside the data" in t for t in texts)
+
+
+def test_a_turbo_solve_failure_stops_the_run_naming_device_time_and_reason():
+    from transgen.sim.scenario import load_scenario
+
+    r = load_scenario("ht740_turbo_iterative", {"input.ports.turbine_inlet": 0.0011}).run()
+    assert not r.success
+    assert re.search(r"engine at t = [0-9.]+ s: turbine \(p_in = .*\): no subsonic solution", r.message), r.message

@@ -373,13 +373,15 @@ class TurbochargedDiesel:
             component, names, at = groups[status]
             _check_finite(component, t, x, names, tuple(o[k] for k in at))
         if status == _k.ST_EXHAUST:
-            raise _exhaust_error(p_im, p_em, o[_k.O_FUEL_AIR], _k.EXHAUST_MAXITER)
-        if _k.ST_COMPRESSOR < status < _k.ST_TURBINE + 10:
+            error = _exhaust_error(p_im, p_em, o[_k.O_FUEL_AIR], _k.EXHAUST_MAXITER)
+        elif _k.ST_COMPRESSOR < status < _k.ST_TURBINE + 10:
             p = self.params
             where = (_Where("compressor", p.p_amb, p.T_amb, p_im, w_tc) if status < _k.ST_TURBINE
                      else _Where("turbine", p_em, o[_k.O_T_EM], p.p_amb, w_tc))
-            raise self.turbo.solve_error(status % 10, where, o[_k.O_INFO0], o[_k.O_INFO1])
-        raise SimulationError(f"engine: evaluation failed at t = {t:.6g} s (status {status})")
+            error = self.turbo.solve_error(status % 10, where, o[_k.O_INFO0], o[_k.O_INFO1])
+        else:
+            error = SimulationError(f"evaluation failed (status {status})")
+        raise type(error)(f"engine at t = {t:.6g} s: {error}")
 
     @staticmethod
     def _key(t: float, x, omega_engine: float) -> tuple:
