@@ -47,7 +47,13 @@ Fuel command: ``rack(t)`` in [0, 1] scales the full-load fuel at the current spe
 or pedal); an optional :class:`SpeedGovernor` raises the rack to hold idle speed.
 
 Robustness: a NaN or infinity in the state or in any computed quantity raises
-:class:`NonFiniteError` naming the component, the time and the state.
+:class:`NonFiniteError` naming the component, the time and the state; a failed turbocharger
+solve or exhaust-temperature fixed point raises its error with the time.
+
+Computation: one evaluation (cylinders, exhaust temperature, turbocharger, manifolds, shaft) is
+:func:`transgen.sim.engine.kernels.engine_evaluate`, compiled with numba on first use
+(:mod:`transgen.sim.engine.compiled`); this class checks the state, calls it, and turns its
+status into the errors and map warnings above.
 
 The full-load curve and the rating of the engine are :mod:`transgen.sim.engine.rating`.
 """
@@ -345,7 +351,9 @@ class TurbochargedDiesel:
         inside the block, thesis 2.4.3), turbocharger (flow blocks + shaft), manifolds (control
         volumes). The named signals are built from ``quantities`` by :func:`_named_signals` only
         when asked for."""
-        p_im, p_em, w_tc = self._state(t, x, omega_e)
+        p_im, p_em, w_tc = float(x[0]), float(x[1]), float(x[2])
+        if not (math.isfinite(p_im + p_em + w_tc + omega_e) and p_im > 0.0 and p_em > 0.0):
+            self._state(t, x, omega_e)  # raises, naming what is wrong
         evaluate, P, cdev, tdev, TB, warm = self._kernel_inputs
         out = np.empty(_k.N_OUT)
         status = evaluate(P, cdev, tdev, TB, warm, p_im, p_em, w_tc, omega_e, u_f, out, self._solve_state)

@@ -19,7 +19,8 @@ mass flows, outlet temperatures, shaft torques, chi, PR and ER (:class:`TurboPoi
   pass at Mach 1 (static-state choking, ``m* = p*A*sqrt(gamma/(R*T))`` at the inlet and
   ``p*A*sqrt(gamma/(R*T0))*sqrt((gamma+1)/2)`` at the outlet) :class:`ChokedFlowError` is raised;
   if the solve does not converge :class:`TurboConvergenceError` is raised.  No silent value is
-  ever returned.
+  ever returned.  The solve is :func:`transgen.sim.engine.kernels.solve_device` (compiled with
+  numba; its Brent's method is scipy's ``brentq`` step for step).
 
 Shaft dynamics (eqs 4.32-4.33)::
 
