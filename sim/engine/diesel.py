@@ -337,6 +337,10 @@ class TurbochargedDiesel:
     def _kernels(self):
         return kernels()
 
+    def __getstate__(self) -> dict:
+        # the compiled functions are found again after unpickling, not pickled with the engine
+        return {k: v for k, v in vars(self).items() if k not in ("_kernels", "_kernel_inputs")}
+
     @cached_property
     def _kernel_inputs(self) -> tuple:
         """The compiled evaluation and its fixed arguments: engine parameters, compressor and
