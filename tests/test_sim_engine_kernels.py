@@ -182,3 +182,30 @@ def test_a_turbo_solve_failure_stops_the_run_naming_device_time_and_reason():
     r = load_scenario("ht740_turbo_iterative", {"input.ports.turbine_inlet": 0.0011}).run()
     assert not r.success
     assert re.search(r"engine at t = [0-9.]+ s: turbine \(p_in = .*\): no subsonic solution", r.message), r.message
+
+
+def test_without_numba_the_engine_runs_interpreted_with_a_warning(monkeypatch):
+    import builtins
+    import sys
+
+    import transgen.sim.engine.compiled as compiled
+
+    real_import = builtins.__import__
+
+    def no_numba(name, *args, **kwargs):
+        if name == "numba" or name.startswith("numba."):
+            raise ImportError("no numba here")
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", no_numba)
+    monkeypatch.delitem(sys.modules, "numba", raising=False)
+    monkeypatch.setattr(compiled, "_COMPILED", None)
+    with pytest.warns(RuntimeWarning, match="numba is not installed"):
+        plain = compiled.kernels()
+    assert plain.engine_evaluate is K.engine_evaluate
+    monkeypatch.undo()  # the engine below compiled, and this one through the interpreter, agree
+    eng = TurbochargedDiesel(turbo="iterative", rack=0.7)
+    eng._kernels = plain
+    ref = TurbochargedDiesel(turbo="iterative", rack=0.7)
+    x = STATE * np.array([1.02, 0.99, 1.01])
+    np.testing.assert_allclose(eng.derivatives(0.2, x, 1500 * RPM), ref.derivatives(0.2, x, 1500 * RPM), rtol=1e-12)

@@ -9,13 +9,15 @@ at import: reading a scenario or drawing a map needs no compiler (numba's import
 small fixed-point/secant iterations; run by the interpreter they cost 30-100 us, compiled about
 a microsecond, which is most of the simulator's time in the turbodiesel scenarios.
 
-A compiled function calls compiled functions only: each function of ``kernels`` is compiled from
+Without numba (a platform it has no wheels for) the functions of ``kernels`` are used as they are,
+with a warning. A compiled function calls compiled functions only: each function of ``kernels`` is compiled from
 a copy whose globals name the compiled versions of the others (``kernels`` itself stays pure
 Python, the reference of tests/test_sim_engine_kernels.py).
 """
 from __future__ import annotations
 
 import types
+import warnings
 
 from . import kernels as _plain
 
@@ -28,8 +30,13 @@ def kernels() -> types.SimpleNamespace:
     """The compiled functions of :mod:`~transgen.sim.engine.kernels` (``COMPILED``), by name."""
     global _COMPILED
     if _COMPILED is None:
-        import numba
-
+        try:
+            import numba
+        except ImportError:  # a platform without numba's wheels: correct, several times slower
+            warnings.warn("numba is not installed: the turbodiesel model runs in the interpreter, several "
+                          "times slower (pip install numba)", RuntimeWarning, stacklevel=2)
+            _COMPILED = types.SimpleNamespace(**{name: getattr(_plain, name) for name in _plain.COMPILED})
+            return _COMPILED
         namespace = dict(vars(_plain))
         for name in _plain.COMPILED:
             f = getattr(_plain, name)
