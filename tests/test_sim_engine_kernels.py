@@ -209,3 +209,33 @@ def test_without_numba_the_engine_runs_interpreted_with_a_warning(monkeypatch):
     ref = TurbochargedDiesel(turbo="iterative", rack=0.7)
     x = STATE * np.array([1.02, 0.99, 1.01])
     np.testing.assert_allclose(eng.derivatives(0.2, x, 1500 * RPM), ref.derivatives(0.2, x, 1500 * RPM), rtol=1e-12)
+
+
+@settings(max_examples=25, deadline=None)
+@given(n_chi=st.integers(3, 41), every=st.integers(1, 4), p_im=st.floats(0.95e5, 3.0e5), ratio=st.floats(0.9, 1.5),
+       w_tc=st.floats(5_000 * RPM, 140_000 * RPM), rpm=st.floats(600.0, 2200.0))
+def test_other_table_sizes_compile_to_the_same_numbers(n_chi, every, p_im, ratio, w_tc, rpm):
+    """Any grid the pre-processor makes (here: other chi resolutions, a thinned expansion-ratio
+    grid) goes through the same compiled code: compiled = interpreted, both algorithms."""
+    from transgen.sim.engine import DATA_DIR, load_map, preprocess_compressor, preprocess_turbine
+    from transgen.sim.engine.compressor import Compressor
+    from transgen.sim.engine.turbine import Turbine
+    from transgen.sim.engine.turbocharger import BasicTurbo
+
+    tmap = load_map(DATA_DIR / "we_turbine.toml")
+    er = preprocess_turbine(tmap).expansion_ratio
+    devices = (Compressor(preprocess_compressor(load_map(DATA_DIR / "we_compressor.toml"), n_chi=n_chi)),
+               Turbine(preprocess_turbine(tmap, er[::every] if er[::every][-1] == er[-1] else np.r_[er[::every], er[-1]])))
+    for turbo in (BasicTurbo(*devices), IterativeTurbo(*devices)):
+        eng = TurbochargedDiesel(turbo=turbo)
+        ev, P, c, t, TB, _ = eng._kernel_inputs
+        results = []
+        for f in (ev, K.engine_evaluate):
+            out, work = np.full(K.N_OUT, -1.0), np.empty(K.N_SOLVE)
+            with np.errstate(all="ignore"):
+                status = f(P, c, t, TB, np.ones((2, 3)), p_im, p_im * ratio, w_tc, rpm * RPM, 1.2e-4, out, work)
+            results.append((int(status), out))
+        (s_fast, fast), (s_ref, ref) = results
+        assert s_fast == s_ref
+        if s_fast == K.OK:
+            np.testing.assert_allclose(fast, ref, rtol=1e-12, atol=0.0)

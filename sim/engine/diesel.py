@@ -366,7 +366,7 @@ class TurbochargedDiesel:
                 device.table.warn_range(*out[at + _k.O_RANGE:at + _k.O_RANGE + 4].tolist())
         if status != _k.OK:
             self._raise(status, t, x, p_im, p_em, w_tc, out)
-        return out[:3], out[_k.O_TORQUE], (p_im, p_em, w_tc, omega_e, u_f, out)
+        return out[:3], float(out[_k.O_TORQUE]), (p_im, p_em, w_tc, omega_e, u_f, out)
 
     def _raise(self, status: int, t: float, x, p_im: float, p_em: float, w_tc: float, out) -> None:
         """Raise the error of a failed evaluation (``kernels.ST_*`` status), naming the part of
