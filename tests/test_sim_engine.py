@@ -81,9 +81,14 @@ def test_nan_guard_names_component_time_and_state(monkeypatch):
     x0 = eng.initial_state(w)
     with pytest.raises(NonFiniteError, match=r"p_im = nan.*engine state at t = 1\.5 s"):
         eng.derivatives(1.5, np.array([np.nan, x0[1], x0[2]]), w)
-    monkeypatch.setattr(eng.turbo.turbine.table, "lookup", lambda n, er: (float("nan"), 0.7))
+    from transgen.sim.engine import default_turbine_table
+    from transgen.sim.engine.turbine import Turbine
+    from transgen.sim.engine.turbocharger import BasicTurbo
+
+    table = default_turbine_table()
+    table.mass_flow[:] = np.nan
     with pytest.raises(NonFiniteError) as err:
-        eng.derivatives(2.0, x0, w)
+        TurbochargedDiesel(turbo=BasicTurbo(turbine=Turbine(table))).derivatives(2.0, x0, w)
     msg = str(err.value)
     assert "turbine" in msg and "t = 2 s" in msg and "omega_tc" in msg
     assert isinstance(err.value, SimulationError)

@@ -47,7 +47,13 @@ Fuel command: ``rack(t)`` in [0, 1] scales the full-load fuel at the current spe
 or pedal); an optional :class:`SpeedGovernor` raises the rack to hold idle speed.
 
 Robustness: a NaN or infinity in the state or in any computed quantity raises
-:class:`NonFiniteError` naming the component, the time and the state.
+:class:`NonFiniteError` naming the component, the time and the state; a failed turbocharger
+solve or exhaust-temperature fixed point raises its error with the time.
+
+Computation: one evaluation (cylinders, exhaust temperature, turbocharger, manifolds, shaft) is
+:func:`transgen.sim.engine.kernels.engine_evaluate`, compiled with numba on first use
+(:mod:`transgen.sim.engine.compiled`); this class checks the state, calls it, and turns its
+status into the errors and map warnings above.
 
 The full-load curve and the rating of the engine are :mod:`transgen.sim.engine.rating`.
 """
@@ -56,6 +62,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import ClassVar, Mapping
 
 import numpy as np
@@ -64,8 +71,10 @@ from transgen.errors import SimulationError, StateOutOfDomain
 
 from ..causality import Block, Causality, ports
 from ..interp import interp_like_numpy
+from . import kernels as _k
+from .compiled import kernels
 from .gas import AIR, EXHAUST, RPM, Gas
-from .turbocharger import BasicTurbo, TurboShaft, make_turbo
+from .turbocharger import BasicTurbo, TurboShaft, _Where, make_turbo
 
 __all__ = [
     "EngineParams",
@@ -146,6 +155,15 @@ class EngineParams:
             return 0.0
         return interp_like_numpy(float(omega_engine), self.full_load_speed, self.full_load_fuel)
 
+    @cached_property
+    def kernel_params(self) -> np.ndarray:
+        """These parameters as the kernels' array (``kernels.ENGINE_FIELDS``)."""
+        return np.array([self.p_amb, self.T_amb, self.T_im, self.T_w, self.V_im, self.V_em, self.V_d,
+                         self.n_cyl, self.r_c, *self.c_vol, self.q_HV, self.AFs, self.eta_igch,
+                         self.gamma_cyl, *self.c_fric, self.eta_sc, self.x_cv, self.h_tot, self.d_pipe,
+                         self.l_pipe, self.n_pipe, self.air.cp, self.air.R, self.exhaust.cp, self.exhaust.R,
+                         self.friction_blend_speed], dtype=float)
+
 
 @dataclass(frozen=True)
 class SpeedGovernor:
@@ -165,8 +183,8 @@ class SpeedGovernor:
 
 
 def exhaust_temperature(p: EngineParams, p_im: float, p_em: float, fuel_air: float,
-                        W_eo: float, tol: float = 1e-13,
-                        maxiter: int = 60) -> tuple[float, float, float, float]:
+                        W_eo: float, tol: float = _k.EXHAUST_TOL,
+                        maxiter: int = _k.EXHAUST_MAXITER) -> tuple[float, float, float, float]:
     """W&E exhaust-temperature model: ``(T_em, T_e, x_r, T_1)``.
 
     Parameters
@@ -184,50 +202,23 @@ def exhaust_temperature(p: EngineParams, p_im: float, p_em: float, fuel_air: flo
     The fixed point on the residual gas fraction ``x_r`` and the charge temperature ``T_1``
     starts from ``x_r = 0``, ``T_1 = T_im`` at every call and is converged tightly, so that the
     result is a smooth function of the inputs (no history, clean finite-difference Jacobians).
+    The computation is :func:`transgen.sim.engine.kernels.exhaust_temperature`.
 
     Raises
     ------
     SimulationError
         If the fixed point does not converge within ``maxiter``.
     """
-    g = p.air.gamma
-    cv = p.air.cp - p.air.R
-    rcg = p.r_c ** (g - 1.0)
-    pi_e = p_em / p_im
-    # loop invariants of the fixed point
-    q_fuel = p.q_HV * fuel_air / (1.0 + fuel_air)
-    pi_g = pi_e ** (1.0 / g) / p.r_c
-    t_scale = p.eta_sc * pi_e ** (1.0 - 1.0 / g) * p.r_c ** (1.0 - g)
-    c_v, c_p, c_mix = p.x_cv / cv, (1.0 - p.x_cv) / p.air.cp, (1.0 - p.x_cv) / p.air.cp + p.x_cv / cv
-    e_r, e_t, T_im = -1.0 / g, 1.0 / g - 1.0, p.T_im
-    x_r, T_1 = 0.0, T_im
-    # the loop runs about a dozen times per evaluation of the engine: the clamps are comparisons,
-    # not min/max calls (same values)
-    for _ in range(maxiter):
-        q_in = q_fuel * (1.0 - x_r)
-        a = T_1 * rcg
-        x_p = 1.0 + q_in * c_v / a
-        x_v = 1.0 + q_in * c_p / (q_in * c_v + a)
-        x_r_new = pi_g * x_p ** e_r / x_v
-        x_r_new = 0.0 if x_r_new <= 0.0 else (1.0 if x_r_new >= 1.0 else x_r_new)
-        T_e = t_scale * x_p ** e_t * (q_in * c_mix + a)
-        T_1_new = x_r_new * T_e + (1.0 - x_r_new) * T_im
-        if not T_1_new >= 273.0:
-            T_1_new = 273.0
-        done = abs(T_1_new - T_1) <= tol * T_1 and abs(x_r_new - x_r) <= tol
-        x_r, T_1 = x_r_new, T_1_new
-        if done:
-            break
-    else:
-        raise SimulationError(f"exhaust temperature: residual-gas fixed point did not converge "
-                              f"in {maxiter} iterations (p_im = {p_im:.6g} Pa, "
-                              f"p_em = {p_em:.6g} Pa, fuel/air = {fuel_air:.4g})")
-    if W_eo > 0.0:
-        hA = p.h_tot * math.pi * p.d_pipe * p.l_pipe * p.n_pipe
-        T_em = p.T_w + (T_e - p.T_w) * math.exp(-hA / (W_eo * p.exhaust.cp))
-    else:
-        T_em = p.T_w
+    T_em, T_e, x_r, T_1, converged = kernels().exhaust_temperature(p.kernel_params, p_im, p_em, fuel_air,
+                                                                  W_eo, tol, maxiter)
+    if not converged:
+        raise _exhaust_error(p_im, p_em, fuel_air, maxiter)
     return T_em, T_e, x_r, T_1
+
+
+def _exhaust_error(p_im: float, p_em: float, fuel_air: float, maxiter: int) -> SimulationError:
+    return SimulationError(f"exhaust temperature: residual-gas fixed point did not converge in {maxiter} "
+                           f"iterations (p_im = {p_im:.6g} Pa, p_em = {p_em:.6g} Pa, fuel/air = {fuel_air:.4g})")
 
 
 def _check_finite(component: str, t: float, x, names: tuple[str, ...], values: tuple[float, ...]) -> None:
@@ -242,15 +233,18 @@ def _check_finite(component: str, t: float, x, names: tuple[str, ...], values: t
                 f"p_im = {x[0]:.6g} Pa, p_em = {x[1]:.6g} Pa, omega_tc = {x[2]:.6g} rad/s")
 
 
-def _named_signals(p: EngineParams, quantities: tuple) -> dict[str, float]:
+def _named_signals(p: EngineParams, turbo: BasicTurbo, quantities: tuple) -> dict[str, float]:
     """The engine's named signals (SI units) from the quantities of one evaluation."""
-    p_im, p_em, w_tc, omega_e, u_f, lam, T_em, T_e, x_r, torque, eta_vol, W_ei, W_f, tp = quantities
+    p_im, p_em, w_tc, omega_e, u_f, out = quantities
+    o = out.tolist()
+    torque = o[_k.O_TORQUE]
     sig = {"p_im": p_im, "p_em": p_em, "boost_pressure_ratio": p_im / p.p_amb,
            "turbo_speed": w_tc, "turbo_speed_rpm": w_tc / RPM, "engine_speed": omega_e,
-           "fuel_per_cycle": u_f, "lambda": lam, "T_em": T_em, "T_e": T_e,
-           "residual_gas_fraction": x_r, "power_engine": torque * omega_e,
-           "eta_vol": eta_vol, "m_dot_air_cyl": W_ei, "m_dot_fuel": W_f, "torque_engine": torque}
-    sig.update(tp.signals())
+           "fuel_per_cycle": u_f, "lambda": o[_k.O_LAMBDA], "T_em": o[_k.O_T_EM], "T_e": o[_k.O_T_E],
+           "residual_gas_fraction": o[_k.O_X_R], "power_engine": torque * omega_e,
+           "eta_vol": o[_k.O_ETA_VOL], "m_dot_air_cyl": o[_k.O_W_EI], "m_dot_fuel": o[_k.O_W_F],
+           "torque_engine": torque}
+    sig.update(turbo.turbo_point(o, w_tc).signals())
     return sig
 
 
@@ -306,7 +300,8 @@ class TurbochargedDiesel:
         self.rack = rack if callable(rack) else (lambda t, r=float(rack): r)
         self.governor = governor
         self._cache_key: tuple | None = None
-        self._cache: tuple[np.ndarray, float, dict] | None = None
+        self._cache: tuple[np.ndarray, float, tuple] | None = None
+        self._solve_state = np.empty(_k.N_SOLVE)  # work array of the iterative solves
 
     # ---------------------------------------------------------------- inputs
     def fuel(self, t: float, omega_engine: float) -> float:
@@ -317,57 +312,88 @@ class TurbochargedDiesel:
         return self.params.full_load_fuel_at(omega_engine) * min(max(r, 0.0), 1.0)
 
     # ---------------------------------------------------------------- model
-    def _cylinders(self, t: float, x, omega_e: float, u_f: float):
-        """The state checks and the cylinders' flow and torque model (no exhaust temperature, no
-        turbocharger): ``(p_im, p_em, w_tc, eta_vol, m_air, m_fuel, W_ei, W_f, W_eo, lam,
-        torque)``. Shared by :meth:`_evaluate` and :meth:`crank_torque`, so both give the same
-        torque to the bit."""
-        p = self.params
+    def _state(self, t: float, x, omega_e: float) -> tuple[float, float, float]:
+        """The state ``(p_im, p_em, omega_tc)`` as floats, checked: finite, positive pressures."""
         p_im, p_em, w_tc = float(x[0]), float(x[1]), float(x[2])
         _check_finite("engine state", t, (p_im, p_em, w_tc), ("p_im", "p_em", "omega_tc", "omega_engine"),
                       (p_im, p_em, w_tc, omega_e))
         if p_im <= 0.0 or p_em <= 0.0:
             raise StateOutOfDomain(f"engine: non-physical manifold pressure at t = {t:.6g} s "
-                                  f"(p_im = {p_im:.6g} Pa, p_em = {p_em:.6g} Pa)")
-        n_e = abs(omega_e) / RPM
-        # cylinders (flow block)
-        eta_vol = p.c_vol[0] * math.sqrt(p_im) + p.c_vol[1] * math.sqrt(n_e) + p.c_vol[2]
-        m_air = eta_vol * p_im * p.V_d / (p.air.R * p.T_im)          # kg per cycle
-        m_fuel = u_f * p.n_cyl                                      # kg per cycle
-        W_ei, W_f = m_air * n_e / 120.0, m_fuel * n_e / 120.0
-        W_eo = W_ei + W_f
-        lam = m_air / (m_fuel * p.AFs) if m_fuel > 0.0 else math.inf
-        blend = min(max(omega_e / p.friction_blend_speed, -1.0), 1.0)
-        W_ig = (p.eta_igch * min(1.0, lam) * (1.0 - p.r_c ** (1.0 - p.gamma_cyl))
-                * m_fuel * p.q_HV)
-        n_k = n_e / 1000.0
-        fmep = p.c_fric[0] * n_k * n_k + p.c_fric[1] * n_k + p.c_fric[2]
-        torque = (W_ig - blend * (p.V_d * (p_em - p_im) + p.V_d * 1e5 * fmep)) / (4.0 * math.pi)
+                                   f"(p_im = {p_im:.6g} Pa, p_em = {p_em:.6g} Pa)")
+        return p_im, p_em, w_tc
+
+    def _cylinders(self, t: float, x, omega_e: float, u_f: float) -> float:
+        """The crank torque [N*m] from the state checks and the cylinders' flow and torque model
+        alone (no exhaust temperature, no turbocharger): the kernel that :meth:`_evaluate`'s
+        compiled evaluation calls, so both give the same torque to the bit."""
+        p_im, p_em, _ = self._state(t, x, omega_e)
+        eta_vol, _, _, W_ei, W_f, _, _, torque = self._kernels.cylinders(self.params.kernel_params, p_im, p_em,
+                                                                         omega_e, u_f)
         _check_finite("cylinders", t, x, ("eta_vol", "m_dot_air_cyl", "m_dot_fuel", "torque_engine"),
                       (eta_vol, W_ei, W_f, torque))
-        return p_im, p_em, w_tc, eta_vol, m_air, m_fuel, W_ei, W_f, W_eo, lam, torque
+        return torque
+
+    @cached_property
+    def _kernels(self):
+        return kernels()
+
+    def __getstate__(self) -> dict:
+        # the compiled functions are found again after unpickling, not pickled with the engine
+        return {k: v for k, v in vars(self).items() if k not in ("_kernels", "_kernel_inputs")}
+
+    @cached_property
+    def _kernel_inputs(self) -> tuple:
+        """The compiled evaluation and its fixed arguments: engine parameters, compressor and
+        turbine, turbocharger algorithm, warm start."""
+        turbo = self.turbo
+        return (self._kernels.engine_evaluate, self.params.kernel_params, turbo.compressor.kernel_device,
+                turbo.turbine.kernel_device, turbo.kernel_turbo(), turbo.kernel_warm())
 
     def _evaluate(self, t: float, x, omega_e: float, u_f: float):
-        """``(dx, torque, quantities)``: the named signals are built from ``quantities`` by
-        :func:`_named_signals` only when asked for (the right-hand side needs ``dx`` and the
-        torque; building the dictionaries at every call was a fifth of the engine's cost)."""
-        p = self.params
-        p_im, p_em, w_tc, eta_vol, m_air, m_fuel, W_ei, W_f, W_eo, lam, torque = self._cylinders(t, x, omega_e, u_f)
-        # exhaust temperature (algebraic loop hidden inside the block, thesis 2.4.3)
-        T_em, T_e, x_r, T_1 = exhaust_temperature(p, p_im, p_em, m_fuel / m_air, W_eo)
-        _check_finite("exhaust-temperature model", t, x, ("T_em", "T_e", "x_r", "T_1"), (T_em, T_e, x_r, T_1))
-        # turbocharger (flow blocks + shaft)
-        tp = self.turbo.evaluate(p.p_amb, p.T_amb, p_im, p_em, T_em, p.p_amb, w_tc)
-        c, tu = tp.compressor, tp.turbine
-        _check_finite("compressor", t, x, ("m_dot", "T_out", "torque", "chi"), (c.m_dot, c.T_out, c.torque, c.chi))
-        _check_finite("turbine", t, x, ("m_dot", "T_out", "torque"), (tu.m_dot, tu.T_out, tu.torque))
-        # manifolds (control volumes)
-        derivs = (p.air.R * p.T_im * (c.m_dot - W_ei) / p.V_im,
-                  p.exhaust.R * T_em * (W_eo - tu.m_dot) / p.V_em,
-                  tp.omega_dot)
-        _check_finite("manifold and shaft derivatives", t, x, ("dp_im/dt", "dp_em/dt", "domega_tc/dt"), derivs)
-        dx = np.array(derivs)
-        return dx, torque, (p_im, p_em, w_tc, omega_e, u_f, lam, T_em, T_e, x_r, torque, eta_vol, W_ei, W_f, tp)
+        """``(dx, torque, quantities)`` of one evaluation (:func:`transgen.sim.engine.kernels.
+        engine_evaluate`, compiled): cylinders, exhaust temperature (the algebraic loop hidden
+        inside the block, thesis 2.4.3), turbocharger (flow blocks + shaft), manifolds (control
+        volumes). The named signals are built from ``quantities`` by :func:`_named_signals` only
+        when asked for."""
+        p_im, p_em, w_tc = float(x[0]), float(x[1]), float(x[2])
+        if not (math.isfinite(p_im + p_em + w_tc + omega_e) and p_im > 0.0 and p_em > 0.0):
+            self._state(t, x, omega_e)  # raises, naming what is wrong
+        evaluate, P, cdev, tdev, TB, warm = self._kernel_inputs
+        out = np.empty(_k.N_OUT)
+        status = evaluate(P, cdev, tdev, TB, warm, p_im, p_em, w_tc, omega_e, u_f, out, self._solve_state)
+        if out[_k.O_C + _k.O_RANGE] != _k.IN_RANGE or out[_k.O_T + _k.O_RANGE] != _k.IN_RANGE:
+            for device, at in ((self.turbo.compressor, _k.O_C), (self.turbo.turbine, _k.O_T)):
+                device.table.warn_range(*out[at + _k.O_RANGE:at + _k.O_RANGE + 4].tolist())
+        if status != _k.OK:
+            self._raise(status, t, x, p_im, p_em, w_tc, out)
+        return out[:3], float(out[_k.O_TORQUE]), (p_im, p_em, w_tc, omega_e, u_f, out)
+
+    def _raise(self, status: int, t: float, x, p_im: float, p_em: float, w_tc: float, out) -> None:
+        """Raise the error of a failed evaluation (``kernels.ST_*`` status), naming the part of
+        the engine, the time and the state."""
+        o = out.tolist()
+        groups = {_k.ST_CYLINDERS: ("cylinders", ("eta_vol", "m_dot_air_cyl", "m_dot_fuel", "torque_engine"),
+                                    (_k.O_ETA_VOL, _k.O_W_EI, _k.O_W_F, _k.O_TORQUE)),
+                  _k.ST_EXHAUST_NONFINITE: ("exhaust-temperature model", ("T_em", "T_e", "x_r", "T_1"),
+                                            (_k.O_T_EM, _k.O_T_E, _k.O_X_R, _k.O_T_1)),
+                  _k.ST_COMPRESSOR_NONFINITE: ("compressor", ("m_dot", "T_out", "torque", "chi"),
+                                               (_k.O_C, _k.O_C + 1, _k.O_C + 3, _k.O_C + 6)),
+                  _k.ST_TURBINE_NONFINITE: ("turbine", ("m_dot", "T_out", "torque"), (_k.O_T, _k.O_T + 1, _k.O_T + 3)),
+                  _k.ST_DERIVATIVES_NONFINITE: ("manifold and shaft derivatives",
+                                                ("dp_im/dt", "dp_em/dt", "domega_tc/dt"), (0, 1, 2))}
+        if status in groups:
+            component, names, at = groups[status]
+            _check_finite(component, t, x, names, tuple(o[k] for k in at))
+        if status == _k.ST_EXHAUST:
+            error = _exhaust_error(p_im, p_em, o[_k.O_FUEL_AIR], _k.EXHAUST_MAXITER)
+        elif _k.ST_COMPRESSOR < status < _k.ST_TURBINE + 10:
+            p = self.params
+            where = (_Where("compressor", p.p_amb, p.T_amb, p_im, w_tc) if status < _k.ST_TURBINE
+                     else _Where("turbine", p_em, o[_k.O_T_EM], p.p_amb, w_tc))
+            error = self.turbo.solve_error(status % 10, where, o[_k.O_INFO0], o[_k.O_INFO1])
+        else:
+            error = SimulationError(f"evaluation failed (status {status})")
+        raise type(error)(f"engine at t = {t:.6g} s: {error}")
 
     @staticmethod
     def _key(t: float, x, omega_engine: float) -> tuple:
@@ -408,12 +434,12 @@ class TurbochargedDiesel:
         are the same, the turbocharger's own checks come with the next full evaluation."""
         if self._key(t, x, omega_engine) == self._cache_key:
             return self._cache[1]
-        return self._cylinders(t, x, omega_engine, self.fuel(t, omega_engine))[-1]
+        return self._cylinders(t, x, omega_engine, self.fuel(t, omega_engine))
 
     def signals(self, t: float, x: np.ndarray, omega_engine: float) -> dict[str, float]:
         """Named quantities (SI units): turbo speed, chi, mass flows, PR, ER, temperatures,
         boost, torque, lambda, ..."""
-        return _named_signals(self.params, self._cached(t, x, omega_engine)[2])
+        return _named_signals(self.params, self.turbo, self._cached(t, x, omega_engine)[2])
 
     # ---------------------------------------------------------------- steady state
     def steady_state(self, engine_speed: float, fuel: float | None = None,
@@ -467,7 +493,7 @@ class TurbochargedDiesel:
                                    f"{f(sol.x)})")
         x = sol.x * scale
         _, torque, quantities = self._evaluate(0.0, x, engine_speed, u_f)
-        sig = _named_signals(self.params, quantities)
+        sig = _named_signals(self.params, self.turbo, quantities)
         return SteadyState(engine_speed, u_f, tuple(map(float, x)), torque,
                            torque * engine_speed, sig["boost_pressure_ratio"], float(x[2]), sig)
 

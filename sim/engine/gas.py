@@ -13,6 +13,8 @@ import math
 from dataclasses import dataclass
 from functools import cached_property
 
+from . import kernels as _k
+
 __all__ = [
     "RPM",
     "OMEGA_FLOOR",
@@ -27,8 +29,8 @@ __all__ = [
     "torque_from_power",
 ]
 
-RPM = math.pi / 30.0
-"""One revolution per minute in rad/s."""
+RPM = _k.RPM
+"""One revolution per minute in rad/s (pi/30)."""
 
 OMEGA_FLOOR = 100.0 * RPM
 """Lowest turbo speed [rad/s] used to turn power into torque (``torque = P/max(omega, floor)``).
@@ -72,7 +74,7 @@ EXHAUST = Gas(cp=1332.0, R=286.0)
 
 def corrected_speed(omega: float, T0: float, T_ref: float) -> float:
     """Corrected speed ``N*sqrt(T_std/T01)`` (eqs 4.21, 4.28); same unit as ``omega``."""
-    return omega * math.sqrt(T_ref / T0)
+    return _k.corrected_speed(omega, T0, T_ref)
 
 
 def corrected_flow(m_dot: float, p0: float, T0: float, p_ref: float, T_ref: float) -> float:
@@ -82,12 +84,12 @@ def corrected_flow(m_dot: float, p0: float, T0: float, p_ref: float, T_ref: floa
 
 def actual_flow(m_corr: float, p0: float, T0: float, p_ref: float, T_ref: float) -> float:
     """Mass flow [kg/s] from a corrected flow: the inverse of :func:`corrected_flow`."""
-    return m_corr * (p0 / p_ref) * math.sqrt(T_ref / T0)
+    return _k.actual_flow(m_corr, p0, T0, p_ref, T_ref)
 
 
 def compression_outlet_temperature(T_in: float, PR: float, eta: float, gas: Gas) -> float:
     """Compressor outlet temperature [K], thesis eq. 4.7: ``T1*(1 + (PR^kappa - 1)/eta)``."""
-    return T_in * (1.0 + (PR ** gas.kappa - 1.0) / eta)
+    return _k.compression_outlet_temperature(T_in, PR, eta, gas.kappa)
 
 
 def expansion_outlet_temperature(T_in: float, ER: float, eta: float, gas: Gas) -> float:
@@ -95,7 +97,7 @@ def expansion_outlet_temperature(T_in: float, ER: float, eta: float, gas: Gas) -
 
     ``T2 = T1*(1 + eta*((1/ER)^kappa - 1)) = T1*(1 - eta*(1 - ER^-kappa))``.
     """
-    return T_in * (1.0 - eta * (1.0 - ER ** -gas.kappa))
+    return _k.expansion_outlet_temperature(T_in, ER, eta, gas.kappa)
 
 
 def torque_from_power(power: float, omega: float, omega_floor: float = OMEGA_FLOOR) -> float:
@@ -104,4 +106,4 @@ def torque_from_power(power: float, omega: float, omega_floor: float = OMEGA_FLO
     ``torque = power / max(omega, omega_floor)``: the floor keeps the torque finite at a standing
     rotor (the turbine delivers power at zero speed); see :data:`OMEGA_FLOOR`.
     """
-    return power / max(omega, omega_floor)
+    return _k.torque_from_power(power, omega, omega_floor)

@@ -4,7 +4,8 @@ The thesis' compressor/turbine *pre-processor* (sections 2.3 and 4.4) turns a ma
 manufacturer-like format of :mod:`transgen.sim.engine.map_file` into look-up tables whose inputs
 are what the simulation knows (pressures, temperatures, rotor speed) and whose outputs are what it
 needs (mass flow, efficiency).  The scalar look-up itself (cell and bilinear weights) is
-:func:`transgen.sim.interp.locate` and :func:`transgen.sim.interp.bilinear`.
+:func:`transgen.sim.engine.kernels.compressor_lookup` and
+:func:`~transgen.sim.engine.kernels.turbine_lookup` (compiled, :mod:`~transgen.sim.engine.compiled`).
 
 The pre-processor and the chi coordinate
 ----------------------------------------
@@ -48,7 +49,8 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..interp import bilinear, locate
+from . import kernels as _k
+from .compiled import kernels
 from .gas import RPM
 from .map_file import DATA_DIR, CompressorMap, MapError, TurbineMap, _raise_problems, load_map
 
@@ -105,9 +107,9 @@ class _Table:
 
     def __init__(self, name, speed, second, mass_flow, efficiency, T_ref, p_ref):
         self.name = name
-        self.speed = np.asarray(speed, dtype=float)
-        self.mass_flow = np.asarray(mass_flow, dtype=float)
-        self.efficiency = np.asarray(efficiency, dtype=float)
+        self.speed = np.ascontiguousarray(speed, dtype=float)
+        self.mass_flow = np.ascontiguousarray(mass_flow, dtype=float)
+        self.efficiency = np.ascontiguousarray(efficiency, dtype=float)
         self.T_ref = float(T_ref)
         self.p_ref = float(p_ref)
         shape = (self.speed.size, np.asarray(second).size)
@@ -118,10 +120,13 @@ class _Table:
             if g.size < 2 or np.any(np.diff(g) <= 0):
                 problems.append(f"{label} grid must be strictly increasing with >= 2 points")
         _raise_problems(problems, f"{self.kind} table '{name}'")
-        self._speed = self.speed.tolist()
-        self._m = self.mass_flow.tolist()
-        self._eta = self.efficiency.tolist()
         self.warned = False
+
+    def warn_range(self, code: int, N_corr: float, ratio: float, chi: float) -> None:
+        """The out-of-data warning of a look-up with range code ``code`` (``kernels.IN_RANGE``:
+        none) at a corrected speed [rad/s], ratio and (compressor) chi."""
+        if code != _k.IN_RANGE and not self.warned:
+            self._warn(self._range_message(int(code), N_corr, ratio, chi))
 
     def _warn(self, message: str) -> None:
         if not self.warned:
@@ -154,16 +159,20 @@ class CompressorTable(_Table):
     def __init__(self, name, speed, chi, mass_flow, efficiency, pr_stall, pr_surge, T_ref,
                  p_ref, min_span: float = MIN_CHI_SPAN):
         super().__init__(name, speed, chi, mass_flow, efficiency, T_ref, p_ref)
-        self.chi = np.asarray(chi, dtype=float)
-        self.pr_stall = np.asarray(pr_stall, dtype=float)
-        self.pr_surge = np.asarray(pr_surge, dtype=float)
+        self.chi = np.ascontiguousarray(chi, dtype=float)
+        self.pr_stall = np.ascontiguousarray(pr_stall, dtype=float)
+        self.pr_surge = np.ascontiguousarray(pr_surge, dtype=float)
         span = self.pr_surge - self.pr_stall
         if span.shape != self.speed.shape or np.any(~(span >= min_span)):
             raise MapError(f"compressor table '{name}': PR_surge - PR_stall must be >= "
                            f"{min_span:g} on every speed line (the chi 0/0 guard)")
-        self._chi = self.chi.tolist()
-        self._stall = self.pr_stall.tolist()
-        self._span = span.tolist()
+        self.pr_span = span
+
+    def _range_message(self, code: int, N_corr: float, PR: float, chi: float) -> str:
+        if code == _k.BELOW_LOWEST_LINE:
+            return (f"N_corr = {N_corr / RPM:.0f} rpm below the lowest speed line, PR = {PR:.4f}; "
+                    "scaled from the lowest line by fan laws")
+        return f"N_corr = {N_corr / RPM:.0f} rpm, PR = {PR:.4f}, chi = {chi:.3f}"
 
     def lookup(self, N_corr: float, PR: float) -> tuple[float, float, float]:
         """Corrected flow [kg/s], efficiency [-] and chi [-] at a corrected speed [rad/s] and a
@@ -175,24 +184,10 @@ class CompressorTable(_Table):
         ``PR - 1`` scales with speed squared, flow with speed), so that the flow goes to zero
         with the speed instead of staying at the lowest line's value.
         """
-        n0 = self._speed[0]
-        if N_corr < n0:
-            self._warn(f"N_corr = {N_corr / RPM:.0f} rpm below the lowest speed line, "
-                       f"PR = {PR:.4f}; scaled from the lowest line by fan laws")
-            r = max(N_corr, 0.0) / n0
-            m, eta, chi = self._lookup(n0, 1.0 + (PR - 1.0) / max(r * r, 1e-12))
-            return r * m, eta, chi
-        return self._lookup(N_corr, PR)
-
-    def _lookup(self, N_corr: float, PR: float) -> tuple[float, float, float]:
-        i, wx, out_n = locate(self._speed, N_corr)
-        stall = self._stall[i] + wx * (self._stall[i + 1] - self._stall[i])
-        span = self._span[i] + wx * (self._span[i + 1] - self._span[i])
-        chi = (PR - stall) / span  # span >= min_span > 0: never 0/0 (module docstring)
-        j, wy, out_c = locate(self._chi, chi)
-        if out_n or out_c:
-            self._warn(f"N_corr = {N_corr / RPM:.0f} rpm, PR = {PR:.4f}, chi = {chi:.3f}")
-        return bilinear(self._m, i, wx, j, wy), bilinear(self._eta, i, wx, j, wy), chi
+        m, eta, chi, code = kernels().compressor_lookup(self.speed, self.chi, self.mass_flow, self.efficiency,
+                                                        self.pr_stall, self.pr_span, N_corr, PR)
+        self.warn_range(code, N_corr, PR, chi)
+        return m, eta, chi
 
 
 class TurbineTable(_Table):
@@ -215,17 +210,18 @@ class TurbineTable(_Table):
 
     def __init__(self, name, speed, expansion_ratio, mass_flow, efficiency, T_ref, p_ref):
         super().__init__(name, speed, expansion_ratio, mass_flow, efficiency, T_ref, p_ref)
-        self.expansion_ratio = np.asarray(expansion_ratio, dtype=float)
-        self._er = self.expansion_ratio.tolist()
+        self.expansion_ratio = np.ascontiguousarray(expansion_ratio, dtype=float)
+
+    def _range_message(self, code: int, N_corr: float, ER: float, chi: float) -> str:
+        return f"N_corr = {N_corr / RPM:.0f} rpm, ER = {ER:.4f}"
 
     def lookup(self, N_corr: float, ER: float) -> tuple[float, float]:
         """Corrected flow [kg/s] and efficiency [-] at a corrected speed [rad/s] and expansion
         ratio [-]; clamped to the table edge outside the data (one :class:`MapRangeWarning`)."""
-        i, wx, out_n = locate(self._speed, N_corr)
-        j, wy, out_e = locate(self._er, ER)
-        if out_n or out_e:
-            self._warn(f"N_corr = {N_corr / RPM:.0f} rpm, ER = {ER:.4f}")
-        return bilinear(self._m, i, wx, j, wy), bilinear(self._eta, i, wx, j, wy)
+        m, eta, code = kernels().turbine_lookup(self.speed, self.expansion_ratio, self.mass_flow,
+                                                self.efficiency, N_corr, ER)
+        self.warn_range(code, N_corr, ER, float("nan"))
+        return m, eta
 
 
 def preprocess_compressor(cmap: CompressorMap, n_chi: int = 21, min_span: float = MIN_CHI_SPAN,

@@ -19,7 +19,8 @@ mass flows, outlet temperatures, shaft torques, chi, PR and ER (:class:`TurboPoi
   pass at Mach 1 (static-state choking, ``m* = p*A*sqrt(gamma/(R*T))`` at the inlet and
   ``p*A*sqrt(gamma/(R*T0))*sqrt((gamma+1)/2)`` at the outlet) :class:`ChokedFlowError` is raised;
   if the solve does not converge :class:`TurboConvergenceError` is raised.  No silent value is
-  ever returned.
+  ever returned.  The solve is :func:`transgen.sim.engine.kernels.solve_device` (compiled with
+  numba; its Brent's method is scipy's ``brentq`` step for step).
 
 Shaft dynamics (eqs 4.32-4.33)::
 
@@ -40,10 +41,13 @@ import math
 from dataclasses import dataclass
 from typing import ClassVar, Mapping, NamedTuple
 
+import numpy as np
 
 from transgen.errors import SimulationError
 
 from ..causality import Causality, ports
+from . import kernels as _k
+from .compiled import kernels
 from .compressor import Compressor, CompressorPoint
 from .gas import OMEGA_FLOOR, Gas
 from .preprocessor import default_compressor_table, default_turbine_table
@@ -83,18 +87,18 @@ class TurboConvergenceError(TurboSolveError):
 # --------------------------------------------------------------------------------------------
 def total_temperature(T: float, M: float, gas: Gas) -> float:
     """Total temperature [K] from static temperature [K] and Mach number (eq. 4.34)."""
-    return T * (1.0 + 0.5 * (gas.gamma - 1.0) * M * M)
+    return _k.total_temperature(T, M, gas.gamma)
 
 
 def total_pressure(p: float, M: float, gas: Gas) -> float:
     """Total pressure [Pa] from static pressure [Pa] and Mach number (eq. 4.35)."""
-    return p * (1.0 + 0.5 * (gas.gamma - 1.0) * M * M) ** (1.0 / gas.kappa)
+    return _k.total_pressure(p, M, gas.gamma, gas.kappa)
 
 
 def mach_number(m_dot: float, p: float, T: float, area: float, gas: Gas) -> float:
     """Mach number from mass flow [kg/s], static pressure [Pa], static temperature [K] and duct
     area [m^2] (eq. 4.36)."""
-    return m_dot / (p * area) * math.sqrt(gas.R * T / gas.gamma)
+    return _k.mach_number(m_dot, p, T, area, gas.R, gas.gamma)
 
 
 def mach_from_total_temperature(m_dot: float, p: float, T0: float, area: float,
@@ -104,8 +108,7 @@ def mach_from_total_temperature(m_dot: float, p: float, T0: float, area: float,
     Eq. 4.36 with ``T = T0/(1 + (gamma-1)/2*M^2)`` (eq. 4.34) is a quadratic in ``M^2``, solved
     here in closed form (the numerically stable root).
     """
-    q2 = (m_dot / (p * area)) ** 2 * gas.R * T0 / gas.gamma
-    return math.sqrt(2.0 * q2 / (1.0 + math.sqrt(1.0 + 2.0 * (gas.gamma - 1.0) * q2)))
+    return _k.mach_from_total_temperature(m_dot, p, T0, area, gas.R, gas.gamma)
 
 
 # --------------------------------------------------------------------------------------------
@@ -136,13 +139,13 @@ class TurboShaft:
 
     def damping(self, omega: float) -> float:
         """Nonlinear damping torque ``c(omega) = c1*omega + c2*omega*|omega|`` [N*m]."""
-        return self.c1 * omega + self.c2 * omega * abs(omega)
+        return _k.shaft_damping(self.c1, self.c2, omega)
 
     def acceleration(self, torque_turbine: float, torque_compressor: float,
                      omega: float) -> float:
         """``domega/dt`` [rad/s^2] from turbine (driving) and compressor (absorbed) torques."""
-        a = (torque_turbine - torque_compressor - self.damping(omega)) / self.inertia
-        return 0.0 if (omega <= self.omega_floor and a < 0.0) else a
+        return _k.shaft_acceleration(self.inertia, self.c1, self.c2, self.omega_floor, torque_turbine,
+                                     torque_compressor, omega)
 
 
 @dataclass(frozen=True)
@@ -255,6 +258,25 @@ class BasicTurbo:
     def reset(self) -> None:
         """Forget any warm-start information (nothing for the basic algorithm)."""
 
+    def kernel_turbo(self) -> np.ndarray:
+        """The algorithm and its parameters as the kernels' array (``kernels.TURBO_FIELDS``)."""
+        s = self.shaft
+        return np.array([0.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+                         s.inertia, s.c1, s.c2, s.omega_floor], dtype=float)
+
+    def kernel_warm(self) -> np.ndarray:
+        """The warm start of the iterative solves (``kernels.solve_device``): compressor, turbine
+        rows of (m/m_basic, T02/T_basic, slope); unused by the basic algorithm."""
+        return np.ones((2, 3))
+
+    def turbo_point(self, out, omega: float) -> TurboPoint:
+        """The :class:`TurboPoint` at turbo speed ``omega`` of a kernel engine evaluation ``out``
+        (a list in the order of ``kernels.OUT_FIELDS``)."""
+        c, t, m, n = _k.O_C, _k.O_T, _k.O_MACH, _k.O_RANGE
+        return TurboPoint(self.compressor.point(*self.compressor.point_fields(out[c:c + n])),
+                          self.turbine.point(*self.turbine.point_fields(out[t:t + n])), omega,
+                          out[_k.O_OMEGA_DOT], out[_k.O_DAMPING], tuple(out[m:m + 4]))
+
 
 class _Where(NamedTuple):
     """Operating point named in error messages (formatted only when an error is raised; a named
@@ -293,6 +315,8 @@ class IterativeTurbo(BasicTurbo):
     """
 
     kind: ClassVar[str] = "iterative"
+    secant_iterations: ClassVar[int] = 8
+    """Bound of the secant fast path (at most ``maxiter``); 0: Brent's method on a bracket always."""
 
     def __init__(self, compressor: Compressor | None = None, turbine: Turbine | None = None,
                  shaft: TurboShaft = TurboShaft(), ports: PortAreas = PortAreas(),
@@ -302,13 +326,24 @@ class IterativeTurbo(BasicTurbo):
         self.ports = ports
         self.xtol, self.maxiter = xtol, maxiter
         self.inner_tol, self.inner_maxiter = inner_tol, inner_maxiter
-        # device -> (m / m_basic, T02 / T_basic, slope) of the last solution: the kinetic-energy
-        # correction changes slowly, so scaling the basic answer by it is a close first guess
-        self._warm: dict[str, tuple[float, float, float]] = {}
+        # compressor, turbine -> (m / m_basic, T02 / T_basic, slope) of the last solution: the
+        # kinetic-energy correction changes slowly, so scaling the basic answer by it is a close
+        # first guess (shared with the engine's compiled evaluation)
+        self._warm = np.ones((2, 3))
 
     def reset(self) -> None:
         """Forget the previous solutions used as warm starts."""
-        self._warm.clear()
+        self._warm[:] = 1.0
+
+    def kernel_turbo(self) -> np.ndarray:
+        """The algorithm and its parameters as the kernels' array (``kernels.TURBO_FIELDS``)."""
+        a, s = self.ports, self.shaft
+        return np.array([1.0, a.compressor_inlet, a.compressor_outlet, a.turbine_inlet, a.turbine_outlet,
+                         self.xtol, self.maxiter, self.inner_tol, self.inner_maxiter, self.secant_iterations,
+                         s.inertia, s.c1, s.c2, s.omega_floor], dtype=float)
+
+    def kernel_warm(self) -> np.ndarray:
+        return self._warm
 
     def _devices(self, p_c_in, T_c_in, p_c_out, p_t_in, T_t_in, p_t_out, omega):
         a = self.ports
@@ -318,113 +353,39 @@ class IterativeTurbo(BasicTurbo):
                             a.turbine_inlet, a.turbine_outlet)
         return c, t, mc + mt
 
-    def _bracket(self, residual, guess, hi, m_basic, where):
-        """A bracket [a, b] with residual(a) < 0 < residual(b), grown from +-2 % around the
-        guess towards [0, hi] (residual(0) = -m_basic < 0); evaluations stay near the root."""
-        guess = min(max(guess, 1e-6 * hi), 0.99 * hi)
-        a, b = 0.98 * guess, min(1.02 * guess, hi)
-        ra, rb = residual(a), residual(b)
-        for _ in range(40):
-            if ra < 0.0 < rb:
-                return a, b
-            w = 2.0 * (b - a)
-            if ra >= 0.0:
-                a = max(0.0, a - w)
-                ra = residual(a) if a > 0.0 else -m_basic
-            if rb <= 0.0:
-                if b >= hi:
-                    raise ChokedFlowError(f"{where}: no subsonic solution; the ports would "
-                                          f"choke below the map flow (bracket up to {hi:.4g} "
-                                          "kg/s)")
-                b = min(hi, b + w)
-                rb = residual(b)
-        raise TurboConvergenceError(f"{where}: no bracket of the mass-flow solution found")
-
-    def _secant(self, residual, settled, m0: float, m_basic: float, hi: float, slope: float = 1.0,
-                iterations: int = 8) -> tuple[float | None, float]:
-        """Secant iteration on ``residual(m) = 0`` from the warm start ``m0``, the first step with
-        the previous solve's ``slope`` (it is ``1 - dm_map/dm``, near 1: the Mach numbers change
-        the map flow by a few per cent only). ``residual`` may update the outlet total temperature
-        only once per call (a joint iteration); the root is accepted when the step is below
-        ``xtol`` and ``settled()`` says that temperature has converged. Returns ``(root, slope)``;
-        the root is None when an iterate leaves ``(0, hi)`` or it has not converged: the caller
-        then brackets."""
-        if not 0.0 < m0 < hi:
-            m0 = m_basic
-        r0 = residual(m0)
-        m1 = m0 - r0 / slope
-        for _ in range(iterations):
-            if not 0.0 < m1 < hi:
-                return None, 1.0
-            r1 = residual(m1)
-            if (abs(r1) <= self.xtol * slope or abs(m1 - m0) <= self.xtol) and settled():
-                return m1, slope  # within xtol of the root; the last evaluation is at m1
-            secant = (r1 - r0) / (m1 - m0) if m1 != m0 else slope
-            # a secant through two nearly equal points with the outlet temperature still moving
-            # is noise: keep the last good slope
-            if 0.25 <= secant <= 4.0:
-                slope = secant
-            m0, r0, m1 = m1, r1, m1 - r1 / slope
-        return None, 1.0
-
     def _solve(self, name, device, p1, T1, p2, omega, area_in, area_out):
-        """Solve ``m = m_map(m)`` for one device between static states (p1, T1) and p2."""
-        gas = device.gas
-        where = _Where(name, p1, T1, p2, omega)
-        basic_point = device.flow(p1, T1, p2, omega)
-        if basic_point[0] <= 0.0:
-            return device.point(*basic_point), (0.0, 0.0)
-        basic_m, basic_T = basic_point[0], basic_point[1]
-        # Choke check before the iteration (static-state choking of the port ducts).
-        m_star = min(p1 * area_in * math.sqrt(gas.gamma / (gas.R * T1)),
-                     p2 * area_out * math.sqrt(gas.gamma * (gas.gamma + 1.0)
-                                               / (2.0 * gas.R * basic_T)))
-        if basic_m >= m_star:
-            raise ChokedFlowError(f"{where}: map flow {basic_m:.4g} kg/s exceeds the "
-                                  f"choked flow {m_star:.4g} kg/s of its port ducts")
-        ratio_m, ratio_T, slope = self._warm.get(name, (1.0, 1.0, 1.0))
-        m_warm, T02 = basic_m * ratio_m, basic_T * ratio_T
-        last: dict = {"T02": T02}
+        """Solve ``m = m_map(m)`` for one device between static states (p1, T1) and p2
+        (:func:`transgen.sim.engine.kernels.solve_device`): ``(point, (M_in, M_out))``."""
+        st = np.empty(_k.N_SOLVE)
+        status = kernels().solve_device(device.kernel_device, p1, T1, p2, omega, area_in, area_out,
+                                        self._warm[0 if name == "compressor" else 1], self.xtol, self.maxiter,
+                                        self.inner_tol, self.inner_maxiter, self.secant_iterations, st)
+        r = _k.S_RANGE
+        device.table.warn_range(st[r], st[r + 1], st[r + 2], st[r + 3])
+        if status != _k.OK:
+            raise self.solve_error(status, _Where(name, p1, T1, p2, omega), st[_k.S_INFO0], st[_k.S_INFO1])
+        point = device.point(*device.point_fields(st[_k.S_POINT:_k.S_RANGE].tolist()))
+        return point, ((st[_k.S_M1], st[_k.S_M2]) if st[_k.S_M] == st[_k.S_M] else (0.0, 0.0))
 
-        def residual(m: float, inner: int | None = None) -> float:
-            """``m - m_map(m)``; the outlet total temperature is iterated up to ``inner`` times
-            (None: until converged, at most ``inner_maxiter``)."""
-            M1 = mach_number(m, p1, T1, area_in, gas)
-            p01, T01 = total_pressure(p1, M1, gas), total_temperature(T1, M1, gas)
-            T02 = last["T02"]
-            for _ in range(self.inner_maxiter if inner is None else inner):
-                M2 = mach_from_total_temperature(m, p2, T02, area_out, gas)
-                pt = device.flow(p01, T01, total_pressure(p2, M2, gas), omega)  # (m_dot, T_out, ...)
-                settled = abs(pt[1] - T02) <= self.inner_tol * T02
-                if settled:
-                    break
-                T02 = pt[1]
-            else:
-                if inner is None:
-                    raise TurboConvergenceError(f"{where}: outlet total temperature did not "
-                                                f"converge in {self.inner_maxiter} iterations")
-            last.update(m=m, T02=pt[1], point=pt, mach=(M1, M2), settled=settled)
-            return m - pt[0]
+    def solve_error(self, status: int, where, info0: float, info1: float) -> TurboSolveError:
+        """The error of a failed solve (``kernels.ST_*`` status) at the operating point ``where``."""
+        if status == _k.ST_CHOKED:
+            return ChokedFlowError(f"{where}: map flow {info0:.4g} kg/s exceeds the choked flow {info1:.4g} "
+                                   "kg/s of its port ducts")
+        if status == _k.ST_BRACKET_CHOKED:
+            return ChokedFlowError(f"{where}: no subsonic solution; the ports would choke below the map "
+                                   f"flow (bracket up to {info0:.4g} kg/s)")
+        if status == _k.ST_SUPERSONIC:
+            return ChokedFlowError(f"{where}: solution is not subsonic (M_in = {info0:.3f}, "
+                                   f"M_out = {info1:.3f})")
+        if status == _k.ST_INNER:
+            return TurboConvergenceError(f"{where}: outlet total temperature did not converge in "
+                                         f"{self.inner_maxiter} iterations")
+        if status == _k.ST_NO_BRACKET:
+            return TurboConvergenceError(f"{where}: no bracket of the mass-flow solution found")
+        return TurboConvergenceError(f"{where}: mass-flow solve did not converge in {self.maxiter} "
+                                     "iterations (convergence error)")
 
-        m, slope = self._secant(lambda m: residual(m, 1), lambda: last["settled"], m_warm, basic_m,
-                                0.999 * m_star, slope, min(8, self.maxiter))
-        if m is None:  # the fast path left its bounds or stalled: bracket and Brent
-            from scipy.optimize import brentq  # rarely needed: not at import (start-up time)
-
-            a, b = self._bracket(residual, m_warm, 0.999 * m_star, basic_m, where)
-            m, info = brentq(residual, a, b, xtol=self.xtol, maxiter=self.maxiter,
-                             full_output=True, disp=False)
-            if not info.converged:
-                raise TurboConvergenceError(f"{where}: mass-flow solve did not converge in "
-                                            f"{self.maxiter} iterations ({info.flag})")
-        if last.get("m") != m or not last["settled"]:
-            residual(m)
-        M1, M2 = last["mach"]
-        if not (M1 < 1.0 and M2 < 1.0):
-            raise ChokedFlowError(f"{where}: solution is not subsonic (M_in = {M1:.3f}, "
-                                  f"M_out = {M2:.3f})")
-        self._warm[name] = (m / basic_m, last["T02"] / basic_T, slope)
-        return device.point(*last["point"]), (M1, M2)
 
 
 def make_turbo(kind: str = "basic", compressor: Compressor | None = None,

@@ -11,11 +11,13 @@ absorbs shaft power, a turbine expands the gas (``ER = p01/p02``, eq. 4.16) and 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import ClassVar, Mapping
 
 from ..causality import Causality, ports
-from .gas import (OMEGA_FLOOR, Gas, actual_flow, compression_outlet_temperature, corrected_speed,
-                  expansion_outlet_temperature, torque_from_power)
+from . import kernels as _k
+from .compiled import kernels
+from .gas import OMEGA_FLOOR, Gas
 
 __all__ = ["MachinePoint", "Turbomachine"]
 
@@ -84,17 +86,27 @@ class Turbomachine:
     def flow(self, p_in: float, T_in: float, p_out: float, omega: float) -> tuple:
         """The fields of :meth:`operate`'s point as a tuple, ``m_dot`` and ``T_out`` first (an
         iteration over the operating point reads those two; building the frozen point at every
-        step cost more than the look-up)."""
-        tab = self.table
-        n_corr = corrected_speed(omega, T_in, tab.T_ref)
-        ratio = p_out / p_in if self.compresses else p_in / p_out
-        m_corr, eta, *more = tab.lookup(n_corr, ratio)
-        m_dot = actual_flow(m_corr, p_in, T_in, tab.p_ref, tab.T_ref)
+        step cost more than the look-up). The computation is
+        :func:`transgen.sim.engine.kernels.machine_flow`."""
+        f = kernels().device_flow(self.kernel_device, p_in, T_in, p_out, omega)
+        self.table.warn_range(f[9], f[7], f[5], f[6])
+        return self.point_fields(f)
+
+    def point_fields(self, flow) -> tuple:
+        """The fields of :attr:`point` from a kernel flow (``kernels.FLOW_FIELDS``: the turbine's
+        point has no chi)."""
         if self.compresses:
-            T_out = compression_outlet_temperature(T_in, max(ratio, 1.0), eta, self.gas)
-            power = m_dot * self.gas.cp * (T_out - T_in)
+            return tuple(flow[:9])
+        return (*flow[:6], flow[7], flow[8])
+
+    @cached_property
+    def kernel_device(self) -> np.ndarray:
+        """This device as the kernels' packed array (:func:`transgen.sim.engine.kernels.pack_device`;
+        a copy of the table, made at the first evaluation)."""
+        tab, gas = self.table, self.gas
+        if self.compresses:
+            grid, stall, span = tab.chi, tab.pr_stall, tab.pr_span
         else:
-            T_out = expansion_outlet_temperature(T_in, max(ratio, 1.0), eta, self.gas)
-            power = m_dot * self.gas.cp * (T_in - T_out)
-        return (m_dot, T_out, power, torque_from_power(power, omega, self.omega_floor),
-                eta, ratio, *more, n_corr, m_corr)
+            grid, stall, span = tab.expansion_ratio, None, None
+        return _k.pack_device(self.compresses, tab.speed, grid, tab.mass_flow, tab.efficiency, stall, span,
+                              tab.T_ref, tab.p_ref, gas.kappa, gas.cp, gas.gamma, gas.R, self.omega_floor)
