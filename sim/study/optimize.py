@@ -1,10 +1,15 @@
 """Shift calibration: tune the apply trajectories of each shift of a scenario (``transgen optimize``).
 
-For every selected shift the nine parameters of a :class:`~transgen.sim.schedule.ShiftTemplate`
+For every selected shift the nine clutch parameters of a :class:`~transgen.sim.schedule.ShiftTemplate`
 are tuned: oncoming fill (``fill_time``, ``fill_level``), torque-phase ramp (``ramp_time``,
 ``ramp_end``), inertia-phase level (``hold_time`` at ``ramp_end``), final rise (``final_time``)
 and the offgoing delay, level and release (``offgoing_delay``, ``offgoing_level``,
-``offgoing_ramp``), to minimise a weighted objective under constraints:
+``offgoing_ramp``), and, where the scenario's input is an engine (``engine_torque``, on by
+default there), the seven of its engine torque intervention (:data:`TORQUE_PARAMETERS`: a
+torque-phase increase ``torque_boost`` for ``boost_time`` from ``boost_delay`` after the offgoing
+release starts, an inertia-phase reduction ``torque_cut`` for ``cut_time`` from ``cut_delay`` after
+the release ends, ramps ``torque_ramp``; :mod:`transgen.sim.schedule`), to minimise a weighted
+objective under constraints:
 
 * objective terms (each divided by the starting calibration's value of the shift, so that the
   weights are pure numbers): ``energy`` (the clutch energy of the shift, J), ``duration`` (the
@@ -18,7 +23,8 @@ and the offgoing delay, level and release (``offgoing_delay``, ``offgoing_level`
 
 How a scenario carries its calibration (:class:`Calibration`): raw apply tables of the elements
 (each shift's piece of the oncoming and offgoing tables is fitted to the template first,
-:func:`fit_template`, and replaced by the tuned template's points), shift events with templates
+:func:`fit_template`, and replaced by the tuned template's points; the tuned engine torque
+intervention goes to ``[input] torque_request`` as a table), shift events with templates
 (``[shifts] events``: each event's ``template``) or an automatic schedule
 (``[auto_shift] templates."1-2"``, a template per shift).
 
@@ -54,17 +60,25 @@ import numpy as np
 from transgen.errors import ScenarioError
 
 __all__ = ["Constraints", "Objective", "ShiftPlan", "Calibration", "ShiftOutcome", "OptimizeResult", "PARAMETERS",
-           "BOUNDS", "fit_template", "plan_calibration", "evaluate_candidate", "shift_metrics", "score", "optimize",
+           "TORQUE_PARAMETERS", "BOUNDS", "has_engine", "intervention_text", "fit_template", "plan_calibration", "evaluate_candidate", "shift_metrics", "score", "optimize",
            "tuned_scenario_text", "parse_objective", "OBJECTIVE_TERMS", "PRE_MARGIN", "SETTLE", "INFEASIBLE"]
 
 #: the tuned parameters, in the order of the optimizer's vector (the fields of ShiftTemplate)
 PARAMETERS = ("fill_time", "fill_level", "ramp_time", "ramp_end", "hold_time", "final_time", "offgoing_delay",
               "offgoing_level", "offgoing_ramp")
 
-#: the search box of each parameter [s or apply fraction]; widened to hold the starting calibration
+#: the engine torque intervention's parameters (ShiftTemplate; factors [-] and times [s]), tuned after
+#: PARAMETERS where the input is an engine
+TORQUE_PARAMETERS = ("torque_boost", "boost_delay", "boost_time", "torque_cut", "cut_delay", "cut_time", "torque_ramp")
+
+#: the search box of each parameter [s, apply fraction or torque factor]; widened to hold the starting
+#: calibration. The increase goes up to 1.6 times the engine's torque (the engine gives no more than
+#: its full-load torque at the current speed anyway), the reduction down to 0.3 times.
 BOUNDS = {"fill_time": (0.0, 0.3), "fill_level": (0.0, 0.5), "ramp_time": (0.05, 1.5), "ramp_end": (0.05, 1.0),
           "hold_time": (0.0, 1.5), "final_time": (0.02, 0.5), "offgoing_delay": (0.0, 1.5),
-          "offgoing_level": (0.0, 1.0), "offgoing_ramp": (0.01, 1.0)}
+          "offgoing_level": (0.0, 1.0), "offgoing_ramp": (0.01, 1.0),
+          "torque_boost": (1.0, 1.6), "boost_delay": (0.0, 0.5), "boost_time": (0.0, 1.0), "torque_cut": (0.3, 1.0),
+          "cut_delay": (0.0, 0.5), "cut_time": (0.0, 1.0), "torque_ramp": (0.02, 0.2)}
 
 OBJECTIVE_TERMS = {"energy": "clutch energy of the shift [J]", "duration": "shift duration [s]",
                    "hole": "torque hole [% of the output torque before]", "flare": "flare of the input speed [rpm]",
@@ -140,21 +154,60 @@ def parse_objective(text: str) -> Objective:
 # --------------------------------------------------------------------------------- templates
 
 
-def _template(x: Sequence[float]):
+def _template(x: Sequence[float], names: Sequence[str] = PARAMETERS, base=None):
+    """The template with the parameters ``names`` set to ``x`` (the others from ``base``, default
+    the ShiftTemplate defaults)."""
     from transgen.sim.schedule import ShiftTemplate
 
-    return ShiftTemplate(**{k: float(v) for k, v in zip(PARAMETERS, x)})
+    return replace(base or ShiftTemplate(), **{k: float(v) for k, v in zip(names, x)})
 
 
-def _vector(template) -> np.ndarray:
-    return np.array([getattr(template, k) for k in PARAMETERS], dtype=float)
+def _vector(template, names: Sequence[str] = PARAMETERS) -> np.ndarray:
+    return np.array([getattr(template, k) for k in names], dtype=float)
+
+
+def _template_data(template) -> dict:
+    """A template as plain data for a scenario file: the engine torque intervention's fields only
+    where it intervenes (so a clutch-only calibration writes the nine clutch fields as before)."""
+    data = asdict(template)
+    if not template.torque_intervention:
+        for k in TORQUE_PARAMETERS:
+            data.pop(k)
+    return data
 
 
 def _span(template) -> float:
-    """How long after the shift command the template's trajectories end [s]."""
+    """How long after the shift command the template's trajectories end [s] (the apply
+    trajectories and the engine torque request)."""
     on = template.fill_time + template.ramp_time + template.hold_time + template.final_time
     off = template.fill_time + template.offgoing_delay + template.offgoing_ramp
-    return max(on, off)
+    request = template.torque_request(0.0)
+    return max(on, off, request[-1][0] if request else 0.0)
+
+
+def has_engine(scenario) -> bool:
+    """Whether the scenario's input is an engine that takes a torque request (map engine, engine
+    with converter, turbodiesel)."""
+    from transgen.sim.components import EngineOnLink, EngineWithConverter
+    from transgen.sim.powertrain import TurbodieselSource
+
+    return any(isinstance(c, (EngineOnLink, EngineWithConverter, TurbodieselSource))
+               for c in scenario.powertrain.components)
+
+
+def intervention_text(template) -> str:
+    """How a template asks the engine for torque, in words: ``none`` or the increase and the
+    reduction with their factors and times."""
+    if not template.torque_intervention:
+        return "none"
+    parts = []
+    if template.torque_boost != 1.0:
+        parts.append(f"x{template.torque_boost:.3f} for {template.boost_time:.3f} s from {template.boost_delay:.3f} s "
+                     f"after the offgoing release starts")
+    if template.torque_cut != 1.0:
+        parts.append(f"x{template.torque_cut:.3f} for {template.cut_time:.3f} s from {template.cut_delay:.3f} s "
+                     f"after the offgoing release ends")
+    return "; ".join(parts) + f" (ramps {template.torque_ramp:.3f} s)"
 
 
 def _curve(points, before: float):
@@ -312,13 +365,13 @@ class Calibration:
         """Dotted-key overrides that give the shifts ``templates`` (shift number -> template);
         the other shifts keep their own calibration."""
         if self.kind == "auto":
-            return {f"auto_shift.templates.{p.key}": asdict(templates[p.number]) for p in plans
+            return {f"auto_shift.templates.{p.key}": _template_data(templates[p.number]) for p in plans
                     if p.number in templates}
         if self.kind == "events":
             events = [dict(ev) for ev in self.events]
             for p in plans:
                 if p.number in templates:
-                    events[int(p.key)]["template"] = asdict(templates[p.number])
+                    events[int(p.key)]["template"] = _template_data(templates[p.number])
             return {"shifts.events": events}
         pieces: dict[str, list] = {}
         for p in plans:
@@ -331,6 +384,11 @@ class Calibration:
         out = {}
         for element, spans in pieces.items():
             out[f"elements.{element}.apply"] = _spliced_table(self.raw[element], spans, self.t_start)
+        from transgen.sim.schedule import request_table
+
+        request = request_table([templates[p.number].torque_request(p.t_start) for p in plans if p.number in templates])
+        if request is not None:  # the tuned engine torque intervention of the shifts
+            out["input.torque_request"] = {"type": "table", "t": list(request.times), "value": list(request.values)}
         return out
 
 
@@ -566,6 +624,12 @@ class OptimizeResult:
     overrides: dict
     history: list
     seed: int
+    parameters: tuple = PARAMETERS  # the tuned template parameters (PARAMETERS, and TORQUE_PARAMETERS with an engine)
+
+    @property
+    def engine_torque(self) -> bool:
+        """Whether the engine torque intervention was tuned."""
+        return "torque_boost" in self.parameters
 
     @property
     def feasible(self) -> bool:
@@ -591,12 +655,12 @@ class OptimizeProgress:
                 f"best {self.best:.4g}{'' if self.feasible else ' (infeasible)'}, {self.rate:.1f} evaluations/s")
 
 
-def _bounds(template, t_gap: float) -> list[tuple[float, float]]:
-    """The search box: :data:`BOUNDS` widened to hold ``template``, the times limited so that a
-    shift's trajectories end within ``t_gap`` [s] (the time to the next shift, less the settle
-    time)."""
+def _bounds(template, t_gap: float, names: Sequence[str] = PARAMETERS) -> list[tuple[float, float]]:
+    """The search box of the parameters ``names``: :data:`BOUNDS` widened to hold ``template``,
+    the times limited so that a shift's trajectories end within ``t_gap`` [s] (the time to the next
+    shift, less the settle time)."""
     out = []
-    for k in PARAMETERS:
+    for k in names:
         lo, hi = BOUNDS[k]
         v = getattr(template, k)
         if k.endswith(("_time", "_delay", "_ramp")):
@@ -607,21 +671,25 @@ def _bounds(template, t_gap: float) -> list[tuple[float, float]]:
 
 def optimize(path, shifts: Sequence[str] | None = None, objective: Objective = Objective(),
              constraints: Constraints = Constraints(), executor=None, seed: int = 0, max_evaluations: int = 720,
-             population: int = 36, progress: Callable | None = None, overrides: Mapping | None = None) -> OptimizeResult:
+             population: int = 36, progress: Callable | None = None, overrides: Mapping | None = None,
+             engine_torque: bool | None = None) -> OptimizeResult:
     """Tune the shifts of the scenario ``path`` (all, or those named in ``shifts``: ``1-2`` or a
     number from 1); see the module docstring. ``max_evaluations``: per shift (rounded to whole
     generations of ``population`` candidates); ``executor``: where candidates run (default in
     this process); ``progress(OptimizeProgress)`` after every generation; ``overrides``: dotted
-    keys set in the scenario first (as ``--set``)."""
+    keys set in the scenario first (as ``--set``); ``engine_torque``: tune the engine torque
+    intervention too (None: where the input is an engine; False: the clutches only, the
+    scenario's own intervention kept; True: an error without an engine)."""
     from .executors import SerialExecutor
 
     executor = executor or SerialExecutor()
     with executor:  # one pool of workers (or Dask client) for all the generations
         return _optimize(path, shifts, objective, constraints, executor, seed, max_evaluations, population, progress,
-                         dict(overrides or {}))
+                         dict(overrides or {}), engine_torque)
 
 
-def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluations, population, progress, base):
+def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluations, population, progress, base,
+              engine_torque=None):
     from scipy.optimize import differential_evolution
 
     from transgen.sim import load_scenario, scenario_files
@@ -639,6 +707,16 @@ def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluati
     calibration, plans = plan_calibration(key, files, baseline, scenario)
     if not plans:
         raise ScenarioError(f"{path}: error: the scenario has no shift to calibrate")
+    engine = has_engine(scenario)
+    if engine_torque and not engine:
+        raise ScenarioError(f"{path}: error: the engine torque intervention needs an engine at the input (the scenario's "
+                            f"input is a prescribed torque); tune the clutches only")
+    engine_torque = engine if engine_torque is None else engine_torque
+    if engine_torque and calibration.kind == "tables" and "torque_request" in (scenario.data.get("input") or {}):
+        raise ScenarioError(f"{path}: error: the scenario gives its own [input] torque_request, which the tuned engine "
+                            f"torque intervention would replace; tune the clutches only (--no-engine-torque) or "
+                            f"remove it")
+    names = PARAMETERS + (TORQUE_PARAMETERS if engine_torque else ())
     selected = _select(plans, shifts, path)
     templates = {p.number: p.template for p in plans if p.number in {s.number for s in selected}}
     history: list[dict] = []
@@ -666,20 +744,21 @@ def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluati
             limit = _next_command(current, plan.t_start, scenario.options.t_end)
         shared = {"path": key, "files": files, "state": window_state,
                   "shift": (plan.oncoming, plan.offgoing, plan.t_start, plan.name), "limit": limit}
-        bounds = _bounds(plan.template, limit - plan.t_start - SETTLE)
+        bounds = _bounds(plan.template, limit - plan.t_start - SETTLE, names)
         reference = None
 
         def task_of(index, x, p=plan):
-            tmpl = _template(x)
+            tmpl = _template(x, names, p.template)
             ov = {**base, **calibration.overrides(plans, {**fixed, p.number: tmpl})}
             return index, ov, min(limit, p.t_start + _span(tmpl) + SETTLE)
 
         # the starting calibration, evaluated first: the reference of the objective's terms
-        [(_, start_metrics)] = list(executor.run(evaluate_candidate, shared, [task_of(0, _vector(plan.template))]))
+        x_start = _vector(plan.template, names)
+        [(_, start_metrics)] = list(executor.run(evaluate_candidate, shared, [task_of(0, x_start)]))
         reference = start_metrics if start_metrics.get("success") else {}
         start_score, start_terms, start_viol = score(start_metrics, reference, objective, constraints)
-        best = {"score": start_score, "x": _vector(plan.template), "metrics": start_metrics, "violations": start_viol}
-        history.append(_row(plan, 0, 0, _vector(plan.template), start_metrics, start_score, start_terms, start_viol))
+        best = {"score": start_score, "x": x_start, "metrics": start_metrics, "violations": start_viol}
+        history.append(_row(plan, 0, 0, x_start, names, start_metrics, start_score, start_terms, start_viol))
         counter = {"evaluations": 1, "generation": 0, "cpu": start_metrics.get("cpu_time", 0.0)}
         budget = max(population, max_evaluations - 1)
         t_gen = time.perf_counter()
@@ -696,7 +775,7 @@ def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluati
                 scores.append(s)
                 counter["evaluations"] += 1
                 counter["cpu"] += m.get("cpu_time", 0.0)
-                history.append(_row(p, counter["generation"], counter["evaluations"] - 1, x, m, s, terms, viol))
+                history.append(_row(p, counter["generation"], counter["evaluations"] - 1, x, names, m, s, terms, viol))
                 if s < best["score"]:
                     best.update(score=s, x=x, metrics=m, violations=viol)
             if progress is not None:
@@ -705,16 +784,15 @@ def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluati
                                           not best["violations"], (counter["evaluations"] - 1) / elapsed))
             return scores
 
-        popsize = max(1, math.ceil(population / len(PARAMETERS)))  # scipy's population: popsize * parameters
-        per_generation = popsize * len(PARAMETERS)
+        popsize = max(1, math.ceil(population / len(names)))  # scipy's population: popsize * parameters
+        per_generation = popsize * len(names)
         generations = max(0, math.ceil(POLISH_SHARE * budget / per_generation) - 1)  # after the initial one
-        differential_evolution(_unused, bounds, x0=np.clip(_vector(plan.template), [b[0] for b in bounds],
-                                                           [b[1] for b in bounds]),
+        differential_evolution(_unused, bounds, x0=np.clip(x_start, [b[0] for b in bounds], [b[1] for b in bounds]),
                                seed=seed, popsize=popsize,
                                init="latinhypercube", maxiter=generations, updating="deferred", workers=batch_map,
                                polish=False, tol=0.0, atol=0.0, mutation=(0.5, 1.0), recombination=0.7)
         _compass(batch_map, best, bounds, budget + 1 - counter["evaluations"])
-        tuned = _template(best["x"])
+        tuned = _template(best["x"], names, plan.template)
         chosen[plan.number] = tuned
         best_score = best["score"]
         if best_score >= start_score:  # nothing better than the start: keep the scenario's own
@@ -725,7 +803,8 @@ def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluati
                                      counter["cpu"]))
         state, t_state = window_state, t_window if before is not None else t_state
     final = {**base, **calibration.overrides(plans, chosen)}
-    return OptimizeResult(key, scenario.title, objective, constraints, calibration, plans, outcomes, final, history, seed)
+    return OptimizeResult(key, scenario.title, objective, constraints, calibration, plans, outcomes, final, history, seed,
+                          names)
 
 
 def _compass(evaluate, best: dict, bounds, budget: int, step: float = 0.05, smallest: float = 1e-3) -> None:
@@ -795,9 +874,9 @@ def _select(plans: list[ShiftPlan], names: Sequence[str] | None, path) -> list[S
     return sorted(out, key=lambda p: p.number)
 
 
-def _row(plan, generation, index, x, metrics, s, terms, violations) -> dict:
+def _row(plan, generation, index, x, names, metrics, s, terms, violations) -> dict:
     row = {"shift": plan.name, "generation": generation, "evaluation": index}
-    row.update({k: float(v) for k, v in zip(PARAMETERS, x)})
+    row.update({k: float(v) for k, v in zip(names, x)})
     row.update({k: metrics.get(k) for k in ("success", "completed", "energy", "duration", "hole", "flare", "bindup",
                                             "chatter", "jerk", "cpu_time")})
     row.update({"score": s, "feasible": not violations, "violations": ";".join(sorted(violations)),
@@ -811,8 +890,11 @@ def _row(plan, generation, index, x, metrics, s, terms, violations) -> dict:
 def tuned_scenario_text(result: OptimizeResult, output, before: Sequence | None = None,
                         after: Sequence | None = None) -> str:
     """The tuned scenario: a file that includes the original and sets the tuned tables, with a
-    comment header stating the objective, the constraints and, where given, the shift report's
-    numbers before and after (``before``/``after``: :class:`ShiftQuality` lists of full runs)."""
+    comment header stating the objective, the constraints, each shift's engine torque
+    intervention and, where given, the shift report's numbers before and after
+    (``before``/``after``: :class:`ShiftQuality` lists of full runs). The original is included
+    by its bundled name when it is a bundled scenario, else by its path relative to the output's
+    folder, so the file runs from any working directory (and moves with its original)."""
     import os
     from pathlib import Path
 
@@ -822,10 +904,12 @@ def tuned_scenario_text(result: OptimizeResult, output, before: Sequence | None 
     original = Path(result.path)
     out_dir = Path(output).resolve().parent
     bundled = original.parent == next(iter(bundled_scenarios().values())).parent
-    ref = str(original) if bundled else os.path.relpath(original, out_dir)
+    ref = original.stem if bundled and not (out_dir / original.stem).exists() else os.path.relpath(original, out_dir)
     lines = [f"# Shift calibration by 'transgen optimize' of {result.path}",
              f"# objective: {result.objective.text()} (terms relative to the starting calibration of each shift)",
              f"# constraints: {result.constraints.text()}", f"# seed: {result.seed}",
+             f"# tuned: {', '.join(result.parameters)}"
+             + ("" if result.engine_torque else " (clutches only: the engine torque intervention was not tuned)"),
              "# The scenario is the original (included) with the tuned apply trajectories below."]
     for s in result.shifts:
         status = "feasible" if s.feasible else f"INFEASIBLE (binding: {s.binding})"
@@ -833,6 +917,7 @@ def tuned_scenario_text(result: OptimizeResult, output, before: Sequence | None 
                      f"{s.evaluations} evaluations, score {s.start_score:.4g} -> {s.best_score:.4g}")
         if s.plan.fit_residual is not None:
             lines.append(f"#   raw tables fitted to the template (RMS apply difference {s.plan.fit_residual:.3g})")
+        lines.append(f"#   engine torque intervention: {intervention_text(s.best_template)}")
     if before is not None and after is not None:
         lines.append("# shift report of the whole run, before -> after:")
         lines += ["#   " + row for row in comparison_rows(before, after)]
