@@ -938,12 +938,15 @@ def tuned_scenario_text(result: OptimizeResult, output, before: Sequence | None 
 #: the shift report's numbers that the comparison shows: (label, attribute, format)
 COMPARED = (("hole %", "torque_hole_pct", ".1f"), ("energy kJ", "energy_total", ".2f"), ("flare rpm", "flare_max_rpm", ".1f"),
             ("bindup", "bindup", ""), ("chatter", "chatter", ""), ("duration s", "shift_duration", ".3f"),
-            ("jerk m/s^3", "jerk_max", ".1f"))
+            ("jerk m/s^3", "jerk_max", ".1f"), ("engine x max/min", "torque_request", ""))
 
 
 def _cell(q, attr: str, fmt: str) -> str:
     if q is None:
         return "-"
+    if attr == "torque_request":  # the engine torque intervention: highest and lowest factor
+        low, high = getattr(q, "torque_request_min", None), getattr(q, "torque_request_max", None)
+        return "none" if low is None or low == high == 1.0 else f"{high:.2f}/{low:.2f}"
     v = getattr(q, attr, None)
     if v is None:
         return "-"
