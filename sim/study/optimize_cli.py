@@ -200,7 +200,9 @@ def _quality(q) -> dict:
     return {"name": q.name, "oncoming": q.oncoming, "offgoing": q.offgoing, "completed": q.completed,
             "torque_hole_pct": q.torque_hole_pct, "energy_total": q.energy_total, "flare_max_rpm": q.flare_max_rpm,
             "bindup": q.bindup, "shift_duration": q.shift_duration,
-            "jerk_max": getattr(q, "jerk_max", None), "chatter": getattr(q, "chatter", None)}
+            "jerk_max": getattr(q, "jerk_max", None), "chatter": getattr(q, "chatter", None),
+            **{k: getattr(q, k, None) for k in ("torque_request_min", "torque_request_max", "torque_increase_duration",
+                                                "torque_reduction_duration")}}
 
 
 def _summary(args, result, executor, elapsed, before, after, written) -> dict:
@@ -238,7 +240,8 @@ def optimize_units() -> dict[str, str]:
             "max_flare_rpm": "rpm", "max_hole_pct": "%", "max_duration": "s", "fill_time": "s", "fill_level": "1",
             "ramp_time": "s", "ramp_end": "1", "hold_time": "s", "final_time": "s", "offgoing_delay": "s",
             "offgoing_level": "1", "offgoing_ramp": "s", "torque_boost": "1", "boost_delay": "s", "boost_time": "s",
-            "torque_cut": "1", "cut_delay": "s", "cut_time": "s", "torque_ramp": "s"}
+            "torque_cut": "1", "cut_delay": "s", "cut_time": "s", "torque_ramp": "s", "torque_request_min": "1",
+            "torque_request_max": "1", "torque_increase_duration": "s", "torque_reduction_duration": "s"}
 
 
 def _fail(exc) -> int:
