@@ -155,7 +155,7 @@ def cmd_optimize(args) -> int:
               f"evaluation")
         for s in result.shifts:
             print(f"  {s.plan.name:<6} {s.evaluations} evaluations in {s.wall_time:.1f} s "
-                  f"({s.evaluations / max(s.wall_time, 1e-9):.1f}/s): score {s.start_score:.4g} -> {s.best_score:.4g}"
+                  f"({s.evaluations / max(s.wall_time, 1e-9):.1f}/s, {s.evaluation_cpu_time:.1f} s CPU): score {s.start_score:.4g} -> {s.best_score:.4g}"
                   + ("" if s.feasible else f"  INFEASIBLE, binding: {s.binding}"))
             if result.engine_torque:
                 print(f"         engine torque: {intervention_text(s.best_template)}")
