@@ -95,8 +95,12 @@ INFEASIBLE = 1e3
 """Score of an infeasible candidate per unit of (1 + violation); a failed run scores 1e3 times more."""
 
 POLISH_SHARE = 0.6
-"""Share of a shift's evaluations that the differential evolution spends; a compass search from
+"""Share of a search's evaluations that the differential evolution spends; a compass search from
 its best candidate spends the rest."""
+
+TORQUE_SHARE = 0.5
+"""Evaluations of the engine torque stage, as a share of a shift's ``max_evaluations`` (spent after
+the clutch stage, which keeps its own ``max_evaluations``)."""
 
 
 @dataclass(frozen=True)
@@ -690,8 +694,6 @@ def optimize(path, shifts: Sequence[str] | None = None, objective: Objective = O
 
 def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluations, population, progress, base,
               engine_torque=None):
-    from scipy.optimize import differential_evolution
-
     from transgen.sim import load_scenario, scenario_files
     from transgen.sim.scenario import scenario_path
 
@@ -744,23 +746,25 @@ def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluati
             limit = _next_command(current, plan.t_start, scenario.options.t_end)
         shared = {"path": key, "files": files, "state": window_state,
                   "shift": (plan.oncoming, plan.offgoing, plan.t_start, plan.name), "limit": limit}
-        bounds = _bounds(plan.template, limit - plan.t_start - SETTLE, names)
-        reference = None
+
+        stage = {"names": PARAMETERS, "base": plan.template}  # the parameters searched now, the others from base
 
         def task_of(index, x, p=plan):
-            tmpl = _template(x, names, p.template)
+            tmpl = _template(x, stage["names"], stage["base"])
             ov = {**base, **calibration.overrides(plans, {**fixed, p.number: tmpl})}
             return index, ov, min(limit, p.t_start + _span(tmpl) + SETTLE)
 
         # the starting calibration, evaluated first: the reference of the objective's terms
-        x_start = _vector(plan.template, names)
-        [(_, start_metrics)] = list(executor.run(evaluate_candidate, shared, [task_of(0, x_start)]))
+        [(_, start_metrics)] = list(executor.run(evaluate_candidate, shared,
+                                                 [task_of(0, _vector(plan.template, PARAMETERS))]))
         reference = start_metrics if start_metrics.get("success") else {}
         start_score, start_terms, start_viol = score(start_metrics, reference, objective, constraints)
-        best = {"score": start_score, "x": x_start, "metrics": start_metrics, "violations": start_viol}
-        history.append(_row(plan, 0, 0, x_start, names, start_metrics, start_score, start_terms, start_viol))
+        best = {"score": start_score, "template": plan.template, "metrics": start_metrics, "violations": start_viol}
+        history.append(_row(plan, 0, 0, _vector(plan.template, names), names, start_metrics, start_score, start_terms,
+                            start_viol))
         counter = {"evaluations": 1, "generation": 0, "cpu": start_metrics.get("cpu_time", 0.0)}
         budget = max(population, max_evaluations - 1)
+        torque_budget = math.ceil(TORQUE_SHARE * budget) if engine_torque else 0
         t_gen = time.perf_counter()
 
         def batch_map(func, population_x, p=plan):
@@ -775,24 +779,28 @@ def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluati
                 scores.append(s)
                 counter["evaluations"] += 1
                 counter["cpu"] += m.get("cpu_time", 0.0)
-                history.append(_row(p, counter["generation"], counter["evaluations"] - 1, x, names, m, s, terms, viol))
+                tmpl = _template(x, stage["names"], stage["base"])
+                history.append(_row(p, counter["generation"], counter["evaluations"] - 1, _vector(tmpl, names), names,
+                                    m, s, terms, viol))
                 if s < best["score"]:
-                    best.update(score=s, x=x, metrics=m, violations=viol)
+                    best.update(score=s, x=x, template=tmpl, metrics=m, violations=viol)
             if progress is not None:
                 elapsed = max(time.perf_counter() - t_gen, 1e-9)
-                progress(OptimizeProgress(n, len(selected), p.name, counter["evaluations"], budget + 1, best["score"],
-                                          not best["violations"], (counter["evaluations"] - 1) / elapsed))
+                progress(OptimizeProgress(n, len(selected), p.name, counter["evaluations"], budget + torque_budget + 1,
+                                          best["score"], not best["violations"], (counter["evaluations"] - 1) / elapsed))
             return scores
 
-        popsize = max(1, math.ceil(population / len(names)))  # scipy's population: popsize * parameters
-        per_generation = popsize * len(names)
-        generations = max(0, math.ceil(POLISH_SHARE * budget / per_generation) - 1)  # after the initial one
-        differential_evolution(_unused, bounds, x0=np.clip(x_start, [b[0] for b in bounds], [b[1] for b in bounds]),
-                               seed=seed, popsize=popsize,
-                               init="latinhypercube", maxiter=generations, updating="deferred", workers=batch_map,
-                               polish=False, tol=0.0, atol=0.0, mutation=(0.5, 1.0), recombination=0.7)
-        _compass(batch_map, best, bounds, budget + 1 - counter["evaluations"])
-        tuned = _template(best["x"], names, plan.template)
+        # the clutches: the nine apply parameters from the scenario's calibration
+        gap = limit - plan.t_start - SETTLE
+        best["x"] = _vector(plan.template, PARAMETERS)
+        _search(batch_map, best, counter, _bounds(plan.template, gap, PARAMETERS), budget, population, seed)
+        if engine_torque:  # then the engine torque with them, from the best clutch calibration
+            stage.update(names=names, base=best["template"])
+            best["x"] = _vector(best["template"], names)
+            bounds = _bounds(best["template"], gap, names)
+            _search(batch_map, best, counter, bounds, torque_budget, population, seed,
+                    init=_around(best["x"], bounds, len(PARAMETERS), max(5, population), seed))
+        tuned = best["template"]
         chosen[plan.number] = tuned
         best_score = best["score"]
         if best_score >= start_score:  # nothing better than the start: keep the scenario's own
@@ -805,6 +813,41 @@ def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluati
     final = {**base, **calibration.overrides(plans, chosen)}
     return OptimizeResult(key, scenario.title, objective, constraints, calibration, plans, outcomes, final, history, seed,
                           names)
+
+
+def _search(batch_map, best: dict, counter: dict, bounds, budget: int, population: int, seed: int, init=None) -> None:
+    """One search of at most ``budget`` evaluations over the box ``bounds`` from ``best["x"]``:
+    the differential evolution (``population`` candidates per generation, rounded to whole
+    multiples of the parameters, or the rows of ``init``) for :data:`POLISH_SHARE` of the budget,
+    then the compass search with the rest. ``batch_map`` evaluates a batch and updates ``best``."""
+    from scipy.optimize import differential_evolution
+
+    lo, hi = [b[0] for b in bounds], [b[1] for b in bounds]
+    popsize = max(1, math.ceil(population / len(bounds)))  # scipy's population: popsize * parameters
+    per_generation = len(init) if init is not None else popsize * len(bounds)
+    generations = max(0, math.ceil(POLISH_SHARE * budget / per_generation) - 1)  # after the initial one
+    first = counter["evaluations"]
+    differential_evolution(_unused, bounds, x0=None if init is not None else np.clip(best["x"], lo, hi),
+                           seed=seed, popsize=popsize, init="latinhypercube" if init is None else init,
+                           maxiter=generations, updating="deferred", workers=batch_map, polish=False, tol=0.0,
+                           atol=0.0, mutation=(0.5, 1.0), recombination=0.7)
+    _compass(batch_map, best, bounds, budget - (counter["evaluations"] - first))
+
+
+def _around(x, bounds, fixed: int, size: int, seed: int) -> np.ndarray:
+    """A starting population of ``size`` rows for the engine torque stage: the first is ``x``; in
+    the others the first ``fixed`` parameters (the tuned clutch calibration) vary by a normal
+    spread of 5 % of their range about ``x`` and the rest (the engine torque intervention) are a
+    Latin hypercube of their box."""
+    rng = np.random.default_rng(seed)
+    lo = np.array([b[0] for b in bounds])
+    hi = np.array([b[1] for b in bounds])
+    pop = np.tile(np.asarray(x, dtype=float), (size, 1))
+    pop[1:, :fixed] += rng.normal(0.0, 0.05, (size - 1, fixed)) * (hi - lo)[:fixed]
+    free = len(bounds) - fixed
+    strata = (rng.permuted(np.tile(np.arange(size - 1), (free, 1)), axis=1).T + rng.random((size - 1, free))) / (size - 1)
+    pop[1:, fixed:] = lo[fixed:] + strata * (hi - lo)[fixed:]
+    return np.clip(pop, lo, hi)
 
 
 def _compass(evaluate, best: dict, bounds, budget: int, step: float = 0.05, smallest: float = 1e-3) -> None:
