@@ -90,6 +90,16 @@ class ShiftTemplate:
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise ValueError(f"shift template: {name} must be a finite number >= 0, not {v!r}")
 
+    def as_data(self) -> dict:
+        """The template as plain data for a scenario file or a JSON document: every field, but the
+        engine torque intervention's only where it intervenes (a clutch-only template writes its
+        nine apply fields)."""
+        data = {k: getattr(self, k) for k in self.__dataclass_fields__}
+        if not self.torque_intervention:
+            for k in TORQUE_FIELDS:
+                del data[k]
+        return data
+
     @property
     def torque_intervention(self) -> bool:
         """Whether the template asks the engine for another torque than its own at some time."""

@@ -171,13 +171,7 @@ def _vector(template, names: Sequence[str] = PARAMETERS) -> np.ndarray:
 
 
 def _template_data(template) -> dict:
-    """A template as plain data for a scenario file: the engine torque intervention's fields only
-    where it intervenes (so a clutch-only calibration writes the nine clutch fields as before)."""
-    data = asdict(template)
-    if not template.torque_intervention:
-        for k in TORQUE_PARAMETERS:
-            data.pop(k)
-    return data
+    return template.as_data()
 
 
 def _span(template) -> float:
