@@ -339,3 +339,21 @@ def test_a_file_next_to_the_including_one_wins_over_the_bundled_name(tmp_path):
     with pytest.raises(ScenarioError, match="included file 'no_such_scenario' not found"):
         (tmp_path / "t.toml").write_text('include = ["no_such_scenario"]\n')
         load_scenario(tmp_path / "t.toml")
+
+
+def test_optimize_json_with_engine_torque_is_a_valid_document(tmp_path, capsys, monkeypatch):
+    import json
+
+    from transgen.cli import main
+    from transgen.schemas import validate
+
+    path = _event(tmp_path)
+    monkeypatch.chdir(tmp_path)
+    code = main(["optimize", str(path), "--workers", "1", "--evaluations", "10", "--population", "9",
+                 "--allow-bindup", "--max-flare", "1000", "-o", "tuned.toml", "--json"])
+    assert code == 0
+    doc = json.loads(capsys.readouterr().out)
+    validate(doc)
+    assert doc["engine_torque"] is True and "torque_boost" in doc["parameters"]
+    assert doc["units"]["torque_boost"] == "1" and doc["units"]["cut_time"] == "s"
+    assert "torque_request_min" in doc["report_after"][0]
