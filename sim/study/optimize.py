@@ -24,7 +24,10 @@ objective under constraints:
 How a scenario carries its calibration (:class:`Calibration`): raw apply tables of the elements
 (each shift's piece of the oncoming and offgoing tables is fitted to the template first,
 :func:`fit_template`, and replaced by the tuned template's points; the tuned engine torque
-intervention goes to ``[input] torque_request`` as a table), shift events with templates
+intervention goes to ``[input] torque_request`` as a table; where the scenario has its own, as a
+tuned file of an earlier pass, the span of each shift whose tuned template intervenes is replaced by
+its profile, and a template without an intervention keeps the scenario's own there, so a shift's
+tuning starts from the scenario's own request), shift events with templates
 (``[shifts] events``: each event's ``template``) or an automatic schedule
 (``[auto_shift] templates."1-2"``, a template per shift).
 
@@ -358,6 +361,7 @@ class Calibration:
     t_start: float
     raw: Mapping[str, object] = field(default_factory=dict)  # element -> raw apply Signal ("tables")
     events: tuple = ()  # the [shifts] events as plain data ("events")
+    request: object = None  # the scenario's own [input] torque_request Signal ("tables"), None: none
 
     def overrides(self, plans: Sequence[ShiftPlan], templates: Mapping[int, object]) -> dict:
         """Dotted-key overrides that give the shifts ``templates`` (shift number -> template);
@@ -384,6 +388,16 @@ class Calibration:
             out[f"elements.{element}.apply"] = _spliced_table(self.raw[element], spans, self.t_start)
         from transgen.sim.schedule import request_table
 
+        if self.request is not None:  # the scenario's own request, with the span of each shift whose template
+            spans = []                   # intervenes replaced by its profile
+            for p in plans:
+                if p.number in templates and templates[p.number].torque_intervention:
+                    profile = templates[p.number].torque_request(p.t_start)
+                    t_end = max([t for t, _ in profile] + [p.t_raw_end or p.t_start])
+                    spans.append((p.t_start, t_end, [(p.t_start, 1.0)] + profile + [(t_end, 1.0)]))
+            if spans:
+                out["input.torque_request"] = _spliced_table(self.request, spans, self.t_start)
+            return out
         request = request_table([templates[p.number].torque_request(p.t_start) for p in plans if p.number in templates])
         if request is not None:  # the tuned engine torque intervention of the shifts
             out["input.torque_request"] = {"type": "table", "t": list(request.times), "value": list(request.values)}
@@ -475,7 +489,8 @@ def plan_calibration(path, files: Mapping[str, str], result, scenario) -> tuple[
         after = _gear_of(mech, [tr.elements[i].name for i in _locked_at(result, q.shift_end + 1e-9)]) if q.completed else None
         name = f"{before}-{after}" if before and after else q.name
         plans.append(ShiftPlan(len(plans) + 1, name, q.oncoming, q.offgoing, q.t_start, tmpl, name, float(t_end), residual))
-    return Calibration("tables", t_run, raw=raw), plans
+    request = next((c.request for c in scenario.powertrain.components if getattr(c, "request", None) is not None), None)
+    return Calibration("tables", t_run, raw=raw, request=request), plans
 
 
 def _locked_at(result, t: float) -> frozenset:
@@ -708,10 +723,8 @@ def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluati
         raise ScenarioError(f"{path}: error: the engine torque intervention needs an engine at the input (the scenario's "
                             f"input is a prescribed torque); tune the clutches only")
     engine_torque = engine if engine_torque is None else engine_torque
-    if engine_torque and calibration.kind == "tables" and "torque_request" in (scenario.data.get("input") or {}):
-        raise ScenarioError(f"{path}: error: the scenario gives its own [input] torque_request, which the tuned engine "
-                            f"torque intervention would replace; tune the clutches only (--no-engine-torque) or "
-                            f"remove it")
+    if not engine_torque:  # the scenario's own torque request stays as it is
+        calibration = replace(calibration, request=None)
     names = PARAMETERS + (TORQUE_PARAMETERS if engine_torque else ())
     selected = _select(plans, shifts, path)
     templates = {p.number: p.template for p in plans if p.number in {s.number for s in selected}}
