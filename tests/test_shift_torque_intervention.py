@@ -357,3 +357,26 @@ def test_optimize_json_with_engine_torque_is_a_valid_document(tmp_path, capsys, 
     assert doc["engine_torque"] is True and "torque_boost" in doc["parameters"]
     assert doc["units"]["torque_boost"] == "1" and doc["units"]["cut_time"] == "s"
     assert "torque_request_min" in doc["report_after"][0]
+
+
+def test_second_pass_keeps_the_files_own_request_outside_the_retuned_shift():
+    """A tuned raw-table file carries its intervention as [input] torque_request: re-tuning a shift
+    replaces that shift's span only where the new template intervenes, the rest stays."""
+    from transgen.sim.study.optimize import plan_calibration
+
+    own = {"type": "table", "t": [0.0, 1.0, 1.1, 1.3, 1.4, 4.4, 4.5, 4.7, 4.8], "value": [1.0, 1.0, 0.9, 0.9, 1.0,
+                                                                                        1.0, 0.7, 0.7, 1.0]}
+    base = {"simulation.t_end": 6.0, "input.torque_request": own}
+    scenario = load_scenario("ht740_original", base)
+    result = scenario.run()
+    calibration, plans = plan_calibration(scenario.path, {}, result, scenario)
+    assert calibration.request is not None
+    assert "input.torque_request" not in calibration.overrides(plans, {1: plans[0].template})  # kept as it is
+    tmpl = ShiftTemplate(**{**plans[0].template.__dict__, "torque_boost": 1.2, "boost_time": 0.3})
+    table = calibration.overrides(plans, {1: tmpl})["input.torque_request"]
+    from transgen.sim.signals import Table
+
+    new = Table(tuple(table["t"]), tuple(table["value"]))
+    assert new.value(1.2) == pytest.approx(0.9)  # before the shift: the file's own
+    assert max(new.sample(np.linspace(plans[0].t_start, 6.0, 2000))) == pytest.approx(1.2)
+    assert min(new.sample(np.linspace(plans[0].t_start, 6.0, 2000))) == pytest.approx(1.0)  # its own cut replaced
