@@ -196,11 +196,12 @@ def has_engine(scenario) -> bool:
                for c in scenario.powertrain.components)
 
 
-def intervention_text(template) -> str:
+def intervention_text(template, own_request: bool = False) -> str:
     """How a template asks the engine for torque, in words: ``none`` or the increase and the
-    reduction with their factors and times."""
+    reduction with their factors and times (``own_request``: the scenario's own ``[input]
+    torque_request`` stays where the template asks for nothing)."""
     if not template.torque_intervention:
-        return "none"
+        return "none tuned: the scenario's own [input] torque_request kept" if own_request else "none"
     parts = []
     if template.torque_boost != 1.0:
         parts.append(f"x{template.torque_boost:.3f} for {template.boost_time:.3f} s from {template.boost_delay:.3f} s "
@@ -967,7 +968,8 @@ def tuned_scenario_text(result: OptimizeResult, output, before: Sequence | None 
                      f"{s.evaluations} evaluations, score {s.start_score:.4g} -> {s.best_score:.4g}")
         if s.plan.fit_residual is not None:
             lines.append(f"#   raw tables fitted to the template (RMS apply difference {s.plan.fit_residual:.3g})")
-        lines.append(f"#   engine torque intervention: {intervention_text(s.best_template)}")
+        lines.append(f"#   engine torque intervention: "
+                     f"{intervention_text(s.best_template, result.calibration.request is not None)}")
     if before is not None and after is not None:
         lines.append("# shift report of the whole run, before -> after:")
         lines += ["#   " + row for row in comparison_rows(before, after)]

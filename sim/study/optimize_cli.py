@@ -158,7 +158,8 @@ def cmd_optimize(args) -> int:
                   f"({s.evaluations / max(s.wall_time, 1e-9):.1f}/s, {s.evaluation_cpu_time:.1f} s CPU): score {s.start_score:.4g} -> {s.best_score:.4g}"
                   + ("" if s.feasible else f"  INFEASIBLE, binding: {s.binding}"))
             if result.engine_torque:
-                print(f"         engine torque: {intervention_text(s.best_template)}")
+                print(f"         engine torque: "
+                      f"{intervention_text(s.best_template, result.calibration.request is not None)}")
         if args.report:
             print("\nShift report of the whole run, before -> after:")
             for row in comparison_rows(before, after):
