@@ -43,7 +43,11 @@ The optimizer is :func:`scipy.optimize.differential_evolution` (``updating="defe
 generation is one batch, mapped over the executor; seeded, so a run is repeatable), started from the
 scenario's own calibration (``x0``), for :data:`POLISH_SHARE` of the evaluations; a compass search
 (:func:`_compass`, a batch of steps up and down along every parameter at a time) polishes its best
-candidate with the rest. Constraints enter as a feasibility-first penalty: an
+candidate with the rest. With the engine torque tuned, that search runs over the nine clutch parameters
+first (the whole ``max_evaluations``), then a second one of :data:`TORQUE_SHARE` as many over all
+sixteen, its population about the best clutch calibration (:func:`_around`) with the intervention
+spread over its box: the sixteen at once from the start found a worse 3-4 of the HT-740 than the
+clutches alone. Constraints enter as a feasibility-first penalty: an
 infeasible candidate scores ``INFEASIBLE * (1 + total violation)``, above every feasible one, so the
 search moves towards the feasible region and then minimises the objective inside it. Why this
 optimizer: the simulated metrics are not smooth in the parameters (an element locks or does not, a
