@@ -380,3 +380,26 @@ def test_second_pass_keeps_the_files_own_request_outside_the_retuned_shift():
     assert new.value(1.2) == pytest.approx(0.9)  # before the shift: the file's own
     assert max(new.sample(np.linspace(plans[0].t_start, 6.0, 2000))) == pytest.approx(1.2)
     assert min(new.sample(np.linspace(plans[0].t_start, 6.0, 2000))) == pytest.approx(1.0)  # its own cut replaced
+
+
+def test_restart_inside_a_shift_keeps_the_commanded_torque_request(tmp_path):
+    """The automatic schedule's torque request is controller state: a run restarted inside the shift
+    (as each optimizer candidate is) goes on with the request the schedule commanded before."""
+    import pickle
+
+    from transgen.cli import main
+
+    path = tmp_path / "launch.toml"
+    assert main(["scenario", "new", "simple2", "-o", str(path)]) == 0
+    over = {"auto_shift.templates.1-2": {"torque_cut": 0.5, "cut_time": 0.3, "torque_boost": 1.2, "boost_time": 0.2}}
+    full = load_scenario(path, over).run()
+    t_cut = next(e.t for e in full.events if e.kind == "command") + 0.05
+    state = pickle.loads(pickle.dumps(load_scenario(path, over).run(t_end=t_cut).state))
+    restarted = load_scenario(path, over).run(start=state)
+    assert restarted.success, restarted.message
+    ts = np.linspace(t_cut + 0.01, t_cut + 1.5, 300)
+    for name in ("torque_request", "T_out"):
+        a = np.interp(ts, full.time, full.signals[name])
+        b = np.interp(ts, restarted.time, restarted.signals[name])
+        assert np.allclose(a, b, rtol=1e-4, atol=1e-3 * np.max(np.abs(a))), name
+    assert restarted.signals["torque_request"].min() == pytest.approx(0.5)

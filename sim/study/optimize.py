@@ -177,10 +177,6 @@ def _vector(template, names: Sequence[str] = PARAMETERS) -> np.ndarray:
     return np.array([getattr(template, k) for k in names], dtype=float)
 
 
-def _template_data(template) -> dict:
-    return template.as_data()
-
-
 def _span(template) -> float:
     """How long after the shift command the template's trajectories end [s] (the apply
     trajectories and the engine torque request)."""
@@ -372,13 +368,13 @@ class Calibration:
         """Dotted-key overrides that give the shifts ``templates`` (shift number -> template);
         the other shifts keep their own calibration."""
         if self.kind == "auto":
-            return {f"auto_shift.templates.{p.key}": _template_data(templates[p.number]) for p in plans
+            return {f"auto_shift.templates.{p.key}": templates[p.number].as_data() for p in plans
                     if p.number in templates}
         if self.kind == "events":
             events = [dict(ev) for ev in self.events]
             for p in plans:
                 if p.number in templates:
-                    events[int(p.key)]["template"] = _template_data(templates[p.number])
+                    events[int(p.key)]["template"] = templates[p.number].as_data()
             return {"shifts.events": events}
         pieces: dict[str, list] = {}
         for p in plans:
