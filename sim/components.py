@@ -162,6 +162,17 @@ class EngineMap:
     def __call__(self, omega: float, throttle: float) -> float:
         return interp2(omega, throttle, self.speeds, self.throttles, self.torque)
 
+    def requested(self, torque: float, omega: float, factor: float) -> float:
+        """The engine torque [N*m] under a torque-request factor [-] (a shift's torque
+        intervention, :mod:`transgen.sim.schedule`): a driving torque times ``factor``, raised at
+        most to the full-load torque (the highest throttle) at ``omega`` [rad/s]; a dragging
+        (motoring, <= 0) torque is left alone."""
+        if torque <= 0.0 or factor == 1.0:
+            return torque
+        if factor < 1.0:
+            return torque * factor
+        return min(torque * factor, max(torque, self(omega, self.throttles[-1])))
+
 
 @dataclass
 class EngineOnLink(Component):
@@ -171,9 +182,11 @@ class EngineOnLink(Component):
     throttle: Signal
     link: int
     name: str = "engine"
+    request: Signal | None = None  # torque-request factor [-] of the shifts (EngineMap.requested)
 
     def _torque(self, t, w):
-        return self.engine(w[self.link], self.throttle.value(t))
+        torque = self.engine(w[self.link], self.throttle.value(t))
+        return torque if self.request is None else self.engine.requested(torque, w[self.link], self.request.value(t))
 
     def torques(self, t, x, w):
         return {"T_in": self._torque(t, w)}
@@ -182,9 +195,14 @@ class EngineOnLink(Component):
         return self._torque(t, w) * w[self.link]
 
     def signals(self, t, x, w):
-        return {"T_in": self._torque(t, w), "throttle": self.throttle.value(t)}
+        out = {"T_in": self._torque(t, w), "throttle": self.throttle.value(t)}
+        if self.request is not None:
+            out["torque_request"] = self.request.value(t)
+        return out
 
     def breakpoints(self, t0=-math.inf, t1=math.inf):
+        if self.request is not None:
+            return tuple(sorted({*self.throttle.breakpoints(t0, t1), *self.request.breakpoints(t0, t1)}))
         return self.throttle.breakpoints(t0, t1)
 
 
@@ -209,6 +227,7 @@ class EngineWithConverter(Component):
     idle: float = 0.0
     name: str = "engine"
     state_names: tuple[str, ...] = ("omega_e",)
+    request: Signal | None = None  # torque-request factor [-] of the shifts (EngineMap.requested)
 
     def initial_state(self, w):
         return np.array([self.omega_start])
@@ -220,7 +239,8 @@ class EngineWithConverter(Component):
         return thr
 
     def _engine_torque(self, t, omega_e):
-        return self.engine(omega_e, self._throttle(t, omega_e))
+        torque = self.engine(omega_e, self._throttle(t, omega_e))
+        return torque if self.request is None else self.engine.requested(torque, omega_e, self.request.value(t))
 
     def derivatives(self, t, x, w):
         omega_e = x[0]
@@ -253,18 +273,25 @@ class EngineWithConverter(Component):
         pump, turbine = (a.astype(float) for a in elementwise(self.converter.torques, 2)(omega_e, omega_t))
         throttle = elementwise(self._throttle)(ts, omega_e).astype(float)
         t_engine = elementwise(self.engine)(omega_e, throttle).astype(float)
+        if self.request is not None:
+            t_engine = elementwise(self._engine_torque)(ts, omega_e).astype(float)
         ratio = np.divide(omega_t, omega_e, out=np.zeros_like(omega_e), where=omega_e > 1e-6)
         signals = {"omega_engine": omega_e, "T_engine": t_engine, "T_pump": pump, "T_in": turbine,
                    "throttle": throttle, "converter_speed_ratio": ratio}
+        if self.request is not None:
+            signals["torque_request"] = self.request.sample(ts)
         return {"T_in": turbine}, signals, 0.5 * self.J_engine * omega_e ** 2
 
     def signals(self, t, x, w):
         pump, turbine = self.converter.torques(x[0], w[self.link])
         return {"omega_engine": x[0], "T_engine": self._engine_torque(t, x[0]), "T_pump": pump,
                 "T_in": turbine, "throttle": self._throttle(t, x[0]),
-                "converter_speed_ratio": w[self.link] / x[0] if x[0] > 1e-6 else 0.0}
+                "converter_speed_ratio": w[self.link] / x[0] if x[0] > 1e-6 else 0.0,
+                **({} if self.request is None else {"torque_request": self.request.value(t)})}
 
     def breakpoints(self, t0=-math.inf, t1=math.inf):
+        if self.request is not None:
+            return tuple(sorted({*self.throttle.breakpoints(t0, t1), *self.request.breakpoints(t0, t1)}))
         return self.throttle.breakpoints(t0, t1)
 
 

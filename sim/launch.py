@@ -221,7 +221,7 @@ class Launch:
                             "gears": list(c.gears), "required_static": c.required, "sufficient": c.sufficient}
                            for c in self.sizing],
             "engine_torque_scale": self.torque_scale, "input_torque_max": self.input_torque_max,
-            "final_drive": self.final_drive, "template": dict(self.template.__dict__),
+            "final_drive": self.final_drive, "template": self.template.as_data(),
             "upshift_rpm": [list(r) for r in self.upshift_rpm], "downshift_rpm": [list(r) for r in self.downshift_rpm],
             "min_interval": self.min_interval, "estimated_shift_times": list(self.shift_times),
             "t_end": self.t_end, "warnings": list(self.warnings),
@@ -616,7 +616,7 @@ def launch_scenario(mech: Mechanism, vehicle: str = "car", mechanism_ref: str | 
         f"# phase), then apply fully; ramp_end is chosen so that each oncoming element carries {SHIFT_FACTOR:g} x its",
         "# static share of the engine torque in the inertia phase. The offgoing element(s) drop and release.",
         "# One-way clutches are not commanded: they overrun or lock by themselves.",
-        "template = { " + ", ".join(f"{k} = {_num(v)}" for k, v in lc.template.__dict__.items()) + " }",
+        "template = { " + ", ".join(f"{k} = {_num(v)}" for k, v in lc.template.as_data().items()) + " }",
         "",
     ]
     return "\n".join(lines)

@@ -128,6 +128,7 @@ class TurbodieselSource(Component):
         self.fuel = fuel
         self.crank_model = crank_model
         self.name = name
+        self.request = None  # a shift's torque-request factor [-], folded into ``fuel`` (scenario._attach_request)
 
     def initial_state(self, w):
         """Steady state at the initial link speed and the fuel of t = 0 (a Newton solve from a
@@ -164,6 +165,8 @@ class TurbodieselSource(Component):
         sig["T_in"] = sig["torque_engine"]
         sig["engine_speed_rpm"] = omega / RPM
         sig["rack"] = float(self.engine.rack(t))        # demanded (before the idle governor)
+        if self.request is not None:
+            sig["torque_request"] = float(self.request.value(t))
         # temperature rise and drop across the devices as the blocks see them (thesis Figs. 4.21,
         # 4.22): the temperature they receive (ambient, exhaust manifold: static) minus the one
         # they give (outlet: total for the iterative algorithm)

@@ -95,6 +95,13 @@ def _shift_text(q: ShiftQuality) -> str:
                            if q.forced_unlock else
                            f"no (reversed overlap {q.forced_duration * 1e3:.1f} ms)")),
     ]
+    if q.torque_request_min is not None:
+        parts = ([f"up to x{q.torque_request_max:.3f} for {q.torque_increase_duration:.3f} s"]
+                 if q.torque_request_max > 1.0 else [])
+        parts += ([f"down to x{q.torque_request_min:.3f} for {q.torque_reduction_duration:.3f} s"]
+                  if q.torque_request_min < 1.0 else [])
+        kv.append(("engine torque request", ", ".join(parts) + " (factor on the engine torque)" if parts else
+                   "none (factor 1)"))
     kv += _comfort_rows(q)
     for k, v in kv:
         lines.append(f"  {k:<24}{v}")

@@ -260,6 +260,7 @@ def _build(data: dict, source: Source, path: Path, overrides=None, access: FileA
 
     # shift events (template) or automatic schedule -> apply signals
     shifts_report = []
+    requests: list = []  # (signal, keys) of the engine torque-request factors, multiplied (schedule docstring)
     shifts_t = r.table(data, ("shifts",), S.SHIFTS_KEYS)
     if shifts_t:
         if "gear" not in init_t:
@@ -297,6 +298,13 @@ def _build(data: dict, source: Source, path: Path, overrides=None, access: FileA
         for name, sig in signals.items():
             if mech.element(name).kind != "oneway" and "apply" not in element_extra.get(name, {}):
                 element_extra.setdefault(name, {})["apply"] = sig
+        from .schedule import torque_request_signal
+
+        request = torque_request_signal(events)
+        if request is not None:
+            first = next(k for k, ev in enumerate(events) if ev.template.torque_intervention)
+            where = ("shifts", "events", first) + (("template",) if "template" in event_list[first] else ())
+            requests.append((request, where if "template" in event_list[first] else ("shifts", "template")))
 
     for name in init_locked:  # elements of the initial gear default to full apply
         element_extra.setdefault(name, {}).setdefault("apply", Constant(1.0))
@@ -341,6 +349,16 @@ def _build(data: dict, source: Source, path: Path, overrides=None, access: FileA
                                          templates=templates))
         except ValueError as exc:
             raise r.error(keys, str(exc)) from None
+        intervening = [name for name, tm in templates.items() if tm.torque_intervention]
+        if template.torque_intervention or intervening:
+            from .schedule import ControllerRequest
+
+            requests.append((ControllerRequest(controllers[-1]),
+                             keys + (("template",) if template.torque_intervention else ("templates", intervening[0]))))
+    if "torque_request" in r.table(data, ("input",), S.INPUT_KEYS):
+        requests.insert(0, (_request_signal(r, data, options), ("input", "torque_request")))
+    if requests:
+        _attach_request(r, components, requests)
     out_t = r.table(data, ("output",), S.OUTPUT_KEYS)
     outputs = r.names(out_t, ("output",), "signals")
     pt = Powertrain(tr, components, w0, controllers)
@@ -364,6 +382,39 @@ def _build(data: dict, source: Source, path: Path, overrides=None, access: FileA
 
 
 _EVENT = '{ t = ..., from = "1", to = "2" }'
+
+
+def _request_signal(r: Reader, data: dict, options: SolverOptions):
+    """``[input] torque_request``: an engine torque-request factor [-] given as a signal (>= 0)."""
+    keys = ("input", "torque_request")
+    signal = r.signal(data["input"]["torque_request"], keys)
+    times = np.linspace(options.t_start, options.t_end, 2001)
+    times = np.union1d(times, [b for b in signal.breakpoints(options.t_start, options.t_end)])
+    low = float(np.min(signal.sample(times)))
+    if low < 0.0:
+        raise r.error(keys, f"the torque-request factor must be >= 0 (1: the engine's own torque), it reaches {low:g}")
+    return signal
+
+
+def _attach_request(r: Reader, components: list, requests: list) -> None:
+    """Give the scenario's engine its torque-request factor: the product of ``requests``
+    ((signal, keys) pairs, the keys where each is asked for, for the error when the input has no
+    engine). A map engine scales its torque (:meth:`EngineMap.requested`); the turbodiesel its
+    fuel command (bounded by the full-load fuel at the current speed)."""
+    from .powertrain import TurbodieselSource
+    from .signals import Product
+
+    signal = requests[0][0] if len(requests) == 1 else Product(tuple(s for s, _ in requests))
+    engines = [c for c in components if isinstance(c, (EngineOnLink, EngineWithConverter, TurbodieselSource))]
+    if not engines:
+        raise r.error(requests[0][1], "an engine torque intervention needs an engine at the input ([input] type = "
+                                      "\"engine_map\", \"engine_converter\" or \"turbodiesel\"; a prescribed torque has no engine "
+                                      "to ask)")
+    for c in engines:
+        c.request = signal
+        if isinstance(c, TurbodieselSource):  # the torque request acts on the fuel command
+            c.fuel = Product((c.fuel, signal)) if c.fuel is not None else signal
+            c.engine.rack = c.fuel.value
 
 
 def output_signals(pt: Powertrain) -> list[str]:

@@ -151,7 +151,10 @@ def read_source(path: Path, text: str | None = None, seen: tuple[Path, ...] = ()
     for k, inc in enumerate(includes):
         inc_path = path.parent / inc
         if not access.is_file(inc_path):
-            raise source.error(("include", k), f"included file '{inc}' not found (looked in {path.parent})")
+            inc_path = bundled_include(inc)
+        if inc_path is None or not access.is_file(inc_path):
+            raise source.error(("include", k), f"included file '{inc}' not found (looked in {path.parent} and among the "
+                                               f"bundled scenarios)")
         inc_path = inc_path.resolve()
         chain = seen + (path.resolve(),)
         if inc_path in chain:
@@ -164,6 +167,19 @@ def read_source(path: Path, text: str | None = None, seen: tuple[Path, ...] = ()
         merge(merged, inc_data)
     merge(merged, data)
     return merged, source
+
+
+def bundled_include(name: str) -> Path | None:
+    """The bundled scenario an ``include`` names by its bare name (``"ht740_original"`` or
+    ``"ht740_original.toml"``, no folder) when no file of that name lies next to the including file
+    (a file there wins); None otherwise. A tuned scenario includes a bundled original so, wherever
+    it lies."""
+    from .library import bundled_scenarios
+
+    p = Path(name)
+    if p.name != name or p.suffix not in ("", ".toml"):
+        return None
+    return bundled_scenarios().get(p.stem)
 
 
 def is_file(path: Path) -> bool:

@@ -30,7 +30,7 @@ OUTPUT_KEYS = frozenset({"signals", "dt"})
 INPUT_KEYS = frozenset({"type", "torque", "speed_rpm", "throttle", "torque_table", "throttle_signal", "converter",
                         "J_engine", "engine_speed_rpm", "idle_rpm", "engine", "turbo", "fuel_signal", "governor",
                         "crank_model", "shaft", "ports", "compressor_map", "turbine_map", "air", "exhaust",
-                        "turbo_solver"})
+                        "turbo_solver", "torque_request"})
 LOAD_KEYS = frozenset({"torque", "signal", "c0", "c1", "c2"})
 CONVERTER_KEYS = frozenset({"pump", "turbine", "pump_torque", "turbine_torque", "file"})
 DRIVELINE_KEYS = frozenset({"output_inertia", "stiffness", "damping", "final_drive", "wheel_radius", "vehicle_mass",
@@ -62,7 +62,7 @@ def key_tree(elements=None, links=None) -> dict:
     from .powertrain import ENGINE_KEYS, GAS_KEYS, GOVERNOR_KEYS, PORT_KEYS, SHAFT_KEYS, SOLVER_KEYS
     from .schedule import ShiftTemplate
 
-    signals = {"torque", "throttle_signal", "fuel_signal", "output_torque", "signal", "apply"}
+    signals = {"torque", "throttle_signal", "fuel_signal", "output_torque", "signal", "apply", "torque_request"}
     template = _leaves(ShiftTemplate.__dataclass_fields__)
 
     def names(names, sub) -> dict:

@@ -22,9 +22,34 @@ itself when the offgoing element lets go. :func:`shift_trajectories` turns a lis
 shift events into apply :class:`~transgen.sim.signals.Table` signals; :class:`AutoShift` is a
 controller that commands shifts when the output speed crosses throttle-dependent upshift or
 downshift lines (with hysteresis: the downshift line lies below the upshift line).
+
+Engine torque intervention (the TCU's torque request to the engine; optional, none by default). The
+template gives a torque-request *factor* [-] that multiplies the engine's driving torque, 1 meaning
+no intervention, built from two trapezoids anchored at the template's own phases:
+
+torque-phase increase
+    from ``t_r + boost_delay`` (``t_r = t0 + fill_time + offgoing_delay``: the offgoing element
+    starts to let go, the oncoming one takes over the torque) the factor ramps over
+    ``torque_ramp`` to ``torque_boost`` (>= 1 raises the torque), is held there for
+    ``boost_time`` and ramps back over ``torque_ramp``;
+inertia-phase reduction
+    from ``t_e + cut_delay`` (``t_e = t_r + offgoing_ramp``: the offgoing element is released,
+    the speed change begins) the factor ramps over ``torque_ramp`` to ``torque_cut`` (<= 1
+    lowers the torque), is held for ``cut_time`` and ramps back over ``torque_ramp``.
+
+Where the two overlap their changes add: ``factor = max(0, 1 + (torque_boost - 1)*b(t) +
+(torque_cut - 1)*c(t))`` with ``b``, ``c`` the trapezoids' shapes in [0, 1]. The ramps make the
+engine torque continuous; ``torque_ramp = 0`` asks for steps. How an engine obeys the factor is its
+component's business (:mod:`transgen.sim.components`, the turbodiesel in
+:mod:`transgen.sim.powertrain`): a map engine scales its driving (positive) torque and gets no more
+than its full-load torque at the current speed; the diesel scales its fuel command, bounded by the
+full-load fuel. :func:`torque_request_signal` turns the events' templates into one signal; an
+:class:`AutoShift` splices a shift's profile into :attr:`AutoShift.torque_request` when it commands
+the shift.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -32,7 +57,12 @@ import numpy as np
 from .interp import interp_like_numpy
 from .signals import Signal, Spliced, Table
 
-__all__ = ["ShiftTemplate", "ShiftEvent", "shift_trajectories", "gear_elements", "gear_swap", "AutoShift"]
+__all__ = ["ShiftTemplate", "ShiftEvent", "shift_trajectories", "gear_elements", "gear_swap", "AutoShift",
+           "TORQUE_FIELDS", "torque_request_signal", "request_table", "ControllerRequest"]
+
+#: the template's engine torque intervention parameters (factors [-] and times [s]); their defaults
+#: leave the engine alone
+TORQUE_FIELDS = ("torque_boost", "boost_delay", "boost_time", "torque_cut", "cut_delay", "cut_time", "torque_ramp")
 
 
 @dataclass(frozen=True)
@@ -46,6 +76,54 @@ class ShiftTemplate:
     offgoing_delay: float = 0.15
     offgoing_level: float = 0.3
     offgoing_ramp: float = 0.2
+    torque_boost: float = 1.0
+    boost_delay: float = 0.0
+    boost_time: float = 0.0
+    torque_cut: float = 1.0
+    cut_delay: float = 0.0
+    cut_time: float = 0.0
+    torque_ramp: float = 0.05
+
+    def __post_init__(self):
+        for name in self.__dataclass_fields__:
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+                raise ValueError(f"shift template: {name} must be a finite number >= 0, not {v!r}")
+
+    def as_data(self) -> dict:
+        """The template as plain data for a scenario file or a JSON document: every field, but the
+        engine torque intervention's only where it intervenes (a clutch-only template writes its
+        nine apply fields)."""
+        data = {k: getattr(self, k) for k in self.__dataclass_fields__}
+        if not self.torque_intervention:
+            for k in TORQUE_FIELDS:
+                del data[k]
+        return data
+
+    @property
+    def torque_intervention(self) -> bool:
+        """Whether the template asks the engine for another torque than its own at some time."""
+        return ((self.torque_boost != 1.0 and self.boost_time + self.torque_ramp > 0)
+                or (self.torque_cut != 1.0 and self.cut_time + self.torque_ramp > 0))
+
+    def torque_request(self, t0: float) -> list[tuple[float, float]]:
+        """Corner points ``(t [s], factor [-])`` of the engine torque-request factor of a shift
+        commanded at ``t0`` (1 before the first and after the last point); ``[]`` without an
+        intervention. See the module docstring."""
+        if not self.torque_intervention:
+            return []
+        ramp = max(self.torque_ramp, 1e-6)  # 0: a step, as the apply jumps (1 us)
+        t_r = t0 + self.fill_time + self.offgoing_delay
+        t_e = t_r + self.offgoing_ramp
+        trapezoids = [(t_r + self.boost_delay, self.boost_time, self.torque_boost - 1.0),
+                      (t_e + self.cut_delay, self.cut_time, self.torque_cut - 1.0)]
+        trapezoids = [tp for tp in trapezoids if tp[2] != 0.0]
+        corners = sorted({c for a, hold, _ in trapezoids for c in (a, a + ramp, a + ramp + hold, a + 2 * ramp + hold)})
+
+        def shape(t, a, hold):
+            return float(np.clip(min((t - a) / ramp, (a + 2 * ramp + hold - t) / ramp), 0.0, 1.0))
+
+        return [(t, max(0.0, 1.0 + sum(d * shape(t, a, hold) for a, hold, d in trapezoids))) for t in corners]
 
     def oncoming(self, t0: float) -> list[tuple[float, float]]:
         t1 = t0 + self.fill_time
@@ -129,6 +207,44 @@ def shift_trajectories(gears: dict[str, tuple[str, ...]], initial_gear: str, eve
     return {e: _merge(p) for e, p in points.items()}
 
 
+def request_table(profiles: list[list[tuple[float, float]]]) -> Table | None:
+    """The torque-request factor of several shifts' profiles (``(t, factor)`` corners, 1 outside
+    each) as one table: their product at every corner (profiles that overlap multiply); None when
+    there is none."""
+    profiles = [p for p in profiles if p]
+    if not profiles:
+        return None
+    tables = [_merge([(p[0][0] - 1.0, 1.0)] + p) for p in profiles]
+    times = sorted({t for tb in tables for t in tb.times})
+    return Table(tuple(times), tuple(float(np.prod([tb.value(t) for tb in tables])) for t in times))
+
+
+def torque_request_signal(events: list[ShiftEvent]) -> Table | None:
+    """The engine torque-request factor [-] of a sequence of shift events (None: no event's
+    template intervenes, the engine runs on its own)."""
+    return request_table([ev.template.torque_request(ev.t) for ev in events])
+
+
+class ControllerRequest(Signal):
+    """The torque-request factor that a controller (:class:`AutoShift`) commands: its current
+    ``torque_request`` signal, read at every evaluation (the controller splices each shift's
+    profile into it when it commands the shift; its saved state restores it)."""
+
+    piecewise_linear = True
+
+    def __init__(self, controller=None):
+        self.controller = controller
+
+    def value(self, t: float) -> float:
+        return self.controller.torque_request.value(t)
+
+    def breakpoints(self, t0: float = -math.inf, t1: float = math.inf) -> tuple[float, ...]:
+        return self.controller.torque_request.breakpoints(t0, t1)
+
+    def upper_bound(self, t0: float, t1: float) -> float:
+        return self.controller.torque_request.upper_bound(t0, t1)
+
+
 @dataclass
 class AutoShift:
     """An automatic shift schedule: shift lines over output speed and throttle.
@@ -154,6 +270,7 @@ class AutoShift:
     last_shift: float = -1e9
     history: list = field(default_factory=list)
     templates: dict = field(default_factory=dict)  # "SOURCE-TARGET" -> the template of that shift
+    torque_request: Signal = field(default_factory=lambda: Table((0.0,), (1.0,)))  # engine torque-request factor
 
     def __post_init__(self):
         for up, down in zip(self.upshift, self.downshift):
@@ -197,6 +314,9 @@ class AutoShift:
             for name in names:
                 e = elements[name]
                 e.apply = Spliced(t, e.apply, _merge([(t, e.apply.value(t))] + pts[1:]))
+        profile = template.torque_request(t)
+        if profile:  # the profile from the command on (an earlier shift's leftover is dropped)
+            self.torque_request = Spliced(t, self.torque_request, _merge([(t, 1.0)] + profile))
         self.history.append((t, self.gear, target))
         description = (f"{kind}shift {self.gear}-{target} (on {' '.join(on) or 'none: one-way clutch locks'}, "
                        f"off {' '.join(off) or 'none: one-way clutch overruns'})")

@@ -232,6 +232,12 @@ class ShiftQuality:
     peak_power: dict = field(hash=False)  # element -> W
     energy_total: float = 0.0
     notes: tuple[str, ...] = ()
+    # engine torque intervention in the comfort window (the engine's ``torque_request`` factor [-];
+    # None when the run has no torque request)
+    torque_request_min: float | None = None  # deepest factor (< 1: a reduction)
+    torque_request_max: float | None = None  # highest factor (> 1: an increase)
+    torque_increase_duration: float | None = None  # s with the factor above 1
+    torque_reduction_duration: float | None = None  # s with the factor below 1
 
     def to_dict(self) -> dict:
         """JSON-ready (floats, NaN/inf as None)."""
@@ -242,7 +248,8 @@ _S = ("t_start torque_phase_start torque_phase_end torque_phase_duration inertia
       "inertia_phase_duration shift_end shift_duration dissipation_end offgoing_unlock oncoming_lock "
       "output_torque_min_time output_torque_max_time bindup_duration flare_time oncoming_ramp_end "
       "speed_phase_overrun both_dissipating_duration forced_duration offgoing_drag_after_lock pre_window_s "
-      "overlap_min_s window_end jerk_max_time settling_time post_window_s").split()
+      "overlap_min_s window_end jerk_max_time settling_time post_window_s torque_increase_duration "
+      "torque_reduction_duration").split()
 _NM = "output_torque_before output_torque_min torque_hole output_torque_max bindup_torque offgoing_torque_before " \
       "offgoing_torque_at_unlock output_torque_final".split()
 SHIFT_UNITS = ({k: "s" for k in _S} | {k: "N*m" for k in _NM}
@@ -251,7 +258,8 @@ SHIFT_UNITS = ({k: "s" for k in _S} | {k: "N*m" for k in _NM}
                   "offgoing_energy_share": "%", "offgoing_energy_after_lock": "J", "energy": "J",
                   "peak_power": "W", "energy_total": "J", "accel_before": "m/s^2", "accel_after": "m/s^2",
                   "jerk_max": "m/s^3", "jerk_peak_to_peak": "m/s^3", "vdv": "m/s^1.75", "torque_overshoot": "%",
-                  "lock_counts": "1", "unlock_counts": "1", "settle_fraction": "1"})
+                  "lock_counts": "1", "unlock_counts": "1", "settle_fraction": "1", "torque_request_min": "1",
+                  "torque_request_max": "1"})
 """Units of the numeric fields of :class:`ShiftQuality` (``energy`` and ``peak_power``: per
 element) and of the report's time thresholds."""
 
@@ -627,7 +635,24 @@ def _analyse(result: Result, shift: Shift, inp: str, out: str, link_notes: list[
         offgoing_energy_after_lock=drag_energy,
         forced_unlock_element=",".join(e for e, _, _ in forced_elements) or None, window_end=t_win, **comfort,
         lock_counts=lock_counts, unlock_counts=unlock_counts, chatter=bool(chattering),
-        energy=energy, peak_power=peak, energy_total=float(sum(energy.values())), notes=tuple(notes))
+        energy=energy, peak_power=peak, energy_total=float(sum(energy.values())), notes=tuple(notes),
+        **_torque_request(result, ts, t_win))
+
+
+def _torque_request(result: Result, t0: float, t1: float) -> dict:
+    """The engine torque intervention in ``[t0, t1]`` [s] from the run's ``torque_request``
+    factor: its lowest and highest value and how long it stays above and below 1 (the four
+    ``torque_request_*`` / ``torque_*_duration`` fields; None without a torque request)."""
+    factor = result.signals.get("torque_request")
+    if factor is None:
+        return {}
+    w = window(result.time, t0, t1)
+    t, f = result.time[w], np.asarray(factor, dtype=float)[w]
+    if not len(t):
+        return {}
+    return {"torque_request_min": float(np.min(f)), "torque_request_max": float(np.max(f)),
+            "torque_increase_duration": duration_above(t, f - (1.0 + 1e-9)),
+            "torque_reduction_duration": duration_above(t, (1.0 - 1e-9) - f)}
 
 
 def shift_report(result: Result, shifts: list[Shift] | None = None, input_link: str | None = None,

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Signal", "Constant", "Step", "Ramp", "Table", "Sine", "Pulse", "Periodic", "Sum", "Spliced"]
+__all__ = ["Signal", "Constant", "Step", "Ramp", "Table", "Sine", "Pulse", "Periodic", "Sum", "Product", "Spliced"]
 
 
 def _window(points, t0: float, t1: float) -> tuple[float, ...]:
@@ -409,6 +409,19 @@ class Sum(Signal):
     @property
     def piecewise_linear(self) -> bool:
         return all(p.piecewise_linear for p in self.parts)
+
+
+@dataclass(frozen=True)
+class Product(Signal):
+    """The product of several signals (e.g. a fuel command times a shift's torque-request factor)."""
+
+    parts: tuple[Signal, ...]
+
+    def value(self, t: float) -> float:
+        return math.prod(p.value(t) for p in self.parts)
+
+    def breakpoints(self, t0: float = -math.inf, t1: float = math.inf) -> tuple[float, ...]:
+        return _window([b for p in self.parts for b in p.breakpoints(t0, t1)], t0, t1)
 
 
 @dataclass(frozen=True)

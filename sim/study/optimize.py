@@ -1,10 +1,15 @@
 """Shift calibration: tune the apply trajectories of each shift of a scenario (``transgen optimize``).
 
-For every selected shift the nine parameters of a :class:`~transgen.sim.schedule.ShiftTemplate`
+For every selected shift the nine clutch parameters of a :class:`~transgen.sim.schedule.ShiftTemplate`
 are tuned: oncoming fill (``fill_time``, ``fill_level``), torque-phase ramp (``ramp_time``,
 ``ramp_end``), inertia-phase level (``hold_time`` at ``ramp_end``), final rise (``final_time``)
 and the offgoing delay, level and release (``offgoing_delay``, ``offgoing_level``,
-``offgoing_ramp``), to minimise a weighted objective under constraints:
+``offgoing_ramp``), and, where the scenario's input is an engine (``engine_torque``, on by
+default there), the seven of its engine torque intervention (:data:`TORQUE_PARAMETERS`: a
+torque-phase increase ``torque_boost`` for ``boost_time`` from ``boost_delay`` after the offgoing
+release starts, an inertia-phase reduction ``torque_cut`` for ``cut_time`` from ``cut_delay`` after
+the release ends, ramps ``torque_ramp``; :mod:`transgen.sim.schedule`), to minimise a weighted
+objective under constraints:
 
 * objective terms (each divided by the starting calibration's value of the shift, so that the
   weights are pure numbers): ``energy`` (the clutch energy of the shift, J), ``duration`` (the
@@ -18,7 +23,11 @@ and the offgoing delay, level and release (``offgoing_delay``, ``offgoing_level`
 
 How a scenario carries its calibration (:class:`Calibration`): raw apply tables of the elements
 (each shift's piece of the oncoming and offgoing tables is fitted to the template first,
-:func:`fit_template`, and replaced by the tuned template's points), shift events with templates
+:func:`fit_template`, and replaced by the tuned template's points; the tuned engine torque
+intervention goes to ``[input] torque_request`` as a table; where the scenario has its own, as a
+tuned file of an earlier pass, the span of each shift whose tuned template intervenes is replaced by
+its profile, and a template without an intervention keeps the scenario's own there, so a shift's
+tuning starts from the scenario's own request), shift events with templates
 (``[shifts] events``: each event's ``template``) or an automatic schedule
 (``[auto_shift] templates."1-2"``, a template per shift).
 
@@ -34,7 +43,11 @@ The optimizer is :func:`scipy.optimize.differential_evolution` (``updating="defe
 generation is one batch, mapped over the executor; seeded, so a run is repeatable), started from the
 scenario's own calibration (``x0``), for :data:`POLISH_SHARE` of the evaluations; a compass search
 (:func:`_compass`, a batch of steps up and down along every parameter at a time) polishes its best
-candidate with the rest. Constraints enter as a feasibility-first penalty: an
+candidate with the rest. With the engine torque tuned, that search runs over the nine clutch parameters
+first (the whole ``max_evaluations``), then a second one of :data:`TORQUE_SHARE` as many over all
+sixteen, its population about the best clutch calibration (:func:`_around`) with the intervention
+spread over its box: the sixteen at once from the start found a worse 3-4 of the HT-740 than the
+clutches alone. Constraints enter as a feasibility-first penalty: an
 infeasible candidate scores ``INFEASIBLE * (1 + total violation)``, above every feasible one, so the
 search moves towards the feasible region and then minimises the objective inside it. Why this
 optimizer: the simulated metrics are not smooth in the parameters (an element locks or does not, a
@@ -54,17 +67,25 @@ import numpy as np
 from transgen.errors import ScenarioError
 
 __all__ = ["Constraints", "Objective", "ShiftPlan", "Calibration", "ShiftOutcome", "OptimizeResult", "PARAMETERS",
-           "BOUNDS", "fit_template", "plan_calibration", "evaluate_candidate", "shift_metrics", "score", "optimize",
+           "TORQUE_PARAMETERS", "BOUNDS", "has_engine", "intervention_text", "fit_template", "plan_calibration", "evaluate_candidate", "shift_metrics", "score", "optimize",
            "tuned_scenario_text", "parse_objective", "OBJECTIVE_TERMS", "PRE_MARGIN", "SETTLE", "INFEASIBLE"]
 
 #: the tuned parameters, in the order of the optimizer's vector (the fields of ShiftTemplate)
 PARAMETERS = ("fill_time", "fill_level", "ramp_time", "ramp_end", "hold_time", "final_time", "offgoing_delay",
               "offgoing_level", "offgoing_ramp")
 
-#: the search box of each parameter [s or apply fraction]; widened to hold the starting calibration
+#: the engine torque intervention's parameters (ShiftTemplate; factors [-] and times [s]), tuned after
+#: PARAMETERS where the input is an engine
+TORQUE_PARAMETERS = ("torque_boost", "boost_delay", "boost_time", "torque_cut", "cut_delay", "cut_time", "torque_ramp")
+
+#: the search box of each parameter [s, apply fraction or torque factor]; widened to hold the starting
+#: calibration. The increase goes up to 1.6 times the engine's torque (the engine gives no more than
+#: its full-load torque at the current speed anyway), the reduction down to 0.3 times.
 BOUNDS = {"fill_time": (0.0, 0.3), "fill_level": (0.0, 0.5), "ramp_time": (0.05, 1.5), "ramp_end": (0.05, 1.0),
           "hold_time": (0.0, 1.5), "final_time": (0.02, 0.5), "offgoing_delay": (0.0, 1.5),
-          "offgoing_level": (0.0, 1.0), "offgoing_ramp": (0.01, 1.0)}
+          "offgoing_level": (0.0, 1.0), "offgoing_ramp": (0.01, 1.0),
+          "torque_boost": (1.0, 1.6), "boost_delay": (0.0, 0.5), "boost_time": (0.0, 1.0), "torque_cut": (0.3, 1.0),
+          "cut_delay": (0.0, 0.5), "cut_time": (0.0, 1.0), "torque_ramp": (0.02, 0.2)}
 
 OBJECTIVE_TERMS = {"energy": "clutch energy of the shift [J]", "duration": "shift duration [s]",
                    "hole": "torque hole [% of the output torque before]", "flare": "flare of the input speed [rpm]",
@@ -81,8 +102,12 @@ INFEASIBLE = 1e3
 """Score of an infeasible candidate per unit of (1 + violation); a failed run scores 1e3 times more."""
 
 POLISH_SHARE = 0.6
-"""Share of a shift's evaluations that the differential evolution spends; a compass search from
+"""Share of a search's evaluations that the differential evolution spends; a compass search from
 its best candidate spends the rest."""
+
+TORQUE_SHARE = 0.5
+"""Evaluations of the engine torque stage, as a share of a shift's ``max_evaluations`` (spent after
+the clutch stage, which keeps its own ``max_evaluations``)."""
 
 
 @dataclass(frozen=True)
@@ -140,21 +165,51 @@ def parse_objective(text: str) -> Objective:
 # --------------------------------------------------------------------------------- templates
 
 
-def _template(x: Sequence[float]):
+def _template(x: Sequence[float], names: Sequence[str] = PARAMETERS, base=None):
+    """The template with the parameters ``names`` set to ``x`` (the others from ``base``, default
+    the ShiftTemplate defaults)."""
     from transgen.sim.schedule import ShiftTemplate
 
-    return ShiftTemplate(**{k: float(v) for k, v in zip(PARAMETERS, x)})
+    return replace(base or ShiftTemplate(), **{k: float(v) for k, v in zip(names, x)})
 
 
-def _vector(template) -> np.ndarray:
-    return np.array([getattr(template, k) for k in PARAMETERS], dtype=float)
+def _vector(template, names: Sequence[str] = PARAMETERS) -> np.ndarray:
+    return np.array([getattr(template, k) for k in names], dtype=float)
 
 
 def _span(template) -> float:
-    """How long after the shift command the template's trajectories end [s]."""
+    """How long after the shift command the template's trajectories end [s] (the apply
+    trajectories and the engine torque request)."""
     on = template.fill_time + template.ramp_time + template.hold_time + template.final_time
     off = template.fill_time + template.offgoing_delay + template.offgoing_ramp
-    return max(on, off)
+    request = template.torque_request(0.0)
+    return max(on, off, request[-1][0] if request else 0.0)
+
+
+def has_engine(scenario) -> bool:
+    """Whether the scenario's input is an engine that takes a torque request (map engine, engine
+    with converter, turbodiesel)."""
+    from transgen.sim.components import EngineOnLink, EngineWithConverter
+    from transgen.sim.powertrain import TurbodieselSource
+
+    return any(isinstance(c, (EngineOnLink, EngineWithConverter, TurbodieselSource))
+               for c in scenario.powertrain.components)
+
+
+def intervention_text(template, own_request: bool = False) -> str:
+    """How a template asks the engine for torque, in words: ``none`` or the increase and the
+    reduction with their factors and times (``own_request``: the scenario's own ``[input]
+    torque_request`` stays where the template asks for nothing)."""
+    if not template.torque_intervention:
+        return "none tuned: the scenario's own [input] torque_request kept" if own_request else "none"
+    parts = []
+    if template.torque_boost != 1.0:
+        parts.append(f"x{template.torque_boost:.3f} for {template.boost_time:.3f} s from {template.boost_delay:.3f} s "
+                     f"after the offgoing release starts")
+    if template.torque_cut != 1.0:
+        parts.append(f"x{template.torque_cut:.3f} for {template.cut_time:.3f} s from {template.cut_delay:.3f} s "
+                     f"after the offgoing release ends")
+    return "; ".join(parts) + f" (ramps {template.torque_ramp:.3f} s)"
 
 
 def _curve(points, before: float):
@@ -307,18 +362,19 @@ class Calibration:
     t_start: float
     raw: Mapping[str, object] = field(default_factory=dict)  # element -> raw apply Signal ("tables")
     events: tuple = ()  # the [shifts] events as plain data ("events")
+    request: object = None  # the scenario's own [input] torque_request Signal ("tables"), None: none
 
     def overrides(self, plans: Sequence[ShiftPlan], templates: Mapping[int, object]) -> dict:
         """Dotted-key overrides that give the shifts ``templates`` (shift number -> template);
         the other shifts keep their own calibration."""
         if self.kind == "auto":
-            return {f"auto_shift.templates.{p.key}": asdict(templates[p.number]) for p in plans
+            return {f"auto_shift.templates.{p.key}": templates[p.number].as_data() for p in plans
                     if p.number in templates}
         if self.kind == "events":
             events = [dict(ev) for ev in self.events]
             for p in plans:
                 if p.number in templates:
-                    events[int(p.key)]["template"] = asdict(templates[p.number])
+                    events[int(p.key)]["template"] = templates[p.number].as_data()
             return {"shifts.events": events}
         pieces: dict[str, list] = {}
         for p in plans:
@@ -331,6 +387,21 @@ class Calibration:
         out = {}
         for element, spans in pieces.items():
             out[f"elements.{element}.apply"] = _spliced_table(self.raw[element], spans, self.t_start)
+        from transgen.sim.schedule import request_table
+
+        if self.request is not None:  # the scenario's own request, with the span of each shift whose template
+            spans = []                   # intervenes replaced by its profile
+            for p in plans:
+                if p.number in templates and templates[p.number].torque_intervention:
+                    profile = templates[p.number].torque_request(p.t_start)
+                    t_end = max([t for t, _ in profile] + [p.t_raw_end or p.t_start])
+                    spans.append((p.t_start, t_end, [(p.t_start, 1.0)] + profile + [(t_end, 1.0)]))
+            if spans:
+                out["input.torque_request"] = _spliced_table(self.request, spans, self.t_start)
+            return out
+        request = request_table([templates[p.number].torque_request(p.t_start) for p in plans if p.number in templates])
+        if request is not None:  # the tuned engine torque intervention of the shifts
+            out["input.torque_request"] = {"type": "table", "t": list(request.times), "value": list(request.values)}
         return out
 
 
@@ -419,7 +490,8 @@ def plan_calibration(path, files: Mapping[str, str], result, scenario) -> tuple[
         after = _gear_of(mech, [tr.elements[i].name for i in _locked_at(result, q.shift_end + 1e-9)]) if q.completed else None
         name = f"{before}-{after}" if before and after else q.name
         plans.append(ShiftPlan(len(plans) + 1, name, q.oncoming, q.offgoing, q.t_start, tmpl, name, float(t_end), residual))
-    return Calibration("tables", t_run, raw=raw), plans
+    request = next((c.request for c in scenario.powertrain.components if getattr(c, "request", None) is not None), None)
+    return Calibration("tables", t_run, raw=raw, request=request), plans
 
 
 def _locked_at(result, t: float) -> frozenset:
@@ -566,6 +638,12 @@ class OptimizeResult:
     overrides: dict
     history: list
     seed: int
+    parameters: tuple = PARAMETERS  # the tuned template parameters (PARAMETERS, and TORQUE_PARAMETERS with an engine)
+
+    @property
+    def engine_torque(self) -> bool:
+        """Whether the engine torque intervention was tuned."""
+        return "torque_boost" in self.parameters
 
     @property
     def feasible(self) -> bool:
@@ -591,12 +669,12 @@ class OptimizeProgress:
                 f"best {self.best:.4g}{'' if self.feasible else ' (infeasible)'}, {self.rate:.1f} evaluations/s")
 
 
-def _bounds(template, t_gap: float) -> list[tuple[float, float]]:
-    """The search box: :data:`BOUNDS` widened to hold ``template``, the times limited so that a
-    shift's trajectories end within ``t_gap`` [s] (the time to the next shift, less the settle
-    time)."""
+def _bounds(template, t_gap: float, names: Sequence[str] = PARAMETERS) -> list[tuple[float, float]]:
+    """The search box of the parameters ``names``: :data:`BOUNDS` widened to hold ``template``,
+    the times limited so that a shift's trajectories end within ``t_gap`` [s] (the time to the next
+    shift, less the settle time)."""
     out = []
-    for k in PARAMETERS:
+    for k in names:
         lo, hi = BOUNDS[k]
         v = getattr(template, k)
         if k.endswith(("_time", "_delay", "_ramp")):
@@ -607,23 +685,25 @@ def _bounds(template, t_gap: float) -> list[tuple[float, float]]:
 
 def optimize(path, shifts: Sequence[str] | None = None, objective: Objective = Objective(),
              constraints: Constraints = Constraints(), executor=None, seed: int = 0, max_evaluations: int = 720,
-             population: int = 36, progress: Callable | None = None, overrides: Mapping | None = None) -> OptimizeResult:
+             population: int = 36, progress: Callable | None = None, overrides: Mapping | None = None,
+             engine_torque: bool | None = None) -> OptimizeResult:
     """Tune the shifts of the scenario ``path`` (all, or those named in ``shifts``: ``1-2`` or a
     number from 1); see the module docstring. ``max_evaluations``: per shift (rounded to whole
     generations of ``population`` candidates); ``executor``: where candidates run (default in
     this process); ``progress(OptimizeProgress)`` after every generation; ``overrides``: dotted
-    keys set in the scenario first (as ``--set``)."""
+    keys set in the scenario first (as ``--set``); ``engine_torque``: tune the engine torque
+    intervention too (None: where the input is an engine; False: the clutches only, the
+    scenario's own intervention kept; True: an error without an engine)."""
     from .executors import SerialExecutor
 
     executor = executor or SerialExecutor()
     with executor:  # one pool of workers (or Dask client) for all the generations
         return _optimize(path, shifts, objective, constraints, executor, seed, max_evaluations, population, progress,
-                         dict(overrides or {}))
+                         dict(overrides or {}), engine_torque)
 
 
-def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluations, population, progress, base):
-    from scipy.optimize import differential_evolution
-
+def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluations, population, progress, base,
+              engine_torque=None):
     from transgen.sim import load_scenario, scenario_files
     from transgen.sim.scenario import scenario_path
 
@@ -639,6 +719,14 @@ def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluati
     calibration, plans = plan_calibration(key, files, baseline, scenario)
     if not plans:
         raise ScenarioError(f"{path}: error: the scenario has no shift to calibrate")
+    engine = has_engine(scenario)
+    if engine_torque and not engine:
+        raise ScenarioError(f"{path}: error: the engine torque intervention needs an engine at the input (the scenario's "
+                            f"input is a prescribed torque); tune the clutches only")
+    engine_torque = engine if engine_torque is None else engine_torque
+    if not engine_torque:  # the scenario's own torque request stays as it is
+        calibration = replace(calibration, request=None)
+    names = PARAMETERS + (TORQUE_PARAMETERS if engine_torque else ())
     selected = _select(plans, shifts, path)
     templates = {p.number: p.template for p in plans if p.number in {s.number for s in selected}}
     history: list[dict] = []
@@ -666,22 +754,25 @@ def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluati
             limit = _next_command(current, plan.t_start, scenario.options.t_end)
         shared = {"path": key, "files": files, "state": window_state,
                   "shift": (plan.oncoming, plan.offgoing, plan.t_start, plan.name), "limit": limit}
-        bounds = _bounds(plan.template, limit - plan.t_start - SETTLE)
-        reference = None
+
+        stage = {"names": PARAMETERS, "base": plan.template}  # the parameters searched now, the others from base
 
         def task_of(index, x, p=plan):
-            tmpl = _template(x)
+            tmpl = _template(x, stage["names"], stage["base"])
             ov = {**base, **calibration.overrides(plans, {**fixed, p.number: tmpl})}
             return index, ov, min(limit, p.t_start + _span(tmpl) + SETTLE)
 
         # the starting calibration, evaluated first: the reference of the objective's terms
-        [(_, start_metrics)] = list(executor.run(evaluate_candidate, shared, [task_of(0, _vector(plan.template))]))
+        [(_, start_metrics)] = list(executor.run(evaluate_candidate, shared,
+                                                 [task_of(0, _vector(plan.template, PARAMETERS))]))
         reference = start_metrics if start_metrics.get("success") else {}
         start_score, start_terms, start_viol = score(start_metrics, reference, objective, constraints)
-        best = {"score": start_score, "x": _vector(plan.template), "metrics": start_metrics, "violations": start_viol}
-        history.append(_row(plan, 0, 0, _vector(plan.template), start_metrics, start_score, start_terms, start_viol))
+        best = {"score": start_score, "template": plan.template, "metrics": start_metrics, "violations": start_viol}
+        history.append(_row(plan, 0, 0, _vector(plan.template, names), names, start_metrics, start_score, start_terms,
+                            start_viol))
         counter = {"evaluations": 1, "generation": 0, "cpu": start_metrics.get("cpu_time", 0.0)}
         budget = max(population, max_evaluations - 1)
+        torque_budget = math.ceil(TORQUE_SHARE * budget) if engine_torque else 0
         t_gen = time.perf_counter()
 
         def batch_map(func, population_x, p=plan):
@@ -696,25 +787,28 @@ def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluati
                 scores.append(s)
                 counter["evaluations"] += 1
                 counter["cpu"] += m.get("cpu_time", 0.0)
-                history.append(_row(p, counter["generation"], counter["evaluations"] - 1, x, m, s, terms, viol))
+                tmpl = _template(x, stage["names"], stage["base"])
+                history.append(_row(p, counter["generation"], counter["evaluations"] - 1, _vector(tmpl, names), names,
+                                    m, s, terms, viol))
                 if s < best["score"]:
-                    best.update(score=s, x=x, metrics=m, violations=viol)
+                    best.update(score=s, x=x, template=tmpl, metrics=m, violations=viol)
             if progress is not None:
                 elapsed = max(time.perf_counter() - t_gen, 1e-9)
-                progress(OptimizeProgress(n, len(selected), p.name, counter["evaluations"], budget + 1, best["score"],
-                                          not best["violations"], (counter["evaluations"] - 1) / elapsed))
+                progress(OptimizeProgress(n, len(selected), p.name, counter["evaluations"], budget + torque_budget + 1,
+                                          best["score"], not best["violations"], (counter["evaluations"] - 1) / elapsed))
             return scores
 
-        popsize = max(1, math.ceil(population / len(PARAMETERS)))  # scipy's population: popsize * parameters
-        per_generation = popsize * len(PARAMETERS)
-        generations = max(0, math.ceil(POLISH_SHARE * budget / per_generation) - 1)  # after the initial one
-        differential_evolution(_unused, bounds, x0=np.clip(_vector(plan.template), [b[0] for b in bounds],
-                                                           [b[1] for b in bounds]),
-                               seed=seed, popsize=popsize,
-                               init="latinhypercube", maxiter=generations, updating="deferred", workers=batch_map,
-                               polish=False, tol=0.0, atol=0.0, mutation=(0.5, 1.0), recombination=0.7)
-        _compass(batch_map, best, bounds, budget + 1 - counter["evaluations"])
-        tuned = _template(best["x"])
+        # the clutches: the nine apply parameters from the scenario's calibration
+        gap = limit - plan.t_start - SETTLE
+        best["x"] = _vector(plan.template, PARAMETERS)
+        _search(batch_map, best, counter, _bounds(plan.template, gap, PARAMETERS), budget, population, seed)
+        if engine_torque:  # then the engine torque with them, from the best clutch calibration
+            stage.update(names=names, base=best["template"])
+            best["x"] = _vector(best["template"], names)
+            bounds = _bounds(best["template"], gap, names)
+            _search(batch_map, best, counter, bounds, torque_budget, population, seed,
+                    init=_around(best["x"], bounds, len(PARAMETERS), max(5, population), seed))
+        tuned = best["template"]
         chosen[plan.number] = tuned
         best_score = best["score"]
         if best_score >= start_score:  # nothing better than the start: keep the scenario's own
@@ -725,7 +819,43 @@ def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluati
                                      counter["cpu"]))
         state, t_state = window_state, t_window if before is not None else t_state
     final = {**base, **calibration.overrides(plans, chosen)}
-    return OptimizeResult(key, scenario.title, objective, constraints, calibration, plans, outcomes, final, history, seed)
+    return OptimizeResult(key, scenario.title, objective, constraints, calibration, plans, outcomes, final, history, seed,
+                          names)
+
+
+def _search(batch_map, best: dict, counter: dict, bounds, budget: int, population: int, seed: int, init=None) -> None:
+    """One search of at most ``budget`` evaluations over the box ``bounds`` from ``best["x"]``:
+    the differential evolution (``population`` candidates per generation, rounded to whole
+    multiples of the parameters, or the rows of ``init``) for :data:`POLISH_SHARE` of the budget,
+    then the compass search with the rest. ``batch_map`` evaluates a batch and updates ``best``."""
+    from scipy.optimize import differential_evolution
+
+    lo, hi = [b[0] for b in bounds], [b[1] for b in bounds]
+    popsize = max(1, math.ceil(population / len(bounds)))  # scipy's population: popsize * parameters
+    per_generation = len(init) if init is not None else popsize * len(bounds)
+    generations = max(0, math.ceil(POLISH_SHARE * budget / per_generation) - 1)  # after the initial one
+    first = counter["evaluations"]
+    differential_evolution(_unused, bounds, x0=None if init is not None else np.clip(best["x"], lo, hi),
+                           seed=seed, popsize=popsize, init="latinhypercube" if init is None else init,
+                           maxiter=generations, updating="deferred", workers=batch_map, polish=False, tol=0.0,
+                           atol=0.0, mutation=(0.5, 1.0), recombination=0.7)
+    _compass(batch_map, best, bounds, budget - (counter["evaluations"] - first))
+
+
+def _around(x, bounds, fixed: int, size: int, seed: int) -> np.ndarray:
+    """A starting population of ``size`` rows for the engine torque stage: the first is ``x``; in
+    the others the first ``fixed`` parameters (the tuned clutch calibration) vary by a normal
+    spread of 5 % of their range about ``x`` and the rest (the engine torque intervention) are a
+    Latin hypercube of their box."""
+    rng = np.random.default_rng(seed)
+    lo = np.array([b[0] for b in bounds])
+    hi = np.array([b[1] for b in bounds])
+    pop = np.tile(np.asarray(x, dtype=float), (size, 1))
+    pop[1:, :fixed] += rng.normal(0.0, 0.05, (size - 1, fixed)) * (hi - lo)[:fixed]
+    free = len(bounds) - fixed
+    strata = (rng.permuted(np.tile(np.arange(size - 1), (free, 1)), axis=1).T + rng.random((size - 1, free))) / (size - 1)
+    pop[1:, fixed:] = lo[fixed:] + strata * (hi - lo)[fixed:]
+    return np.clip(pop, lo, hi)
 
 
 def _compass(evaluate, best: dict, bounds, budget: int, step: float = 0.05, smallest: float = 1e-3) -> None:
@@ -795,9 +925,9 @@ def _select(plans: list[ShiftPlan], names: Sequence[str] | None, path) -> list[S
     return sorted(out, key=lambda p: p.number)
 
 
-def _row(plan, generation, index, x, metrics, s, terms, violations) -> dict:
+def _row(plan, generation, index, x, names, metrics, s, terms, violations) -> dict:
     row = {"shift": plan.name, "generation": generation, "evaluation": index}
-    row.update({k: float(v) for k, v in zip(PARAMETERS, x)})
+    row.update({k: float(v) for k, v in zip(names, x)})
     row.update({k: metrics.get(k) for k in ("success", "completed", "energy", "duration", "hole", "flare", "bindup",
                                             "chatter", "jerk", "cpu_time")})
     row.update({"score": s, "feasible": not violations, "violations": ";".join(sorted(violations)),
@@ -811,8 +941,11 @@ def _row(plan, generation, index, x, metrics, s, terms, violations) -> dict:
 def tuned_scenario_text(result: OptimizeResult, output, before: Sequence | None = None,
                         after: Sequence | None = None) -> str:
     """The tuned scenario: a file that includes the original and sets the tuned tables, with a
-    comment header stating the objective, the constraints and, where given, the shift report's
-    numbers before and after (``before``/``after``: :class:`ShiftQuality` lists of full runs)."""
+    comment header stating the objective, the constraints, each shift's engine torque
+    intervention and, where given, the shift report's numbers before and after
+    (``before``/``after``: :class:`ShiftQuality` lists of full runs). The original is included
+    by its bundled name when it is a bundled scenario, else by its path relative to the output's
+    folder, so the file runs from any working directory (and moves with its original)."""
     import os
     from pathlib import Path
 
@@ -822,10 +955,12 @@ def tuned_scenario_text(result: OptimizeResult, output, before: Sequence | None 
     original = Path(result.path)
     out_dir = Path(output).resolve().parent
     bundled = original.parent == next(iter(bundled_scenarios().values())).parent
-    ref = str(original) if bundled else os.path.relpath(original, out_dir)
+    ref = original.stem if bundled and not (out_dir / original.stem).exists() else os.path.relpath(original, out_dir)
     lines = [f"# Shift calibration by 'transgen optimize' of {result.path}",
              f"# objective: {result.objective.text()} (terms relative to the starting calibration of each shift)",
              f"# constraints: {result.constraints.text()}", f"# seed: {result.seed}",
+             f"# tuned: {', '.join(result.parameters)}"
+             + ("" if result.engine_torque else " (clutches only: the engine torque intervention was not tuned)"),
              "# The scenario is the original (included) with the tuned apply trajectories below."]
     for s in result.shifts:
         status = "feasible" if s.feasible else f"INFEASIBLE (binding: {s.binding})"
@@ -833,6 +968,8 @@ def tuned_scenario_text(result: OptimizeResult, output, before: Sequence | None 
                      f"{s.evaluations} evaluations, score {s.start_score:.4g} -> {s.best_score:.4g}")
         if s.plan.fit_residual is not None:
             lines.append(f"#   raw tables fitted to the template (RMS apply difference {s.plan.fit_residual:.3g})")
+        lines.append(f"#   engine torque intervention: "
+                     f"{intervention_text(s.best_template, result.calibration.request is not None)}")
     if before is not None and after is not None:
         lines.append("# shift report of the whole run, before -> after:")
         lines += ["#   " + row for row in comparison_rows(before, after)]
@@ -853,12 +990,15 @@ def tuned_scenario_text(result: OptimizeResult, output, before: Sequence | None 
 #: the shift report's numbers that the comparison shows: (label, attribute, format)
 COMPARED = (("hole %", "torque_hole_pct", ".1f"), ("energy kJ", "energy_total", ".2f"), ("flare rpm", "flare_max_rpm", ".1f"),
             ("bindup", "bindup", ""), ("chatter", "chatter", ""), ("duration s", "shift_duration", ".3f"),
-            ("jerk m/s^3", "jerk_max", ".1f"))
+            ("jerk m/s^3", "jerk_max", ".1f"), ("engine x max/min", "torque_request", ""))
 
 
 def _cell(q, attr: str, fmt: str) -> str:
     if q is None:
         return "-"
+    if attr == "torque_request":  # the engine torque intervention: highest and lowest factor
+        low, high = getattr(q, "torque_request_min", None), getattr(q, "torque_request_max", None)
+        return "none" if low is None or low == high == 1.0 else f"{high:.2f}/{low:.2f}"
     v = getattr(q, attr, None)
     if v is None:
         return "-"

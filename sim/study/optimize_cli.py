@@ -44,6 +44,12 @@ def add_optimize_command(sub) -> None:
     bind.add_argument("--allow-bindup", dest="no_bindup", action="store_false", help="let the offgoing torque reverse")
     s.add_argument("--allow-chatter", action="store_true", help="let an element lock more than once in a shift")
     s.add_argument("--max-duration", type=float, metavar="S", help="longest shift duration [s]")
+    torque = s.add_mutually_exclusive_group()
+    torque.add_argument("--engine-torque", dest="engine_torque", action="store_true", default=None,
+                        help="tune the engine torque intervention too (torque-phase increase, inertia-phase reduction; "
+                             "the default where the input is an engine)")
+    torque.add_argument("--no-engine-torque", dest="engine_torque", action="store_false",
+                        help="tune the clutch trajectories only (the scenario's own engine torque request is kept)")
     engine = s.add_mutually_exclusive_group()
     engine.add_argument("--workers", type=int, metavar="N",
                         help="local worker processes (default: one per core; 1: in this process)")
@@ -93,7 +99,7 @@ def cmd_optimize(args) -> int:
     from transgen.sim.report import shift_report
     from transgen.sim.scenario import load_scenario, parse_scenario
 
-    from .optimize import comparison_rows, optimize, tuned_scenario_text
+    from .optimize import comparison_rows, intervention_text, optimize, tuned_scenario_text
 
     try:
         objective, constraints, executor = _options(args)
@@ -115,7 +121,7 @@ def cmd_optimize(args) -> int:
     start = time.perf_counter()
     try:
         result = optimize(args.scenario, args.shift, objective, constraints, executor, args.seed, args.evaluations,
-                          args.population, progress, overrides)
+                          args.population, progress, overrides, args.engine_torque)
     except (ScenarioError, ValueError) as exc:
         if width[0]:
             print(file=sys.stderr)
@@ -149,8 +155,11 @@ def cmd_optimize(args) -> int:
               f"evaluation")
         for s in result.shifts:
             print(f"  {s.plan.name:<6} {s.evaluations} evaluations in {s.wall_time:.1f} s "
-                  f"({s.evaluations / max(s.wall_time, 1e-9):.1f}/s): score {s.start_score:.4g} -> {s.best_score:.4g}"
+                  f"({s.evaluations / max(s.wall_time, 1e-9):.1f}/s, {s.evaluation_cpu_time:.1f} s CPU): score {s.start_score:.4g} -> {s.best_score:.4g}"
                   + ("" if s.feasible else f"  INFEASIBLE, binding: {s.binding}"))
+            if result.engine_torque:
+                print(f"         engine torque: "
+                      f"{intervention_text(s.best_template, result.calibration.request is not None)}")
         if args.report:
             print("\nShift report of the whole run, before -> after:")
             for row in comparison_rows(before, after):
@@ -192,13 +201,13 @@ def _quality(q) -> dict:
     return {"name": q.name, "oncoming": q.oncoming, "offgoing": q.offgoing, "completed": q.completed,
             "torque_hole_pct": q.torque_hole_pct, "energy_total": q.energy_total, "flare_max_rpm": q.flare_max_rpm,
             "bindup": q.bindup, "shift_duration": q.shift_duration,
-            "jerk_max": getattr(q, "jerk_max", None), "chatter": getattr(q, "chatter", None)}
+            "jerk_max": getattr(q, "jerk_max", None), "chatter": getattr(q, "chatter", None),
+            **{k: getattr(q, k, None) for k in ("torque_request_min", "torque_request_max", "torque_increase_duration",
+                                                "torque_reduction_duration")}}
 
 
 def _summary(args, result, executor, elapsed, before, after, written) -> dict:
     from dataclasses import asdict
-
-    from .optimize import PARAMETERS
 
     shifts = []
     for s in result.shifts:
@@ -215,7 +224,7 @@ def _summary(args, result, executor, elapsed, before, after, written) -> dict:
     evaluations = sum(s.evaluations for s in result.shifts)
     return {"scenario": args.scenario, "output": str(args.output), "calibration": result.calibration.kind,
             "objective": dict(result.objective.weights), "constraints": asdict(result.constraints),
-            "parameters": list(PARAMETERS), "seed": result.seed, "executor": repr(executor),
+            "parameters": list(result.parameters), "engine_torque": result.engine_torque, "seed": result.seed, "executor": repr(executor),
             "feasible": result.feasible, "evaluations": evaluations, "wall_time": elapsed,
             "evaluations_per_second": evaluations / max(elapsed, 1e-9), "shifts": shifts,
             "report_before": [_quality(q) for q in before], "report_after": [_quality(q) for q in after],
@@ -231,7 +240,9 @@ def optimize_units() -> dict[str, str]:
             "bindup_torque": "N*m", "offgoing_torque": "N*m", "jerk": "m/s^3", "jerk_max": "m/s^3", "locks": "1",
             "max_flare_rpm": "rpm", "max_hole_pct": "%", "max_duration": "s", "fill_time": "s", "fill_level": "1",
             "ramp_time": "s", "ramp_end": "1", "hold_time": "s", "final_time": "s", "offgoing_delay": "s",
-            "offgoing_level": "1", "offgoing_ramp": "s"}
+            "offgoing_level": "1", "offgoing_ramp": "s", "torque_boost": "1", "boost_delay": "s", "boost_time": "s",
+            "torque_cut": "1", "cut_delay": "s", "cut_time": "s", "torque_ramp": "s", "torque_request_min": "1",
+            "torque_request_max": "1", "torque_increase_duration": "s", "torque_reduction_duration": "s"}
 
 
 def _fail(exc) -> int:
