@@ -23,6 +23,11 @@ At each event, and at each breakpoint of an input signal, the new mode is decide
 :meth:`Transmission.decide` (every element at zero slip may lock or slip either way; the unique
 consistent combination is taken, otherwise the run stops naming the elements). The new mode's
 states are the link speeds at the event, so no link speed jumps.
+
+Between events the right-hand side and the torque events' holding margins are evaluated by the
+compiled kernel of :mod:`.kernel` (the same formulas, compiled with numba; the components without a
+compiled form are evaluated in Python and passed in), or, without numba or with
+``TRANSGEN_JIT=0``, by the Python functions ``point`` and ``locked_torques`` below.
 """
 from __future__ import annotations
 
@@ -36,6 +41,7 @@ from transgen.errors import ModeError, SimulationError
 from .integration import (ComponentEvaluator, Powertrain, Recorder, Segment, SolverOptions, StateLayout, apply_events,
                           collect, memo_last, next_stop, sample_block, signal_time,
                           slip_event)
+from .kernel import compiled_powertrain
 from .restart import SimState, check_compatible, controller_state, restore_controllers
 from .result import Event, Result
 
@@ -72,6 +78,7 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None, st
             events.append(Event(t, "start", tuple(tr.elements[i].name for i in sorted(locked)), "",
                                 tr.mode_name(locked), "from a saved state"))
     own_applies = {e.name: e.apply for e in tr.elements}  # what the controllers command differs
+    compiled = compiled_powertrain(pt)
 
     def slip_tol(w):
         return max(1e-9, options.slip_tol * max(1.0, float(np.max(np.abs(w)))))
@@ -154,14 +161,27 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None, st
             ww, u, derivs, p_in, diss, p_load, _ = evaluate(tt, y)
             return layout.derivative(mode.B @ u, derivs, p_in, diss, p_load)
 
+        def margin(tt, y, row, mode=mode):
+            return tr.holding_margin(mode, row, tt, event_torques(tt, y)[row])
+
+        inputs = lambda tt, y: evaluate(tt, y)[1]  # noqa: E731
         PC = tr.P @ mode.C
-        event_funcs = [slip_event(lambda tt, y: evaluate(tt, y)[6], i, int(seg_dirs[i]), tol, PC[i])
+        if compiled is not None:  # the same functions, compiled (see the module docstring)
+            compiled = compiled.current()
+            kernel = compiled.segment(mode, layout, tr.slipping_set(locked, seg_dirs, t, t_stop))
+            rhs = memo_last(model, kernel.rhs, t_stop, t_sig)
+            margins = memo_last(model, kernel.margins, t_stop, t_sig, "input_calls")
+            inputs = memo_last(model, kernel.inputs, t_stop, t_sig)
+
+            def margin(tt, y, row, margins=margins):
+                return margins(tt, y)[row]
+        event_funcs = [slip_event(lambda tt, y, PC=PC, dof=mode.dof: PC @ y[:dof], i, int(seg_dirs[i]), tol, PC[i])
                        for i in slipping if seg_dirs[i] != 0]
         event_funcs += apply_events(tr, slipping, t_sig, t_stop)
         for row, i in enumerate(mode.locked_order):  # one row per locked element or group in parallel
 
-            def torque_event(tt, y, row=row, mode=mode):
-                return tr.holding_margin(mode, row, tt, event_torques(tt, y)[row])
+            def torque_event(tt, y, row=row, margin=margin):
+                return margin(tt, y, row)
 
             torque_event.terminal = True
             torque_event.direction = -1
@@ -194,7 +214,7 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None, st
         forced = {}
         if sol.status == 1:
             n_events += 1
-            u_end = evaluate(t_end, y_end)[1]
+            u_end = inputs(t_end, y_end)
             for f, te in zip(event_funcs, sol.t_events):
                 kind, i = f.info
                 if len(te) and kind == "control":
