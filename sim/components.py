@@ -43,7 +43,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .interp import interp2
-from .jit import compilable, compiled, compiled_as, jit_enabled
+from .jit import compilable, compiled_as, compiled_loop
 from .signals import Constant, Signal
 
 __all__ = [
@@ -278,9 +278,11 @@ class EngineWithConverter(Component):
             demand = np.array([self.throttle.value(t) for t in ts], dtype=float)
             throttle, t_engine = np.empty(len(ts)), np.empty(len(ts))
             tables = (self.engine.speeds, self.engine.throttles, self.engine.torque)
-            over = engine_over
-            if jit_enabled():
-                over, tables = compiled(engine_over), tuple(np.array(x, dtype=float) for x in tables)
+            over = compiled_loop(engine_over, len(ts))
+            if over is None:
+                over = engine_over
+            else:
+                tables = tuple(np.array(x, dtype=float) for x in tables)
             over(demand, np.ascontiguousarray(omega_e, dtype=float), float(self.idle), *tables, throttle, t_engine)
         else:
             pump, turbine = (a.astype(float) for a in elementwise(self.converter.torques, 2)(omega_e, omega_t))

@@ -16,10 +16,11 @@ from __future__ import annotations
 
 import math
 import os
+import sys
 import types
 from bisect import bisect_left, bisect_right
 
-__all__ = ["compilable", "compiled_as", "compiled", "jit_enabled"]
+__all__ = ["compilable", "compiled_as", "compiled", "jit_enabled", "compiled_loop"]
 
 _COMPILABLE: set = set()
 _COMPILED: dict = {}
@@ -54,6 +55,16 @@ def jit_enabled() -> bool:
     except ImportError:
         return False
     return True
+
+
+def compiled_loop(func, n: int):
+    """The compiled form of the compilable loop ``func`` when a compiled simulation is under way
+    (numba loaded by it, :func:`jit_enabled`) and its ``n`` points are worth a call (output
+    sampling); None otherwise (the caller runs ``func`` in Python: e.g. reading a scenario,
+    which samples one point to learn the signal names, never loads numba)."""
+    if n >= 16 and "numba" in sys.modules and jit_enabled():
+        return compiled(func)
+    return None
 
 
 def _stand_ins() -> dict:

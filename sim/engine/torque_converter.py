@@ -44,7 +44,7 @@ from transgen.errors import TransgenError
 
 from ..causality import Causality, ports
 from ..interp import interp1, interp1_pair
-from ..jit import compilable, compiled, jit_enabled
+from ..jit import compilable, compiled_loop
 from .map_file import DATA_DIR
 
 __all__ = ["TorqueConverter", "TorqueConverterError", "DEFAULT_TORQUE_CONVERTER", "converter_torques"]
@@ -156,9 +156,11 @@ class TorqueConverter:
         """:meth:`torques` at every pair of the arrays ``omega_pump``, ``omega_turbine`` (output
         sampling; one compiled loop when the simulator compiles its right-hand side)."""
         pump, turbine = np.empty(len(omega_pump)), np.empty(len(omega_pump))
-        over, tables = converter_torques_over, self.tables()
-        if jit_enabled():
-            over, tables = compiled(converter_torques_over), tuple(np.array(x, dtype=float) for x in tables)
+        over, tables = compiled_loop(converter_torques_over, len(pump)), self.tables()
+        if over is None:
+            over = converter_torques_over
+        else:
+            tables = tuple(np.array(x, dtype=float) for x in tables)
         over(np.ascontiguousarray(omega_pump, dtype=float), np.ascontiguousarray(omega_turbine, dtype=float), *tables,
              pump, turbine)
         return pump, turbine
