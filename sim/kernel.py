@@ -7,7 +7,8 @@ the powertrain is described as data — two arrays of integers and numbers
 the shift elements) plus two per mode (:meth:`CompiledPowertrain.segment`: the mode matrices, the
 slipping elements, the locked rows) — and one function, compiled with numba, evaluates it:
 the state derivative (:func:`rhs_kernel`), the input vector (:func:`inputs_kernel`) and the
-torque events' holding margins (:func:`margins_kernel`). It calls the very functions the Python
+values of the torque and apply events, the holding margins and the apply signals
+(:func:`events_kernel`). It calls the very functions the Python
 classes call (the :func:`~.jit.compilable` formulas of :mod:`.components`, :mod:`.signals`,
 :mod:`.transmission`, :mod:`.interp` and the torque converter): there is one implementation of
 the physics, and the two paths agree to round-off (the sums of the matrix products are taken in
@@ -53,10 +54,10 @@ from .engine.torque_converter import converter_torques
 from .interp import interp2
 from .jit import compilable, compiled, jit_enabled
 from .signals import periodic_value, pulse_value, ramp_value, sine_value, step_value, table_value
-from .transmission import ONEWAY, add_holding_range, element_margin, group_margin, slipping_torque, static_capacity
+from .transmission import APPLY_THRESHOLD, ONEWAY, add_holding_range, element_margin, group_margin, slipping_torque, static_capacity
 
 __all__ = ["CompiledPowertrain", "CompiledSegment", "compiled_powertrain", "rhs_kernel", "inputs_kernel",
-           "margins_kernel", "SIGNAL_KINDS", "COMPONENT_KINDS"]
+           "events_kernel", "SIGNAL_KINDS", "COMPONENT_KINDS"]
 
 SIGNAL_KINDS = {"constant": 1, "step": 2, "ramp": 3, "table": 4, "sine": 5, "pulse": 6, "periodic": 7, "sum": 8,
                 "spliced": 9}
@@ -250,14 +251,21 @@ def inputs_kernel(t, y, P, F, S, G, ext):
 
 
 @compilable
-def margins_kernel(t, y, P, F, S, G, ext):
-    """The holding margin of every locked row of the mode (``Transmission.holding_margin`` of its
-    torque ``D u``): the torque events' values."""
-    u = inputs_kernel(t, y, P, F, S, G, ext)
+def events_kernel(t, y, P, F, S, G, ext):
+    """The values of the segment's torque and apply events: the holding margin of every locked
+    row of the mode (``Transmission.holding_margin`` of its torque ``D u``), then the apply
+    signal minus :data:`~.transmission.APPLY_THRESHOLD` of every watched element
+    (:func:`~.integration.apply_events`)."""
     n_rows, n_u = S[6], S[2]
+    margins = np.empty(n_rows + S[14])
+    for k in range(S[14]):
+        rec = P[3] + _RECORD * S[S[15] + k]
+        margins[n_rows + k] = signal_value(t, P[rec + 2], P[rec + 3], P, F, ext) - APPLY_THRESHOLD
+    if n_rows == 0:
+        return margins
+    u = inputs_kernel(t, y, P, F, S, G, ext)
     torques = np.empty(n_rows)
     _matvec(G, S[11], n_rows, n_u, u, torques)
-    margins = np.empty(n_rows)
     for r in range(n_rows):
         m = S[S[7] + r]
         n = S[m]
@@ -374,8 +382,8 @@ class CompiledPowertrain:
         self.ext = np.zeros(n_sig + n_ext)
         self.input_index = tr.input_index
         self.n_u = n_u
-        self._kernels = ((compiled(rhs_kernel), compiled(inputs_kernel), compiled(margins_kernel)) if jit
-                         else (rhs_kernel, inputs_kernel, margins_kernel))
+        self._kernels = ((compiled(rhs_kernel), compiled(inputs_kernel), compiled(events_kernel)) if jit
+                         else (rhs_kernel, inputs_kernel, events_kernel))
 
     def current(self) -> "CompiledPowertrain":
         """This description, or a new one when an apply signal was replaced since (a controller's
@@ -385,9 +393,10 @@ class CompiledPowertrain:
             return self
         return CompiledPowertrain(self.pt, self.jit)
 
-    def segment(self, mode, layout, active) -> "CompiledSegment":
+    def segment(self, mode, layout, active, watched=()) -> "CompiledSegment":
         """The kernels of one segment in ``mode`` (:class:`~.transmission.ModeData`) with the state
-        layout ``layout`` and the slipping elements ``active`` (:meth:`Transmission.slipping_set`)."""
+        layout ``layout``, the slipping elements ``active`` (:meth:`Transmission.slipping_set`) and
+        the elements ``watched`` by apply events (indices)."""
         tr = self.pt.transmission
         dof, n_links, n_el = mode.dof, len(tr.links), len(tr.elements)
         G: list[float] = []
@@ -401,7 +410,9 @@ class CompiledPowertrain:
         pc_off, d_off = block(tr.P @ mode.C), block(mode.D)
         scale_off = block([scale for _, _, _, scale in active])
         S = [dof, n_links, self.n_u, n_el, len(active), 0, len(mode.locked_order), 0, c_off, b_off, pc_off, d_off,
-             layout.size, scale_off]
+             layout.size, scale_off, len(watched), 0]
+        S[15] = len(S)
+        S.extend(int(i) for i in watched)
         S[5] = len(S)
         S.extend(x for i, col, _, _ in active for x in (i, col))
         S[7] = len(S)
@@ -414,17 +425,17 @@ class CompiledPowertrain:
 
 
 class CompiledSegment:
-    """The kernels of one segment: ``rhs(t, y)``, ``inputs(t, y)`` and ``margins(t, y)``
-    (:func:`rhs_kernel`, :func:`inputs_kernel`, :func:`margins_kernel`), with the Python-evaluated
+    """The kernels of one segment: ``rhs(t, y)``, ``inputs(t, y)`` and ``events(t, y)``
+    (:func:`rhs_kernel`, :func:`inputs_kernel`, :func:`events_kernel`), with the Python-evaluated
     parts filled into ``ext`` first."""
 
     def __init__(self, pt: CompiledPowertrain, S: np.ndarray, G: np.ndarray, mode, layout):
-        rhs, inputs, margins = pt._kernels
+        rhs, inputs, events = pt._kernels
         P, F, ext = pt.P, pt.F, pt.ext
         if not pt.external and not pt.python:
             self.rhs = lambda t, y: rhs(t, y, P, F, S, G, ext)
             self.inputs = lambda t, y: inputs(t, y, P, F, S, G, ext)
-            self.margins = lambda t, y: margins(t, y, P, F, S, G, ext)
+            self.events = lambda t, y: events(t, y, P, F, S, G, ext)
             return
         C, dof, offset = mode.C, mode.dof, layout.offset
         index, n_u = pt.input_index, pt.n_u
@@ -458,7 +469,7 @@ class CompiledSegment:
 
         self.rhs = with_fill(rhs, True)
         self.inputs = with_fill(inputs, False)
-        self.margins = with_fill(margins, False)
+        self.events = with_fill(events, False)
 
 
 def compiled_powertrain(pt) -> CompiledPowertrain | None:

@@ -297,21 +297,34 @@ def solve_segment(fun, t0: float, t1: float, y0: np.ndarray, method, events: lis
 
 def _event_values(events: list):
     """``values(t, y)``: the list of the events' values at a step end, the linear ones
-    (:func:`solve_segment`) from one matrix product."""
+    (:func:`solve_segment`) from one matrix product, those with the attribute ``batch = (values,
+    index)`` (entry ``index`` of the vector ``values(t, y)``) from one call of ``values``."""
     linear = [k for k, e in enumerate(events) if getattr(e, "linear", None) is not None]
-    if len({len(events[k].linear[0]) for k in linear}) != 1:
+    if len({len(events[k].linear[0]) for k in linear}) > 1:
         return lambda t, y: [e(t, y) for e in events]
-    others = [(k, events[k]) for k in range(len(events)) if k not in set(linear)]
-    rows = np.array([events[k].linear[0] for k in linear], dtype=float)
-    offsets = np.array([events[k].linear[1] for k in linear], dtype=float)
-    width = rows.shape[1]
+    batches: dict[int, tuple] = {}
+    for k, e in enumerate(events):
+        if getattr(e, "batch", None) is not None and k not in linear:
+            batches.setdefault(id(e.batch[0]), (e.batch[0], []))[1].append((k, e.batch[1]))
+    batched = {k for _, members in batches.values() for k, _ in members}
+    batches = list(batches.values())
+    others = [(k, events[k]) for k in range(len(events)) if k not in linear and k not in batched]
+    if linear:
+        rows = np.array([events[k].linear[0] for k in linear], dtype=float)
+        offsets = np.array([events[k].linear[1] for k in linear], dtype=float)
+        width = rows.shape[1]
 
     def values(t, y):
         g = [0.0] * len(events)
-        for k, v in zip(linear, (rows @ y[:width] + offsets).tolist()):
-            g[k] = v
+        if linear:
+            for k, v in zip(linear, (rows @ y[:width] + offsets).tolist()):
+                g[k] = v
         for k, e in others:
             g[k] = e(t, y)
+        for func, members in batches:
+            vector = func(t, y)
+            for k, j in members:
+                g[k] = float(vector[j])
         return g
 
     return values

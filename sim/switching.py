@@ -166,22 +166,30 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None, st
 
         inputs = lambda tt, y: evaluate(tt, y)[1]  # noqa: E731
         PC = tr.P @ mode.C
+        applies = apply_events(tr, slipping, t_sig, t_stop)
+        step_events = None
         if compiled is not None:  # the same functions, compiled (see the module docstring)
             compiled = compiled.current()
-            kernel = compiled.segment(mode, layout, tr.slipping_set(locked, seg_dirs, t, t_stop))
+            kernel = compiled.segment(mode, layout, tr.slipping_set(locked, seg_dirs, t, t_stop),
+                                      [f.info[1] for f in applies])
             rhs = memo_last(model, kernel.rhs, t_stop, t_sig)
-            margins = memo_last(model, kernel.margins, t_stop, t_sig, "input_calls")
             inputs = memo_last(model, kernel.inputs, t_stop, t_sig)
+            # every torque and apply event's value from one evaluation (ode_solvers: ``batch``)
+            step_events = memo_last(model, kernel.events, t_stop, t_sig, "input_calls")
+            applies = [_from_batch(step_events, len(mode.locked_order) + k, f) for k, f in enumerate(applies)]
 
-            def margin(tt, y, row, margins=margins):
-                return margins(tt, y)[row]
+            def margin(tt, y, row, step_events=step_events):
+                return step_events(tt, y)[row]
         event_funcs = [slip_event(lambda tt, y, PC=PC, dof=mode.dof: PC @ y[:dof], i, int(seg_dirs[i]), tol, PC[i])
                        for i in slipping if seg_dirs[i] != 0]
-        event_funcs += apply_events(tr, slipping, t_sig, t_stop)
+        event_funcs += applies
         for row, i in enumerate(mode.locked_order):  # one row per locked element or group in parallel
 
             def torque_event(tt, y, row=row, margin=margin):
                 return margin(tt, y, row)
+
+            if step_events is not None:
+                torque_event.batch = (step_events, row)
 
             torque_event.terminal = True
             torque_event.direction = -1
@@ -240,6 +248,16 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None, st
                             dict(forced), tuple(np.array(x, dtype=float) for x in comp_states), np.array(energy),
                             tuple(controller_state(c) for c in pt.controllers), commanded, SimState.shape_of(pt))
     return result
+
+
+def _from_batch(values, index: int, like):
+    """The event ``like`` (its attributes) as entry ``index`` of the vector ``values(t, y)``."""
+    def event(tt, y):
+        return values(tt, y)[index]
+
+    event.terminal, event.direction, event.info = like.terminal, like.direction, like.info
+    event.batch = (values, index)
+    return event
 
 
 def _add_slipping(u: np.ndarray, t: float, slips: list, active: tuple, dissipated: float = 0.0) -> float:

@@ -23,6 +23,7 @@ from transgen.sim.scenario import load_scenario
 from transgen.sim.signals import Constant, Periodic, Pulse, Ramp, Signal, Sine, Spliced, Step, Sum, Table
 from transgen.sim.simulate import simulate
 from transgen.sim.switching import _add_slipping
+from transgen.sim.transmission import APPLY_THRESHOLD
 
 pytestmark = pytest.mark.skipif(not jit_enabled(), reason="numba not installed or TRANSGEN_JIT=0")
 
@@ -64,7 +65,8 @@ def test_compiled_rhs_equals_the_python_one(name):
         for _ in range(6):
             directions = rng.choice([-1, 1], len(tr.elements))
             active = tr.slipping_set(mode.locked, directions)
-            seg = cp.segment(mode, layout, active)
+            watched = [i for i, e in enumerate(tr.elements) if e.kind != "oneway"]
+            seg = cp.segment(mode, layout, active, watched)
             t = float(rng.uniform(0.0, 20.0))
             q = rng.uniform(-1.0, 1.0, mode.dof) * 150.0
             states = [x * (1.0 + 0.05 * rng.uniform(-1, 1, len(x))) + (rng.uniform(-1, 1, len(x)) if len(x) and
@@ -73,7 +75,8 @@ def test_compiled_rhs_equals_the_python_one(name):
             dy, u, margins = _python(pt, mode, layout, active, t, y)
             _close(seg.rhs(t, y), dy, ("rhs", name, mode.name, t))
             _close(seg.inputs(t, y), u, ("inputs", name, mode.name, t))
-            _close(seg.margins(t, y), margins, ("margins", name, mode.name, t))
+            applies = [tr.elements[i].apply.value(t) - APPLY_THRESHOLD for i in watched]
+            _close(seg.events(t, y), np.concatenate([margins, applies]), ("events", name, mode.name, t))
             checked += 1
     assert checked >= 6
 
@@ -198,3 +201,12 @@ def test_a_subclass_that_changes_the_physics_runs_in_python():
     cp = K.CompiledPowertrain(pt2)
     assert [c for c, *_ in cp.python] == [stiff]
     assert Louder("T_in", 0).kernel_form()[0] == "link_load"  # a subclass that says it compiles does
+
+
+def test_reading_a_scenario_does_not_load_numba():
+    import subprocess
+    import sys
+
+    code = ("import sys; from transgen.sim.scenario import load_scenario; load_scenario('ht740_improved'); "
+            "assert 'numba' not in sys.modules, 'numba loaded'")
+    subprocess.run([sys.executable, "-c", code], check=True)
