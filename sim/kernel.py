@@ -228,10 +228,11 @@ def _evaluate(t, y, P, F, S, G, ext, u, out):
 
 
 @compilable
-def rhs_kernel(t, y, P, F, S, G, ext):
-    """The state derivative at ``(t, y)``: the mode's ``B u``, the components' derivatives, the
-    three energy rates (power in, dissipated, to the load)."""
-    out = np.zeros(len(y))
+def rhs_kernel(t, y, P, F, S, G, ext, out):
+    """The state derivative at ``(t, y)`` into ``out``: the mode's ``B u``, the components'
+    derivatives, the three energy rates (power in, dissipated, to the load). (Filling an array
+    the caller made, rather than returning a new one, saves numba the boxing of a result.)"""
+    out[:] = 0.0
     u = np.zeros(S[2])
     p_in, diss, p_load = _evaluate(t, y, P, F, S, G, ext, u, out)
     _matvec(G, S[9], S[0], S[2], u, out)
@@ -239,7 +240,6 @@ def rhs_kernel(t, y, P, F, S, G, ext):
     out[n - 3] = p_in
     out[n - 2] = diss
     out[n - 1] = p_load
-    return out
 
 
 @compilable
@@ -251,18 +251,17 @@ def inputs_kernel(t, y, P, F, S, G, ext):
 
 
 @compilable
-def events_kernel(t, y, P, F, S, G, ext):
-    """The values of the segment's torque and apply events: the holding margin of every locked
-    row of the mode (``Transmission.holding_margin`` of its torque ``D u``), then the apply
-    signal minus :data:`~.transmission.APPLY_THRESHOLD` of every watched element
+def events_kernel(t, y, P, F, S, G, ext, margins):
+    """The values of the segment's torque and apply events into ``margins``: the holding margin
+    of every locked row of the mode (``Transmission.holding_margin`` of its torque ``D u``), then
+    the apply signal minus :data:`~.transmission.APPLY_THRESHOLD` of every watched element
     (:func:`~.integration.apply_events`)."""
     n_rows, n_u = S[6], S[2]
-    margins = np.empty(n_rows + S[14])
     for k in range(S[14]):
         rec = P[3] + _RECORD * S[S[15] + k]
         margins[n_rows + k] = signal_value(t, P[rec + 2], P[rec + 3], P, F, ext) - APPLY_THRESHOLD
     if n_rows == 0:
-        return margins
+        return
     u = inputs_kernel(t, y, P, F, S, G, ext)
     torques = np.empty(n_rows)
     _matvec(G, S[11], n_rows, n_u, u, torques)
@@ -285,7 +284,6 @@ def events_kernel(t, y, P, F, S, G, ext):
                 friction += cap
             lo, hi = add_holding_range(lo, hi, P[rec], P[rec + 1], S[m + 2 + 2 * k], cap)
         margins[r] = group_margin(lo, hi, friction, torques[r])
-    return margins
 
 
 # --------------------------------------------------------------------------- the description
@@ -430,13 +428,36 @@ class CompiledSegment:
     parts filled into ``ext`` first."""
 
     def __init__(self, pt: CompiledPowertrain, S: np.ndarray, G: np.ndarray, mode, layout):
-        rhs, inputs, events = pt._kernels
+        rhs_into, inputs, events_into = pt._kernels
         P, F, ext = pt.P, pt.F, pt.ext
-        if not pt.external and not pt.python:
-            self.rhs = lambda t, y: rhs(t, y, P, F, S, G, ext)
-            self.inputs = lambda t, y: inputs(t, y, P, F, S, G, ext)
-            self.events = lambda t, y: events(t, y, P, F, S, G, ext)
-            return
+        n_y, n_events, empty = layout.size, int(S[6] + S[14]), np.empty
+        fill = self._filler(pt, mode, layout, ext) if pt.external or pt.python else None
+
+        def rhs(t, y):
+            if fill is not None:
+                fill(t, y, True)
+            out = empty(n_y)
+            rhs_into(t, y, P, F, S, G, ext, out)
+            return out
+
+        def events(t, y):
+            if fill is not None:
+                fill(t, y, False)
+            out = empty(n_events)
+            events_into(t, y, P, F, S, G, ext, out)
+            return out
+
+        def inputs_at(t, y):
+            if fill is not None:
+                fill(t, y, False)
+            return inputs(t, y, P, F, S, G, ext)
+
+        self.rhs, self.events, self.inputs = rhs, events, inputs_at
+
+    @staticmethod
+    def _filler(pt: CompiledPowertrain, mode, layout, ext):
+        """``fill(t, y, derivatives)``: the Python-evaluated signals and components into ``ext``
+        (with their derivatives and powers when ``derivatives``, their torques alone otherwise)."""
         C, dof, offset = mode.C, mode.dof, layout.offset
         index, n_u = pt.input_index, pt.n_u
         python = [(c, slice(offset + sl.start, offset + sl.stop), off, n) for c, sl, off, n in pt.python]
@@ -461,15 +482,7 @@ class CompiledSegment:
                 for name, value in torques.items():
                     block[index[name]] += value
 
-        def with_fill(kernel, derivatives):
-            def call(t, y):
-                fill(t, y, derivatives)
-                return kernel(t, y, P, F, S, G, ext)
-            return call
-
-        self.rhs = with_fill(rhs, True)
-        self.inputs = with_fill(inputs, False)
-        self.events = with_fill(events, False)
+        return fill
 
 
 def compiled_powertrain(pt) -> CompiledPowertrain | None:
