@@ -252,14 +252,22 @@ def inputs_kernel(t, y, P, F, S, G, ext):
 
 @compilable
 def events_kernel(t, y, P, F, S, G, ext, margins):
-    """The values of the segment's torque and apply events into ``margins``: the holding margin
-    of every locked row of the mode (``Transmission.holding_margin`` of its torque ``D u``), then
-    the apply signal minus :data:`~.transmission.APPLY_THRESHOLD` of every watched element
-    (:func:`~.integration.apply_events`)."""
-    n_rows, n_u = S[6], S[2]
+    """The values of the segment's events into ``margins``: the holding margin of every locked
+    row of the mode (``Transmission.holding_margin`` of its torque ``D u``), then the apply signal
+    minus :data:`~.transmission.APPLY_THRESHOLD` of every watched element
+    (:func:`~.integration.apply_events`), then the slip events' linear functions ``row @ y + offset``
+    (:func:`~.integration.slip_event`)."""
+    n_rows, n_u, dof = S[6], S[2], S[0]
     for k in range(S[14]):
         rec = P[3] + _RECORD * S[S[15] + k]
         margins[n_rows + k] = signal_value(t, P[rec + 2], P[rec + 3], P, F, ext) - APPLY_THRESHOLD
+    first = n_rows + S[14]
+    for k in range(S[16]):
+        off = S[17] + k * (dof + 1)
+        acc = 0.0
+        for j in range(dof):
+            acc += G[off + j] * y[j]
+        margins[first + k] = acc + G[off + dof]
     if n_rows == 0:
         return
     u = inputs_kernel(t, y, P, F, S, G, ext)
@@ -391,10 +399,11 @@ class CompiledPowertrain:
             return self
         return CompiledPowertrain(self.pt, self.jit)
 
-    def segment(self, mode, layout, active, watched=()) -> "CompiledSegment":
+    def segment(self, mode, layout, active, watched=(), slips=()) -> "CompiledSegment":
         """The kernels of one segment in ``mode`` (:class:`~.transmission.ModeData`) with the state
-        layout ``layout``, the slipping elements ``active`` (:meth:`Transmission.slipping_set`) and
-        the elements ``watched`` by apply events (indices)."""
+        layout ``layout``, the slipping elements ``active`` (:meth:`Transmission.slipping_set`),
+        the elements ``watched`` by apply events (indices) and the slip events' linear functions
+        ``slips`` (``(row, offset)`` pairs: :func:`~.integration.slip_event`'s ``linear``)."""
         tr = self.pt.transmission
         dof, n_links, n_el = mode.dof, len(tr.links), len(tr.elements)
         G: list[float] = []
@@ -407,8 +416,9 @@ class CompiledPowertrain:
         c_off, b_off = block(mode.C), block(mode.B)
         pc_off, d_off = block(tr.P @ mode.C), block(mode.D)
         scale_off = block([scale for _, _, _, scale in active])
+        slip_off = block([x for row, offset in slips for x in (*np.asarray(row, dtype=float)[:dof], offset)])
         S = [dof, n_links, self.n_u, n_el, len(active), 0, len(mode.locked_order), 0, c_off, b_off, pc_off, d_off,
-             layout.size, scale_off, len(watched), 0]
+             layout.size, scale_off, len(watched), 0, len(slips), slip_off]
         S[15] = len(S)
         S.extend(int(i) for i in watched)
         S[5] = len(S)
@@ -430,7 +440,7 @@ class CompiledSegment:
     def __init__(self, pt: CompiledPowertrain, S: np.ndarray, G: np.ndarray, mode, layout):
         rhs_into, inputs, events_into = pt._kernels
         P, F, ext = pt.P, pt.F, pt.ext
-        n_y, n_events, empty = layout.size, int(S[6] + S[14]), np.empty
+        n_y, n_events, empty = layout.size, int(S[6] + S[14] + S[16]), np.empty
         fill = self._filler(pt, mode, layout, ext) if pt.external or pt.python else None
 
         def rhs(t, y):

@@ -167,22 +167,25 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None, st
         inputs = lambda tt, y: evaluate(tt, y)[1]  # noqa: E731
         PC = tr.P @ mode.C
         applies = apply_events(tr, slipping, t_sig, t_stop)
+        slip_events = [slip_event(lambda tt, y, PC=PC, dof=mode.dof: PC @ y[:dof], i, int(seg_dirs[i]), tol, PC[i])
+                       for i in slipping if seg_dirs[i] != 0]
         step_events = None
         if compiled is not None:  # the same functions, compiled (see the module docstring)
             compiled = compiled.current()
             kernel = compiled.segment(mode, layout, tr.slipping_set(locked, seg_dirs, t, t_stop),
-                                      [f.info[1] for f in applies])
+                                      [f.info[1] for f in applies], [f.linear for f in slip_events])
             rhs = memo_last(model, kernel.rhs, t_stop, t_sig)
             inputs = memo_last(model, kernel.inputs, t_stop, t_sig)
-            # every torque and apply event's value from one evaluation (ode_solvers: ``batch``)
+            # every event's value at a step end from one evaluation (ode_solvers: ``batch``)
             step_events = memo_last(model, kernel.events, t_stop, t_sig, "input_calls")
-            applies = [_from_batch(step_events, len(mode.locked_order) + k, f) for k, f in enumerate(applies)]
+            n_rows = len(mode.locked_order)
+            applies = [_from_batch(step_events, n_rows + k, f) for k, f in enumerate(applies)]
+            for k, f in enumerate(slip_events):  # the event itself stays linear (for the root and the scan)
+                f.batch = (step_events, n_rows + len(applies) + k)
 
             def margin(tt, y, row, step_events=step_events):
                 return step_events(tt, y)[row]
-        event_funcs = [slip_event(lambda tt, y, PC=PC, dof=mode.dof: PC @ y[:dof], i, int(seg_dirs[i]), tol, PC[i])
-                       for i in slipping if seg_dirs[i] != 0]
-        event_funcs += applies
+        event_funcs = slip_events + applies
         for row, i in enumerate(mode.locked_order):  # one row per locked element or group in parallel
 
             def torque_event(tt, y, row=row, margin=margin):
