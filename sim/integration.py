@@ -507,7 +507,9 @@ def integrate(rhs, t0: float, t1: float, y0: np.ndarray, options: SolverOptions,
 
     ``n_dynamic``: the right-hand side depends on the first ``n_dynamic`` states only (the rest
     are quadratures, the energy integrals); the implicit methods then get a finite-difference
-    Jacobian over those columns, the others being zero, instead of differencing every state.
+    Jacobian over those columns, the others being zero, instead of differencing every state
+    (``rhs.partial_jacobian(n_dynamic)`` when ``rhs`` has one: the same differences, computed by
+    the compiled right-hand side in one call).
     """
     from .ode_solvers import SOLVERS, solve_segment  # here, not at import: reading a scenario needs no scipy
 
@@ -529,7 +531,8 @@ def integrate(rhs, t0: float, t1: float, y0: np.ndarray, options: SolverOptions,
     max_step = min(options.max_step, (t1 - t0) / 8.0) if t1 > t0 else options.max_step
     if n_dynamic is not None and options.method in ("LSODA", "BDF", "Radau"):
         # the Jacobian is taken at accepted states: a state outside the domain there stops the run
-        extra["jac"] = _partial_jacobian(rhs, len(y0), n_dynamic)
+        jacobian = getattr(rhs, "partial_jacobian", None)  # a compiled right-hand side's own, one call
+        extra["jac"] = jacobian(n_dynamic) if jacobian is not None else _partial_jacobian(rhs, len(y0), n_dynamic)
     try:
         sol = solve_segment(guarded, t0, t1, y0, SOLVERS.get(options.method, options.method), events,
                             rtol=options.rtol, atol=options.atol, max_step=max_step, **extra)

@@ -46,6 +46,8 @@ The integers and numbers of each component kind, as its ``kernel_form()`` gives 
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .components import (driveline_rates, engine_converter_rates, governed_throttle, link_load_torque,
@@ -57,7 +59,7 @@ from .signals import periodic_value, pulse_value, ramp_value, sine_value, step_v
 from .transmission import APPLY_THRESHOLD, ONEWAY, add_holding_range, element_margin, group_margin, slipping_torque, static_capacity
 
 __all__ = ["CompiledPowertrain", "CompiledSegment", "compiled_powertrain", "rhs_kernel", "inputs_kernel",
-           "events_kernel", "SIGNAL_KINDS", "COMPONENT_KINDS"]
+           "events_kernel", "jacobian_kernel", "SIGNAL_KINDS", "COMPONENT_KINDS"]
 
 SIGNAL_KINDS = {"constant": 1, "step": 2, "ramp": 3, "table": 4, "sine": 5, "pulse": 6, "periodic": 7, "sum": 8,
                 "spliced": 9}
@@ -65,6 +67,7 @@ _SUM, _SPLICED, _EXTERNAL = 8, 9, 10
 COMPONENT_KINDS = {"input_torque": 1, "engine_on_link": 2, "engine_converter": 3, "link_load": 4, "driveline": 5,
                    "converter": 6}
 _RECORD = 8
+_SQRT_EPS = math.sqrt(np.finfo(float).eps)
 
 
 # --------------------------------------------------------------------------- the kernel
@@ -243,6 +246,26 @@ def rhs_kernel(t, y, P, F, S, G, ext, out):
 
 
 @compilable
+def jacobian_kernel(t, y, P, F, S, G, ext, n_dynamic, sqrt_eps, out):
+    """The forward-difference Jacobian of :func:`rhs_kernel` into ``out`` (zeros past the first
+    ``n_dynamic`` columns): the arithmetic of ``integration._partial_jacobian``, one call."""
+    n = len(y)
+    f0 = np.empty(n)
+    fj = np.empty(n)
+    rhs_kernel(t, y, P, F, S, G, ext, f0)
+    yj = y.copy()
+    out[:, :] = 0.0
+    for j in range(n_dynamic):
+        h = sqrt_eps * max(abs(y[j]), 1e-3)
+        yj[:] = y
+        yj[j] += h
+        rhs_kernel(t, yj, P, F, S, G, ext, fj)
+        step = yj[j] - y[j]
+        for i in range(n):
+            out[i, j] = (fj[i] - f0[i]) / step
+
+
+@compilable
 def inputs_kernel(t, y, P, F, S, G, ext):
     """The input vector ``u`` at ``(t, y)`` (component and slipping element torques)."""
     u = np.zeros(S[2])
@@ -388,8 +411,8 @@ class CompiledPowertrain:
         self.ext = np.zeros(n_sig + n_ext)
         self.input_index = tr.input_index
         self.n_u = n_u
-        self._kernels = ((compiled(rhs_kernel), compiled(inputs_kernel), compiled(events_kernel)) if jit
-                         else (rhs_kernel, inputs_kernel, events_kernel))
+        self._kernels = tuple(compiled(f) if jit else f for f in (rhs_kernel, inputs_kernel, events_kernel,
+                                                                      jacobian_kernel))
 
     def current(self) -> "CompiledPowertrain":
         """This description, or a new one when an apply signal was replaced since (a controller's
@@ -438,7 +461,7 @@ class CompiledSegment:
     parts filled into ``ext`` first."""
 
     def __init__(self, pt: CompiledPowertrain, S: np.ndarray, G: np.ndarray, mode, layout):
-        rhs_into, inputs, events_into = pt._kernels
+        rhs_into, inputs, events_into, jacobian_into = pt._kernels
         P, F, ext = pt.P, pt.F, pt.ext
         n_y, n_events, empty = layout.size, int(S[6] + S[14] + S[16]), np.empty
         fill = self._filler(pt, mode, layout, ext) if pt.external or pt.python else None
@@ -462,7 +485,15 @@ class CompiledSegment:
                 fill(t, y, False)
             return inputs(t, y, P, F, S, G, ext)
 
+        def jacobian(t, y, n_dynamic):
+            out = empty((n_y, n_y))
+            jacobian_into(t, y, P, F, S, G, ext, n_dynamic, _SQRT_EPS, out)
+            return out
+
         self.rhs, self.events, self.inputs = rhs, events, inputs_at
+        #: ``jacobian(t, y, n_dynamic)``: :func:`jacobian_kernel` (None with Python-evaluated parts,
+        #: which would have to be evaluated at every column's state)
+        self.jacobian = jacobian if fill is None else None
 
     @staticmethod
     def _filler(pt: CompiledPowertrain, mode, layout, ext):

@@ -39,7 +39,7 @@ import numpy as np
 from transgen.errors import ModeError, SimulationError
 
 from .integration import (ComponentEvaluator, Powertrain, Recorder, Segment, SolverOptions, StateLayout, apply_events,
-                          collect, memo_last, next_stop, sample_block, signal_time,
+                          collect, left_of, memo_last, next_stop, sample_block, signal_time,
                           slip_event)
 from .kernel import compiled_powertrain
 from .restart import SimState, check_compatible, controller_state, restore_controllers
@@ -176,6 +176,8 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None, st
                                       [f.info[1] for f in applies], [f.linear for f in slip_events])
             rhs = memo_last(model, kernel.rhs, t_stop, t_sig)
             inputs = memo_last(model, kernel.inputs, t_stop, t_sig)
+            if kernel.jacobian is not None:
+                rhs.partial_jacobian = _jacobian(model, kernel.jacobian, t_stop, t_sig)
             # every event's value at a step end from one evaluation (ode_solvers: ``batch``)
             step_events = memo_last(model, kernel.events, t_stop, t_sig, "input_calls")
             n_rows = len(mode.locked_order)
@@ -251,6 +253,21 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None, st
                             dict(forced), tuple(np.array(x, dtype=float) for x in comp_states), np.array(energy),
                             tuple(controller_state(c) for c in pt.controllers), commanded, SimState.shape_of(pt))
     return result
+
+
+def _jacobian(model, jacobian, t_stop: float, t_from: float):
+    """``partial_jacobian(n_dynamic)`` for :func:`.integration.integrate`: the compiled
+    forward-difference Jacobian, with the signals' times as :func:`.integration.memo_last` takes
+    them, its right-hand-side evaluations counted."""
+    t_left = left_of(t_stop)
+
+    def partial_jacobian(n_dynamic):
+        def jac(t, y):
+            model.calls += n_dynamic + 1
+            return jacobian(min(max(t, t_from), t_left), y, n_dynamic)
+        return jac
+
+    return partial_jacobian
 
 
 def _from_batch(values, index: int, like):

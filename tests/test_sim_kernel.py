@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 
 from transgen.sim import kernel as K
 from transgen.sim.components import Component, Driveline, EngineMap, InputTorque, LinkLoad
-from transgen.sim.integration import ComponentEvaluator, StateLayout
+from transgen.sim.integration import ComponentEvaluator, StateLayout, _partial_jacobian
 from transgen.sim.interp import interp2
 from transgen.sim.jit import compiled, jit_enabled
 from transgen.sim.library import bundled_scenarios
@@ -77,6 +77,9 @@ def test_compiled_rhs_equals_the_python_one(name):
             _close(seg.inputs(t, y), u, ("inputs", name, mode.name, t))
             applies = [tr.elements[i].apply.value(t) - APPLY_THRESHOLD for i in watched]
             _close(seg.events(t, y), np.concatenate([margins, applies]), ("events", name, mode.name, t))
+            if seg.jacobian is not None:  # the compiled Jacobian: integrate's differences of the compiled rhs
+                n_dynamic = layout.energy.start
+                assert np.array_equal(seg.jacobian(t, y, n_dynamic), _partial_jacobian(seg.rhs, len(y), n_dynamic)(t, y))
             checked += 1
     assert checked >= 6
 
