@@ -54,7 +54,7 @@ from .components import (driveline_rates, engine_converter_rates, governed_throt
                          converter_loss)
 from .engine.torque_converter import converter_torques
 from .interp import interp2
-from .jit import compilable, compiled, jit_enabled
+from .jit import compilable, compiled, jit_enabled, settle_after_loading
 from .signals import periodic_value, pulse_value, ramp_value, sine_value, step_value, table_value
 from .transmission import APPLY_THRESHOLD, ONEWAY, add_holding_range, element_margin, group_margin, slipping_torque, static_capacity
 
@@ -413,6 +413,8 @@ class CompiledPowertrain:
         self.n_u = n_u
         self._kernels = tuple(compiled(f) if jit else f for f in (rhs_kernel, inputs_kernel, events_kernel,
                                                                       jacobian_kernel))
+        if jit:
+            settle_after_loading()
 
     def current(self) -> "CompiledPowertrain":
         """This description, or a new one when an apply signal was replaced since (a controller's
