@@ -20,6 +20,7 @@ import numpy as np
 from transgen.errors import SimulationError, StateOutOfDomain
 
 from .components import Component
+from .dense import dense_values
 from .monitor import InvariantMonitor
 from .result import Event, ModeSpan, Result
 from .signals import Constant
@@ -273,7 +274,7 @@ def missed_crossing(sol, events: list):
         return None
     frac = np.arange(1, CROSSING_SCAN + 1) / (CROSSING_SCAN + 1)
     ts = (steps[steps_in, None] + (steps[steps_in + 1] - steps[steps_in])[:, None] * frac[None, :]).ravel()
-    ys = sol.sol(ts)
+    ys = dense_values(sol.sol, ts)
     values = rows @ ys[: rows.shape[1]] + halves
     below = values < 0.0
     if not below.any():
@@ -385,7 +386,7 @@ class Recorder:
         # before any jump there (:func:`left_of`), the next segment's start gives those after it; the
         # start with the values the segment was decided and integrated with (:func:`signal_time`)
         at = np.maximum(np.minimum(ts, left_of(seg.t1)), signal_time(self.pt, seg.t0))
-        block = self.sampler(self.pt, seg, at, seg.sol(ts))
+        block = self.sampler(self.pt, seg, at, dense_values(seg.sol, ts))
         self.segments.append(seg)
         self.blocks.append(block)
         self.times.append(ts)

@@ -213,3 +213,22 @@ def test_reading_a_scenario_does_not_load_numba():
     code = ("import sys; from transgen.sim.scenario import load_scenario; load_scenario('ht740_improved'); "
             "assert 'numba' not in sys.modules, 'numba loaded'")
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+@pytest.mark.parametrize("method", ["LSODA", "BDF"])
+def test_dense_output_in_one_call_equals_scipys(method):
+    import numba  # noqa: F401  (the compiled loop runs once numba is loaded, as in a simulation)
+
+    from transgen.sim.dense import dense_values
+    from transgen.sim.ode_solvers import SOLVERS, solve_segment
+
+    def rhs(t, y):
+        return np.array([y[1], -4.0 * y[0] - 0.3 * y[1] + np.sin(3.0 * t), y[1] * y[1]])
+
+    sol = solve_segment(rhs, 0.0, 12.0, np.array([1.0, 0.5, 0.0]), SOLVERS.get(method, method), [],
+                        rtol=1e-7, atol=1e-9)
+    ts = np.concatenate([np.linspace(0.0, 12.0, 997), sol.t, [6.0, 0.0, 12.0]])  # step ends too, unsorted
+    expected = sol.sol(ts)
+    got = dense_values(sol.sol, ts)
+    assert got.shape == expected.shape
+    assert np.allclose(got, expected, rtol=1e-14, atol=1e-14)
