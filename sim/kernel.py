@@ -275,22 +275,22 @@ def inputs_kernel(t, y, P, F, S, G, ext):
 
 @compilable
 def events_kernel(t, y, P, F, S, G, ext, margins):
-    """The values of the segment's events into ``margins``: the holding margin of every locked
-    row of the mode (``Transmission.holding_margin`` of its torque ``D u``), then the apply signal
-    minus :data:`~.transmission.APPLY_THRESHOLD` of every watched element
-    (:func:`~.integration.apply_events`), then the slip events' linear functions ``row @ y + offset``
-    (:func:`~.integration.slip_event`)."""
+    """The values of the segment's events into ``margins``, in the order the simulator lists the
+    events: the slip events' linear functions ``row @ y + offset`` (:func:`~.integration.slip_event`),
+    the apply signal minus :data:`~.transmission.APPLY_THRESHOLD` of every watched element
+    (:func:`~.integration.apply_events`), the holding margin of every locked row of the mode
+    (``Transmission.holding_margin`` of its torque ``D u``)."""
     n_rows, n_u, dof = S[6], S[2], S[0]
-    for k in range(S[14]):
-        rec = P[3] + _RECORD * S[S[15] + k]
-        margins[n_rows + k] = signal_value(t, P[rec + 2], P[rec + 3], P, F, ext) - APPLY_THRESHOLD
-    first = n_rows + S[14]
     for k in range(S[16]):
         off = S[17] + k * (dof + 1)
         acc = 0.0
         for j in range(dof):
             acc += G[off + j] * y[j]
-        margins[first + k] = acc + G[off + dof]
+        margins[k] = acc + G[off + dof]
+    for k in range(S[14]):
+        rec = P[3] + _RECORD * S[S[15] + k]
+        margins[S[16] + k] = signal_value(t, P[rec + 2], P[rec + 3], P, F, ext) - APPLY_THRESHOLD
+    first = S[16] + S[14]
     if n_rows == 0:
         return
     u = inputs_kernel(t, y, P, F, S, G, ext)
@@ -302,7 +302,7 @@ def events_kernel(t, y, P, F, S, G, ext, margins):
         if n == 1:
             rec = P[3] + _RECORD * S[m + 1]
             cap = static_capacity(P[rec], F[P[rec + 6]], _apply(t, rec, P, F, ext))
-            margins[r] = element_margin(P[rec], cap, P[rec + 1], torques[r])
+            margins[first + r] = element_margin(P[rec], cap, P[rec + 1], torques[r])
             continue
         lo = 0.0
         hi = 0.0
@@ -314,7 +314,7 @@ def events_kernel(t, y, P, F, S, G, ext, margins):
                 cap = static_capacity(P[rec], F[P[rec + 6]], _apply(t, rec, P, F, ext))
                 friction += cap
             lo, hi = add_holding_range(lo, hi, P[rec], P[rec + 1], S[m + 2 + 2 * k], cap)
-        margins[r] = group_margin(lo, hi, friction, torques[r])
+        margins[first + r] = group_margin(lo, hi, friction, torques[r])
 
 
 # --------------------------------------------------------------------------- the description

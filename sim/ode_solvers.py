@@ -307,6 +307,9 @@ def _event_values(events: list):
             batches.setdefault(id(e.batch[0]), (e.batch[0], []))[1].append((k, e.batch[1]))
     batched = {k for _, members in batches.values() for k, _ in members}
     batches = list(batches.values())
+    if len(batches) == 1 and batches[0][1] == [(k, k) for k in range(len(events))]:
+        func = batches[0][0]  # one vector of all the values, in order
+        return lambda t, y: func(t, y).tolist()
     linear = [k for k, e in enumerate(events) if getattr(e, "linear", None) is not None and k not in batched]
     if len({len(events[k].linear[0]) for k in linear}) > 1:
         return lambda t, y: [e(t, y) for e in events]

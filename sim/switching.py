@@ -180,13 +180,14 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None, st
                 rhs.partial_jacobian = _jacobian(model, kernel.jacobian, t_stop, t_sig)
             # every event's value at a step end from one evaluation (ode_solvers: ``batch``)
             step_events = memo_last(model, kernel.events, t_stop, t_sig, "input_calls")
-            n_rows = len(mode.locked_order)
-            applies = [_from_batch(step_events, n_rows + k, f) for k, f in enumerate(applies)]
+            # in the order of event_funcs: the slips, the applies, the locked rows
             for k, f in enumerate(slip_events):  # the event itself stays linear (for the root and the scan)
-                f.batch = (step_events, n_rows + len(applies) + k)
+                f.batch = (step_events, k)
+            applies = [_from_batch(step_events, len(slip_events) + k, f) for k, f in enumerate(applies)]
+            first_row = len(slip_events) + len(applies)
 
-            def margin(tt, y, row, step_events=step_events):
-                return step_events(tt, y)[row]
+            def margin(tt, y, row, step_events=step_events, first_row=first_row):
+                return step_events(tt, y)[first_row + row]
         event_funcs = slip_events + applies
         for row, i in enumerate(mode.locked_order):  # one row per locked element or group in parallel
 
@@ -194,7 +195,7 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None, st
                 return margin(tt, y, row)
 
             if step_events is not None:
-                torque_event.batch = (step_events, row)
+                torque_event.batch = (step_events, first_row + row)
 
             torque_event.terminal = True
             torque_event.direction = -1

@@ -66,7 +66,8 @@ def test_compiled_rhs_equals_the_python_one(name):
             directions = rng.choice([-1, 1], len(tr.elements))
             active = tr.slipping_set(mode.locked, directions)
             watched = [i for i, e in enumerate(tr.elements) if e.kind != "oneway"]
-            seg = cp.segment(mode, layout, active, watched)
+            slips = [(d * (tr.P[i] @ mode.C), 1e-6 * i) for i, d in enumerate(directions)]
+            seg = cp.segment(mode, layout, active, watched, slips)
             t = float(rng.uniform(0.0, 20.0))
             q = rng.uniform(-1.0, 1.0, mode.dof) * 150.0
             states = [x * (1.0 + 0.05 * rng.uniform(-1, 1, len(x))) + (rng.uniform(-1, 1, len(x)) if len(x) and
@@ -76,7 +77,8 @@ def test_compiled_rhs_equals_the_python_one(name):
             _close(seg.rhs(t, y), dy, ("rhs", name, mode.name, t))
             _close(seg.inputs(t, y), u, ("inputs", name, mode.name, t))
             applies = [tr.elements[i].apply.value(t) - APPLY_THRESHOLD for i in watched]
-            _close(seg.events(t, y), np.concatenate([margins, applies]), ("events", name, mode.name, t))
+            slip_values = [float(row @ y[:mode.dof]) + offset for row, offset in slips]
+            _close(seg.events(t, y), np.concatenate([slip_values, applies, margins]), ("events", name, mode.name, t))
             if seg.jacobian is not None:  # the compiled Jacobian: integrate's differences of the compiled rhs
                 n_dynamic = layout.energy.start
                 assert np.array_equal(seg.jacobian(t, y, n_dynamic), _partial_jacobian(seg.rhs, len(y), n_dynamic)(t, y))
