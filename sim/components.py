@@ -55,9 +55,16 @@ __all__ = [
     "LinkLoad",
     "Driveline",
     "GRAVITY",
+    "own_kernel_form",
 ]
 
 GRAVITY = 9.81
+
+
+def own_kernel_form(obj, name: str = "kernel_form") -> bool:
+    """Whether ``obj``'s class defines its compiled description ``name`` itself: a subclass that
+    inherits it may have changed the physics it describes, and runs in Python."""
+    return name in type(obj).__dict__
 
 
 def elementwise(func, n_out: int = 1):
@@ -273,7 +280,7 @@ class EngineWithConverter(Component):
 
     def sample(self, ts, X, W):
         omega_e, omega_t = X[0], W[self.link]
-        if self.kernel_form() is not None:  # loops over the output times, compiled when the simulator is
+        if own_kernel_form(self) and self.kernel_form() is not None:  # loops over the output times, compiled when the simulator is
             pump, turbine = self.converter.torques_over(omega_e, omega_t)
             demand = np.array([self.throttle.value(t) for t in ts], dtype=float)
             throttle, t_engine = np.empty(len(ts)), np.empty(len(ts))
@@ -303,7 +310,7 @@ class EngineWithConverter(Component):
         return self.throttle.breakpoints(t0, t1)
 
     def kernel_form(self):
-        if type(self.engine) is not EngineMap or not hasattr(self.converter, "kernel_numbers"):
+        if type(self.engine) is not EngineMap or not own_kernel_form(self.converter, "kernel_numbers"):
             return None
         map_sizes, map_numbers = self.engine.kernel_numbers()
         tc_sizes, tc_numbers = self.converter.kernel_numbers()

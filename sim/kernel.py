@@ -51,7 +51,7 @@ import math
 import numpy as np
 
 from .components import (driveline_rates, engine_converter_rates, governed_throttle, link_load_torque,
-                         converter_loss)
+                         converter_loss, own_kernel_form)
 from .engine.torque_converter import converter_torques
 from .interp import interp2
 from .jit import compilable, compiled, jit_enabled, settle_after_loading
@@ -344,7 +344,7 @@ class _Encoder:
         return self._signals[key]
 
     def _nodes(self, sig) -> None:
-        form = sig.kernel_form() if "kernel_form" in type(sig).__dict__ else None
+        form = sig.kernel_form() if own_kernel_form(sig) else None
         if form is None:
             self.external.append(sig)
             self.P.extend((_EXTERNAL, 0, 0, len(self.external) - 1))
@@ -373,7 +373,7 @@ class CompiledPowertrain:
         n_u = len(tr.inputs)
         for c in pt.components:
             n_states = len(c.state_names)
-            form = c.kernel_form() if "kernel_form" in type(c).__dict__ else None
+            form = c.kernel_form() if own_kernel_form(c) else None
             if form is None:
                 python.append((c, slice(pos, pos + n_states), n_ext, n_states))
                 records.append((0, pos, n_states, 0, 0, 0, 0, n_ext))

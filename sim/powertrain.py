@@ -32,7 +32,7 @@ import numpy as np
 from transgen.errors import SimulationError
 
 from .causality import Block, Causality
-from .components import Component, converter_loss, elementwise
+from .components import Component, converter_loss, elementwise, own_kernel_form
 from .engine.diesel import EngineParams, SpeedGovernor, TurbochargedDiesel
 from .engine.gas import RPM, Gas
 from .engine.map_file import DATA_DIR, CompressorMap, MapError, TurbineMap, parse_map
@@ -241,7 +241,7 @@ class ConverterComponent(Component):
         return {self.pump_torque: -tp, self.turbine_torque: tt}, [], 0.0, converter_loss(tp, tt, wp, wt), 0.0
 
     def kernel_form(self):
-        if not hasattr(self.converter, "kernel_numbers"):
+        if not own_kernel_form(self.converter, "kernel_numbers"):
             return None
         sizes, numbers = self.converter.kernel_numbers()
         return "converter", (self.pump, self.turbine, *sizes), numbers, (), (self.pump_torque, self.turbine_torque)
@@ -249,7 +249,7 @@ class ConverterComponent(Component):
     def sample(self, ts, X, W):
         """The signals at the output times: the converter's torques once per time."""
         wp, wt = W[self.pump], W[self.turbine]
-        if hasattr(self.converter, "torques_over"):
+        if own_kernel_form(self.converter, "kernel_numbers"):  # its own tables: the loop of its formula
             tp, tt = self.converter.torques_over(wp, wt)
         else:
             tp, tt = (a.astype(float) for a in elementwise(self.converter.torques, 2)(wp, wt))
