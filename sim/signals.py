@@ -38,7 +38,7 @@ from math import ulp
 
 import numpy as np
 
-from .jit import compilable
+from .jit import compilable, compiled_loop
 
 __all__ = ["Signal", "Constant", "Step", "Ramp", "Table", "Sine", "Pulse", "Periodic", "Sum", "Spliced"]
 
@@ -225,6 +225,11 @@ class Table(Signal):
     def sample(self, ts: np.ndarray) -> np.ndarray:
         xs, ys = np.asarray(self.times), np.asarray(self.values)
         ts = np.asarray(ts, dtype=float)
+        loop = compiled_loop(table_values, len(ts)) if ts.ndim == 1 else None
+        if loop is not None:  # the values of :meth:`value`, in one compiled loop
+            out = np.empty(len(ts))
+            loop(np.ascontiguousarray(ts), xs, ys, out)
+            return out
         if len(xs) == 1:
             return np.full(len(ts), ys[0])
         i = np.clip(np.searchsorted(xs, ts, side="right") - 1, 0, len(xs) - 2)
@@ -505,6 +510,13 @@ def table_value(t: float, ts, vs) -> float:
         return vs[-1]
     i = bisect_right(ts, t) - 1  # ts[i] <= t < ts[i + 1], so ts[i + 1] > ts[i]
     return vs[i] + (vs[i + 1] - vs[i]) * (t - ts[i]) / (ts[i + 1] - ts[i])
+
+
+@compilable
+def table_values(ts, times, values, out) -> None:
+    """:func:`table_value` at every time of ``ts``, into ``out``."""
+    for k in range(len(ts)):
+        out[k] = table_value(ts[k], times, values)
 
 
 @compilable

@@ -234,3 +234,14 @@ def test_dense_output_in_one_call_equals_scipys(method):
     got = dense_values(sol.sol, ts)
     assert got.shape == expected.shape
     assert np.allclose(got, expected, rtol=1e-14, atol=1e-14)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.lists(st.sampled_from([0.0, 0.25, 1.0]), min_size=1, max_size=7), st.data())
+def test_a_tables_samples_are_its_values(steps, data):
+    import numba  # noqa: F401  (the compiled loop runs once numba is loaded, as in a simulation)
+
+    times = tuple(np.cumsum(steps))
+    table = Table(times, tuple(data.draw(st.lists(st.floats(-9.0, 9.0), min_size=len(times), max_size=len(times)))))
+    ts = np.concatenate([np.linspace(times[0] - 1.0, times[-1] + 1.0, 40), times])
+    assert np.allclose(table.sample(ts), [table.value(t) for t in ts], rtol=1e-14, atol=1e-14)
