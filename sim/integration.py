@@ -200,16 +200,17 @@ def memo_last(model: "ComponentEvaluator", func, t_stop: float = math.inf, t_fro
     signals are evaluated at :func:`left_of` it, so that its last step and its events see the value
     the segment integrated, not the one after the jump; before ``t_from`` (:func:`signal_time`)
     they are evaluated at it."""
-    last = [None, None]  # key, value
+    last_t = last_y = last_value = None
     t_left = left_of(t_stop)
 
     def wrapper(t, y):
-        key = (t, y.tobytes())
-        if key != last[0]:
+        nonlocal last_t, last_y, last_value
+        key = y.tobytes()
+        if t != last_t or key != last_y:
             setattr(model, counter, getattr(model, counter) + 1)
-            last[1] = func(min(max(t, t_from), t_left), y)
-            last[0] = key
-        return last[1]
+            last_value = func(min(max(t, t_from), t_left), y)
+            last_t, last_y = t, key
+        return last_value
 
     return wrapper
 
