@@ -15,6 +15,7 @@ search for ``bisect``, ``numpy.spacing`` for ``math.ulp``), which give the same 
 from __future__ import annotations
 
 import gc
+import hashlib
 import math
 import os
 import sys
@@ -81,6 +82,18 @@ def settle_after_loading() -> None:
         gc.freeze()
 
 
+def _sources_digest() -> str:
+    """A digest of the source files of the compilable functions and of this module."""
+    if "digest" not in _COMPILED:
+        files = sorted({f.__code__.co_filename for f in _COMPILABLE if hasattr(f, "__code__")} | {__file__})
+        h = hashlib.sha1()
+        for name in files:
+            with open(name, "rb") as fh:
+                h.update(fh.read())
+        _COMPILED["digest"] = h.hexdigest()[:12]
+    return _COMPILED["digest"]
+
+
 def _stand_ins() -> dict:
     """Compiled stand-ins for the library functions compilable code calls (same results)."""
     import numba
@@ -128,6 +141,9 @@ def compiled(func):
         except TypeError:  # unhashable globals are no functions
             pass
     clone = types.FunctionType(func.__code__, namespace, func.__name__, func.__defaults__, func.__closure__)
-    clone.__qualname__, clone.__module__, clone.__doc__ = func.__qualname__, func.__module__, func.__doc__
+    # numba keys its disk cache by the function's own file; the digest of every file of compilable
+    # code in the name makes an edit of a function it calls (in another file) compile afresh
+    clone.__qualname__ = f"{func.__qualname__}_{_sources_digest()}"
+    clone.__module__, clone.__doc__ = func.__module__, func.__doc__
     done = _COMPILED[func] = numba.njit(cache=True)(clone)
     return done
