@@ -117,14 +117,17 @@ def realtime(repeats: int = 5) -> None:
     machine shared with other work the wall time varies with the load; the process's CPU time
     (``time.process_time``, one thread: the BLAS is limited to one) varies much less. ``RHS``: full
     right-hand-side evaluations; ``inputs``: evaluations of the input vector alone (the torque
-    events at the step ends); ``met``: the wall-time factor against the goal."""
+    events at the step ends; with the compiled right-hand side, one evaluation gives every event's
+    value there); ``met``: the wall-time factor against the goal. The warm-up run also loads the
+    compiled right-hand side (``transgen.sim.kernel``) from numba's disk cache, or compiles it
+    once after an install (about 8 s of CPU time)."""
     print(f"real-time factor = simulated time / time of the run, in-process, median of {repeats} "
           f"(wall and CPU time)")
     print(f"  {'scenario':<24} {'t_sim [s]':>9} {'wall [s]':>9} {'x real':>7} {'CPU [s]':>8} {'x CPU':>7} "
           f"{'RHS':>7} {'inputs':>7} {'goal':>6}  met")
     for name, goal in REALTIME_GOALS.items():
         s = load_scenario(name)
-        s.run()  # warm-up: map tables, lazily built caches, imports
+        s.run()  # warm-up: map tables, lazily built caches, imports, the compiled right-hand side
         t_sim = s.options.t_end - s.options.t_start
         walls, cpus = [], []
         for _ in range(repeats):

@@ -28,6 +28,12 @@ to positions):
 ``sample_rates(ts, X, W, A)``      signals that need the link accelerations ``A`` [rad/s^2]
                                    too (one column per time), e.g. the vehicle's jerk; ``{}``
                                    by default
+``kernel_form()``                  the component as data for the compiled right-hand side
+                                   (:mod:`.kernel`), or None: it is then evaluated in Python
+                                   and combined with the compiled rest
+
+The scalar formulas are :func:`~.jit.compilable` functions (below the classes) that the methods
+and the compiled right-hand side both call.
 """
 from __future__ import annotations
 
@@ -37,6 +43,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .interp import interp2
+from .jit import compilable, compiled_as, compiled_loop
 from .signals import Constant, Signal
 
 __all__ = [
@@ -48,9 +55,16 @@ __all__ = [
     "LinkLoad",
     "Driveline",
     "GRAVITY",
+    "own_kernel_form",
 ]
 
 GRAVITY = 9.81
+
+
+def own_kernel_form(obj, name: str = "kernel_form") -> bool:
+    """Whether ``obj``'s class defines its compiled description ``name`` itself: a subclass that
+    inherits it may have changed the physics it describes, and runs in Python."""
+    return name in type(obj).__dict__
 
 
 def elementwise(func, n_out: int = 1):
@@ -118,6 +132,13 @@ class Component:
         the link speeds ``W`` (one column per time); none by default."""
         return {}
 
+    def kernel_form(self) -> tuple | None:
+        """``(kind, integers, numbers, signals, inputs)``: the component as data for the compiled
+        right-hand side (:mod:`.kernel`, which documents each kind's layout), or None when it has
+        no compiled form (it is then evaluated in Python). Only a class that defines it itself
+        is compiled: a subclass that changes the physics and not this runs in Python."""
+        return None
+
 
 @dataclass
 class InputTorque(Component):
@@ -138,6 +159,9 @@ class InputTorque(Component):
 
     def breakpoints(self, t0=-math.inf, t1=math.inf):
         return self.signal.breakpoints(t0, t1)
+
+    def kernel_form(self):
+        return "input_torque", (self.link,), (), (self.signal,), ("T_in",)
 
 
 @dataclass
@@ -167,11 +191,13 @@ class EngineMap:
         intervention, :mod:`transgen.sim.schedule`): a driving torque times ``factor``, raised at
         most to the full-load torque (the highest throttle) at ``omega`` [rad/s]; a dragging
         (motoring, <= 0) torque is left alone."""
-        if torque <= 0.0 or factor == 1.0:
-            return torque
-        if factor < 1.0:
-            return torque * factor
-        return min(torque * factor, max(torque, self(omega, self.throttles[-1])))
+        return requested_torque(torque, factor, omega, self.speeds, self.throttles, self.torque)
+
+    def kernel_numbers(self) -> tuple[tuple[int, int], tuple[float, ...]]:
+        """``((n_speeds, n_throttles), numbers)``: speeds, throttles and the torque table row by
+        row (one row per throttle), for the compiled right-hand side."""
+        return ((len(self.speeds), len(self.throttles)),
+                self.speeds + self.throttles + tuple(x for row in self.torque for x in row))
 
 
 @dataclass
@@ -205,6 +231,13 @@ class EngineOnLink(Component):
             return tuple(sorted({*self.throttle.breakpoints(t0, t1), *self.request.breakpoints(t0, t1)}))
         return self.throttle.breakpoints(t0, t1)
 
+    def kernel_form(self):
+        if type(self.engine) is not EngineMap:
+            return None
+        sizes, numbers = self.engine.kernel_numbers()
+        signals = (self.throttle,) if self.request is None else (self.throttle, self.request)
+        return "engine_on_link", (self.link, *sizes, len(signals) - 1), numbers, signals, ("T_in",)
+
 
 @dataclass
 class EngineWithConverter(Component):
@@ -233,19 +266,14 @@ class EngineWithConverter(Component):
         return np.array([self.omega_start])
 
     def _throttle(self, t, omega_e):
-        thr = self.throttle.value(t)
-        if self.idle > 0 and omega_e < self.idle:
-            thr = max(thr, min(1.0, (self.idle - omega_e) / (0.1 * self.idle)))
-        return thr
+        return governed_throttle(self.throttle.value(t), omega_e, self.idle)
 
     def _engine_torque(self, t, omega_e):
         torque = self.engine(omega_e, self._throttle(t, omega_e))
         return torque if self.request is None else self.engine.requested(torque, omega_e, self.request.value(t))
 
     def derivatives(self, t, x, w):
-        omega_e = x[0]
-        pump, _ = self.converter.torques(omega_e, w[self.link])
-        return [(self._engine_torque(t, omega_e) - pump) / self.J_engine]
+        return [self.evaluate(t, x, w)[1][0]]
 
     def torques(self, t, x, w):
         _, turbine = self.converter.torques(x[0], w[self.link])
@@ -255,8 +283,7 @@ class EngineWithConverter(Component):
         return self._engine_torque(t, x[0]) * x[0]
 
     def dissipation(self, t, x, w):
-        pump, turbine = self.converter.torques(x[0], w[self.link])
-        return pump * x[0] - turbine * w[self.link]
+        return self.evaluate(t, x, w)[3]
 
     def energy(self, x, w):
         return 0.5 * self.J_engine * x[0] ** 2
@@ -264,15 +291,27 @@ class EngineWithConverter(Component):
     def evaluate(self, t, x, w):
         omega_e, omega_t = float(x[0]), float(w[self.link])  # Python floats: faster scalar arithmetic
         pump, turbine = self.converter.torques(omega_e, omega_t)
-        t_engine = self._engine_torque(t, omega_e)
-        return ({"T_in": turbine}, [(t_engine - pump) / self.J_engine], t_engine * omega_e,
-                pump * omega_e - turbine * omega_t, 0.0)
+        rate, p_in, loss = engine_converter_rates(self._engine_torque(t, omega_e), pump, turbine, omega_e,
+                                                  omega_t, self.J_engine)
+        return {"T_in": turbine}, [rate], p_in, loss, 0.0
 
     def sample(self, ts, X, W):
         omega_e, omega_t = X[0], W[self.link]
-        pump, turbine = (a.astype(float) for a in elementwise(self.converter.torques, 2)(omega_e, omega_t))
-        throttle = elementwise(self._throttle)(ts, omega_e).astype(float)
-        t_engine = elementwise(self.engine)(omega_e, throttle).astype(float)
+        if own_kernel_form(self) and self.kernel_form() is not None:  # loops over the output times, compiled when the simulator is
+            pump, turbine = self.converter.torques_over(omega_e, omega_t)
+            demand = np.array([self.throttle.value(t) for t in ts], dtype=float)
+            throttle, t_engine = np.empty(len(ts)), np.empty(len(ts))
+            tables = (self.engine.speeds, self.engine.throttles, self.engine.torque)
+            over = compiled_loop(engine_over, len(ts))
+            if over is None:
+                over = engine_over
+            else:
+                tables = tuple(np.array(x, dtype=float) for x in tables)
+            over(demand, np.ascontiguousarray(omega_e, dtype=float), float(self.idle), *tables, throttle, t_engine)
+        else:
+            pump, turbine = (a.astype(float) for a in elementwise(self.converter.torques, 2)(omega_e, omega_t))
+            throttle = elementwise(self._throttle)(ts, omega_e).astype(float)
+            t_engine = elementwise(self.engine)(omega_e, throttle).astype(float)
         if self.request is not None:
             t_engine = elementwise(self._engine_torque)(ts, omega_e).astype(float)
         ratio = np.divide(omega_t, omega_e, out=np.zeros_like(omega_e), where=omega_e > 1e-6)
@@ -294,6 +333,15 @@ class EngineWithConverter(Component):
             return tuple(sorted({*self.throttle.breakpoints(t0, t1), *self.request.breakpoints(t0, t1)}))
         return self.throttle.breakpoints(t0, t1)
 
+    def kernel_form(self):
+        if type(self.engine) is not EngineMap or not own_kernel_form(self.converter, "kernel_numbers"):
+            return None
+        map_sizes, map_numbers = self.engine.kernel_numbers()
+        tc_sizes, tc_numbers = self.converter.kernel_numbers()
+        signals = (self.throttle,) if self.request is None else (self.throttle, self.request)
+        return ("engine_converter", (self.link, *map_sizes, *tc_sizes, len(signals) - 1),
+                (float(self.J_engine), float(self.idle)) + map_numbers + tc_numbers, signals, ("T_in",))
+
 
 @dataclass
 class LinkLoad(Component):
@@ -309,8 +357,7 @@ class LinkLoad(Component):
     name: str = "load"
 
     def _torque(self, t, w):
-        s = w[self.link]
-        return self.signal.value(t) - (math.copysign(self.c0, s) * (s != 0) + self.c1 * s + self.c2 * s * abs(s))
+        return link_load_torque(self.signal.value(t), w[self.link], self.c0, self.c1, self.c2)
 
     def torques(self, t, x, w):
         return {self.input_name: self._torque(t, w)}
@@ -323,6 +370,9 @@ class LinkLoad(Component):
 
     def breakpoints(self, t0=-math.inf, t1=math.inf):
         return self.signal.breakpoints(t0, t1)
+
+    def kernel_form(self):
+        return "link_load", (self.link,), (float(self.c0), float(self.c1), float(self.c2)), (self.signal,), (self.input_name,)
 
 
 @dataclass
@@ -373,15 +423,15 @@ class Driveline(Component):
     def _speed(self, omega_v):
         return omega_v * self.wheel_radius / self.final_drive
 
+    def _road(self) -> tuple[float, ...]:
+        """The numbers of :func:`road_torque` after the speed."""
+        return (float(self.mass), float(self.rolling), float(self.grade), float(self.air_density), float(self.cd_a),
+                float(self.wheel_radius), float(self.final_drive))
+
     def road_torque(self, omega_v: float | np.ndarray) -> float | np.ndarray:
-        """Road load referred to the driveshaft [N*m] (opposes forward motion); ``omega_v`` a
-        number or an array."""
-        v = self._speed(omega_v)
-        mg = self.mass * GRAVITY
-        tanh = np.tanh if isinstance(v, np.ndarray) else math.tanh
-        rolling = self.rolling * mg * math.cos(self.grade) * tanh(v / 0.1)
-        force = rolling + 0.5 * self.air_density * self.cd_a * v * abs(v) + mg * math.sin(self.grade)
-        return force * self.wheel_radius / self.final_drive
+        """Road load referred to the driveshaft [N*m] (opposes forward motion, :func:`road_torque`);
+        ``omega_v`` a number or an array."""
+        return road_torque(omega_v, *self._road())
 
     def road_slope(self, omega_v: np.ndarray) -> np.ndarray:
         """d(road torque)/d(omega_v) [N*m*s/rad] (the grade term is constant)."""
@@ -400,29 +450,31 @@ class Driveline(Component):
         return {"vehicle_jerk": self._speed((d_shaft - self.road_slope(omega_v) * alpha_v) / self.J_v)}
 
     def shaft_torque(self, x, w) -> float:
-        return self.stiffness * x[0] + self.damping * (w[self.output] - x[1])
+        return self.evaluate(0.0, x, w)[0]["T_out"]
 
     def derivatives(self, t, x, w):
-        return [w[self.output] - x[1], (self.shaft_torque(x, w) - self.road_torque(x[1])) / self.J_v]
+        return self.evaluate(t, x, w)[1]
 
     def torques(self, t, x, w):
         return {"T_out": self.shaft_torque(x, w)}
 
     def dissipation(self, t, x, w):
-        return self.damping * (w[self.output] - x[1]) ** 2
+        return self.evaluate(t, x, w)[3]
 
     def energy(self, x, w):
         return 0.5 * self.stiffness * x[0] ** 2 + 0.5 * self.J_v * x[1] ** 2
 
     def load_power(self, t, x, w):
-        return self.road_torque(x[1]) * x[1]
+        return self.evaluate(t, x, w)[4]
 
     def evaluate(self, t, x, w):
-        theta, omega_v = float(x[0]), float(x[1])  # Python floats: faster scalar arithmetic
-        slip = float(w[self.output]) - omega_v
-        shaft = self.stiffness * theta + self.damping * slip
-        road = self.road_torque(omega_v)
-        return ({"T_out": shaft}, [slip, (shaft - road) / self.J_v], 0.0, self.damping * slip * slip, road * omega_v)
+        shaft, d_theta, d_omega, loss, p_load = driveline_rates(
+            float(x[0]), float(x[1]), float(w[self.output]), self.stiffness, self.damping, self.J_v, *self._road())
+        return {"T_out": shaft}, [d_theta, d_omega], 0.0, loss, p_load
+
+    def kernel_form(self):
+        return ("driveline", (self.output,), (float(self.stiffness), float(self.damping), float(self.J_v)) + self._road(),
+                (), ("T_out",))
 
     def sample(self, ts, X, W):
         theta, omega_v = X
@@ -443,3 +495,87 @@ class Driveline(Component):
         if self.mass > 0:
             out["vehicle_accel"] = self._speed((shaft - road) / self.J_v)
         return out
+
+
+# ------------------------------------------------------------ formulas (one implementation)
+
+
+@compilable
+def governed_throttle(throttle: float, omega_e: float, idle: float) -> float:
+    """The throttle [0-1] with the minimum-speed governor: below ``idle`` [rad/s] (when > 0) it
+    rises linearly to hold idle, to full at 90 % of idle."""
+    if idle > 0 and omega_e < idle:
+        return max(throttle, min(1.0, (idle - omega_e) / (0.1 * idle)))
+    return throttle
+
+
+@compilable
+def requested_torque(torque: float, factor: float, omega: float, speeds, throttles, table) -> float:
+    """The engine torque [N*m] of the map ``(speeds, throttles, table)`` under a torque-request
+    factor [-] (:meth:`EngineMap.requested`): a driving ``torque`` times ``factor``, raised at most
+    to the full-load torque (the highest throttle) at ``omega`` [rad/s]; a dragging (motoring,
+    <= 0) torque is left alone."""
+    if torque <= 0.0 or factor == 1.0:
+        return torque
+    if factor < 1.0:
+        return torque * factor
+    return min(torque * factor, max(torque, interp2(omega, throttles[len(throttles) - 1], speeds, throttles, table)))
+
+
+@compilable
+def engine_converter_rates(t_engine: float, pump: float, turbine: float, omega_e: float, omega_t: float,
+                           J_engine: float) -> tuple[float, float, float]:
+    """``(d omega_e/dt, power in, converter loss)`` of an engine (torque ``t_engine``, inertia
+    ``J_engine``) driving a converter (pump torque absorbed ``pump``, turbine torque ``turbine``)."""
+    return (t_engine - pump) / J_engine, t_engine * omega_e, converter_loss(pump, turbine, omega_e, omega_t)
+
+
+@compilable
+def engine_over(demand, omega_e, idle: float, speeds, throttles, torque, throttle, t_engine) -> None:
+    """The governed throttle and the engine torque of the map ``(speeds, throttles, torque)`` at
+    every output time (written into ``throttle`` and ``t_engine``) from the throttle demand
+    ``demand`` and the engine speeds ``omega_e``."""
+    for k in range(len(omega_e)):
+        throttle[k] = governed_throttle(demand[k], omega_e[k], idle)
+        t_engine[k] = interp2(omega_e[k], throttle[k], speeds, throttles, torque)
+
+
+@compilable
+def converter_loss(pump: float, turbine: float, omega_pump: float, omega_turbine: float) -> float:
+    """Power [W] a torque converter dissipates: pump power in minus turbine power out (>= 0)."""
+    return pump * omega_pump - turbine * omega_turbine
+
+
+@compilable
+def link_load_torque(drive: float, s: float, c0: float, c1: float, c2: float) -> float:
+    """:class:`LinkLoad`'s torque at the link speed ``s``: ``drive - (c0*sign(s) + c1*s + c2*s*|s|)``."""
+    return drive - (math.copysign(c0, s) * (s != 0) + c1 * s + c2 * s * abs(s))
+
+
+@compiled_as(math.tanh)
+def _tanh(x):
+    """``tanh`` of a number (``math.tanh``) or, in Python, of an array (``numpy.tanh``)."""
+    return np.tanh(x) if isinstance(x, np.ndarray) else math.tanh(x)
+
+
+@compilable
+def road_torque(omega_v: float, mass: float, rolling: float, grade: float, air_density: float, cd_a: float,
+                wheel_radius: float, final_drive: float) -> float:
+    """Road load [N*m] referred to the driveshaft at its vehicle-side speed ``omega_v`` (see
+    :class:`Driveline`); ``omega_v`` a number or, in Python, an array."""
+    v = omega_v * wheel_radius / final_drive
+    mg = mass * GRAVITY
+    rolling_force = rolling * mg * math.cos(grade) * _tanh(v / 0.1)
+    force = rolling_force + 0.5 * air_density * cd_a * v * abs(v) + mg * math.sin(grade)
+    return force * wheel_radius / final_drive
+
+
+@compilable
+def driveline_rates(theta: float, omega_v: float, w_out: float, stiffness: float, damping: float, J_v: float,
+                    mass: float, rolling: float, grade: float, air_density: float, cd_a: float, wheel_radius: float,
+                    final_drive: float) -> tuple[float, float, float, float, float]:
+    """``(shaft torque, d theta/dt, d omega_v/dt, damper loss, road power)`` of :class:`Driveline`."""
+    slip = w_out - omega_v
+    shaft = stiffness * theta + damping * slip
+    road = road_torque(omega_v, mass, rolling, grade, air_density, cd_a, wheel_radius, final_drive)
+    return shaft, slip, (shaft - road) / J_v, damping * slip * slip, road * omega_v

@@ -20,6 +20,7 @@ import numpy as np
 from transgen.errors import SimulationError, StateOutOfDomain
 
 from .components import Component
+from .dense import dense_values
 from .monitor import InvariantMonitor
 from .result import Event, ModeSpan, Result
 from .signals import Constant
@@ -199,16 +200,17 @@ def memo_last(model: "ComponentEvaluator", func, t_stop: float = math.inf, t_fro
     signals are evaluated at :func:`left_of` it, so that its last step and its events see the value
     the segment integrated, not the one after the jump; before ``t_from`` (:func:`signal_time`)
     they are evaluated at it."""
-    last = [None, None]  # key, value
+    last_t = last_y = last_value = None
     t_left = left_of(t_stop)
 
     def wrapper(t, y):
-        key = (t, y.tobytes())
-        if key != last[0]:
+        nonlocal last_t, last_y, last_value
+        key = y.tobytes()
+        if t != last_t or key != last_y:
             setattr(model, counter, getattr(model, counter) + 1)
-            last[1] = func(min(max(t, t_from), t_left), y)
-            last[0] = key
-        return last[1]
+            last_value = func(min(max(t, t_from), t_left), y)
+            last_t, last_y = t, key
+        return last_value
 
     return wrapper
 
@@ -273,7 +275,7 @@ def missed_crossing(sol, events: list):
         return None
     frac = np.arange(1, CROSSING_SCAN + 1) / (CROSSING_SCAN + 1)
     ts = (steps[steps_in, None] + (steps[steps_in + 1] - steps[steps_in])[:, None] * frac[None, :]).ravel()
-    ys = sol.sol(ts)
+    ys = dense_values(sol.sol, ts)
     values = rows @ ys[: rows.shape[1]] + halves
     below = values < 0.0
     if not below.any():
@@ -385,7 +387,7 @@ class Recorder:
         # before any jump there (:func:`left_of`), the next segment's start gives those after it; the
         # start with the values the segment was decided and integrated with (:func:`signal_time`)
         at = np.maximum(np.minimum(ts, left_of(seg.t1)), signal_time(self.pt, seg.t0))
-        block = self.sampler(self.pt, seg, at, seg.sol(ts))
+        block = self.sampler(self.pt, seg, at, dense_values(seg.sol, ts))
         self.segments.append(seg)
         self.blocks.append(block)
         self.times.append(ts)
@@ -507,7 +509,9 @@ def integrate(rhs, t0: float, t1: float, y0: np.ndarray, options: SolverOptions,
 
     ``n_dynamic``: the right-hand side depends on the first ``n_dynamic`` states only (the rest
     are quadratures, the energy integrals); the implicit methods then get a finite-difference
-    Jacobian over those columns, the others being zero, instead of differencing every state.
+    Jacobian over those columns, the others being zero, instead of differencing every state
+    (``rhs.partial_jacobian(n_dynamic)`` when ``rhs`` has one: the same differences, computed by
+    the compiled right-hand side in one call).
     """
     from .ode_solvers import SOLVERS, solve_segment  # here, not at import: reading a scenario needs no scipy
 
@@ -529,7 +533,8 @@ def integrate(rhs, t0: float, t1: float, y0: np.ndarray, options: SolverOptions,
     max_step = min(options.max_step, (t1 - t0) / 8.0) if t1 > t0 else options.max_step
     if n_dynamic is not None and options.method in ("LSODA", "BDF", "Radau"):
         # the Jacobian is taken at accepted states: a state outside the domain there stops the run
-        extra["jac"] = _partial_jacobian(rhs, len(y0), n_dynamic)
+        jacobian = getattr(rhs, "partial_jacobian", None)  # a compiled right-hand side's own, one call
+        extra["jac"] = jacobian(n_dynamic) if jacobian is not None else _partial_jacobian(rhs, len(y0), n_dynamic)
     try:
         sol = solve_segment(guarded, t0, t1, y0, SOLVERS.get(options.method, options.method), events,
                             rtol=options.rtol, atol=options.atol, max_step=max_step, **extra)

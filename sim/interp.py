@@ -2,7 +2,9 @@
 
 ``numpy.interp`` costs microseconds of overhead per scalar call; these plain-Python versions
 (``bisect`` on tuples or lists) are several times faster for the scalar look-ups done at every
-right-hand-side evaluation. All clamp outside the table (constant extrapolation).
+right-hand-side evaluation. All clamp outside the table (constant extrapolation). All are
+:func:`~.jit.compilable`: the compiled right-hand side (:mod:`.kernel`) calls the same functions
+on float64 arrays.
 
 * :func:`interp1` - piecewise-linear ``y(x)`` (signals, torque-converter curves);
 * :func:`interp1_pair` - two tables over one grid at one point, one cell search (a converter's
@@ -20,9 +22,12 @@ from __future__ import annotations
 
 from bisect import bisect_right
 
+from .jit import compilable
+
 __all__ = ["interp1", "interp1_pair", "interp_like_numpy", "interp2", "locate", "bilinear"]
 
 
+@compilable
 def interp1(x: float, xs: tuple, ys: tuple) -> float:
     """Piecewise-linear ``y(x)`` through the points ``(xs, ys)``; ``xs`` increasing."""
     if x <= xs[0]:
@@ -34,6 +39,7 @@ def interp1(x: float, xs: tuple, ys: tuple) -> float:
     return ys[i] + (ys[i + 1] - ys[i]) * (x - x0) / (xs[i + 1] - x0)
 
 
+@compilable
 def interp1_pair(x: float, xs: tuple, ys: tuple, zs: tuple) -> tuple[float, float]:
     """``(interp1(x, xs, ys), interp1(x, xs, zs))`` with one search of the cell (the same
     arithmetic: the same numbers, bit for bit)."""
@@ -47,6 +53,7 @@ def interp1_pair(x: float, xs: tuple, ys: tuple, zs: tuple) -> tuple[float, floa
     return ys[i] + (ys[i + 1] - ys[i]) * dx / span, zs[i] + (zs[i + 1] - zs[i]) * dx / span
 
 
+@compilable
 def interp_like_numpy(x: float, xs, ys) -> float:
     """``float(numpy.interp(x, xs, ys))`` for one value, bit for bit (numpy's slope form
     ``slope*(x - xs[i]) + ys[i]``, an end value at or beyond the ends and at a grid point, NaN for
@@ -69,6 +76,7 @@ def interp_like_numpy(x: float, xs, ys) -> float:
     return float(y)
 
 
+@compilable
 def locate(grid, v: float) -> tuple[int, float, bool]:
     """Cell index ``i`` (``grid[i] <= v <= grid[i+1]``), weight ``(v - grid[i])/(grid[i+1] -
     grid[i])`` in [0, 1], and whether ``v`` was outside the grid (then clamped to its edge).
@@ -83,6 +91,7 @@ def locate(grid, v: float) -> tuple[int, float, bool]:
     return i, (v - grid[i]) / (grid[i + 1] - grid[i]), False
 
 
+@compilable
 def bilinear(z, i: int, wx: float, j: int, wy: float) -> float:
     """Bilinear value in the cell ``(i, j)`` of ``z[i_x][i_y]`` at the weights from :func:`locate`."""
     r0, r1 = z[i], z[i + 1]
@@ -90,6 +99,7 @@ def bilinear(z, i: int, wx: float, j: int, wy: float) -> float:
             + wx * ((1.0 - wy) * r1[j] + wy * r1[j + 1]))
 
 
+@compilable
 def interp2(x: float, y: float, xs: tuple, ys: tuple, table: tuple) -> float:
     """Bilinear ``z(x, y)`` in ``table[i_y][i_x]``, clamped at the edges; a single row
     (``len(ys) == 1``) is linear in ``x``.

@@ -238,7 +238,9 @@ def solve_segment(fun, t0: float, t1: float, y0: np.ndarray, method, events: lis
 
     An event with the attribute ``linear = (row, offset)`` is the linear function ``row @
     y[:len(row)] + offset`` of the state: at the step ends those are evaluated together, in one
-    matrix product (the roots are found with the event functions themselves).
+    matrix product (the roots are found with the event functions themselves). Events with the
+    attribute ``batch = (values, index)`` are entry ``index`` of the vector ``values(t, y)``: at
+    the step ends one call of ``values`` gives them all (the simulator's compiled events).
 
     Why not ``solve_ivp`` itself: on the simulator's small systems its per-step bookkeeping (event
     values through arrays, the active-event search, the event counts) cost as much as a
@@ -297,21 +299,37 @@ def solve_segment(fun, t0: float, t1: float, y0: np.ndarray, method, events: lis
 
 def _event_values(events: list):
     """``values(t, y)``: the list of the events' values at a step end, the linear ones
-    (:func:`solve_segment`) from one matrix product."""
-    linear = [k for k, e in enumerate(events) if getattr(e, "linear", None) is not None]
-    if len({len(events[k].linear[0]) for k in linear}) != 1:
+    (:func:`solve_segment`) from one matrix product, those with the attribute ``batch = (values,
+    index)`` (entry ``index`` of the vector ``values(t, y)``) from one call of ``values``."""
+    batches: dict[int, tuple] = {}
+    for k, e in enumerate(events):
+        if getattr(e, "batch", None) is not None:
+            batches.setdefault(id(e.batch[0]), (e.batch[0], []))[1].append((k, e.batch[1]))
+    batched = {k for _, members in batches.values() for k, _ in members}
+    batches = list(batches.values())
+    if len(batches) == 1 and batches[0][1] == [(k, k) for k in range(len(events))]:
+        func = batches[0][0]  # one vector of all the values, in order
+        return lambda t, y: func(t, y).tolist()
+    linear = [k for k, e in enumerate(events) if getattr(e, "linear", None) is not None and k not in batched]
+    if len({len(events[k].linear[0]) for k in linear}) > 1:
         return lambda t, y: [e(t, y) for e in events]
-    others = [(k, events[k]) for k in range(len(events)) if k not in set(linear)]
-    rows = np.array([events[k].linear[0] for k in linear], dtype=float)
-    offsets = np.array([events[k].linear[1] for k in linear], dtype=float)
-    width = rows.shape[1]
+    others = [(k, events[k]) for k in range(len(events)) if k not in linear and k not in batched]
+    if linear:
+        rows = np.array([events[k].linear[0] for k in linear], dtype=float)
+        offsets = np.array([events[k].linear[1] for k in linear], dtype=float)
+        width = rows.shape[1]
 
     def values(t, y):
         g = [0.0] * len(events)
-        for k, v in zip(linear, (rows @ y[:width] + offsets).tolist()):
-            g[k] = v
+        if linear:
+            for k, v in zip(linear, (rows @ y[:width] + offsets).tolist()):
+                g[k] = v
         for k, e in others:
             g[k] = e(t, y)
+        for func, members in batches:
+            vector = func(t, y).tolist()
+            for k, j in members:
+                g[k] = vector[j]
         return g
 
     return values

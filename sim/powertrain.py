@@ -32,7 +32,7 @@ import numpy as np
 from transgen.errors import SimulationError
 
 from .causality import Block, Causality
-from .components import Component, elementwise
+from .components import Component, converter_loss, elementwise, own_kernel_form
 from .engine.diesel import EngineParams, SpeedGovernor, TurbochargedDiesel
 from .engine.gas import RPM, Gas
 from .engine.map_file import DATA_DIR, CompressorMap, MapError, TurbineMap, parse_map
@@ -236,18 +236,26 @@ class ConverterComponent(Component):
         return {self.pump_torque: -tp, self.turbine_torque: tt}
 
     def dissipation(self, t, x, w):
-        tp, tt = self._torques(w)
-        return tp * float(w[self.pump]) - tt * float(w[self.turbine])
+        return self.evaluate(t, x, w)[3]
 
     def evaluate(self, t, x, w):
         wp, wt = float(w[self.pump]), float(w[self.turbine])
         tp, tt = self.converter.torques(wp, wt)
-        return {self.pump_torque: -tp, self.turbine_torque: tt}, [], 0.0, tp * wp - tt * wt, 0.0
+        return {self.pump_torque: -tp, self.turbine_torque: tt}, [], 0.0, converter_loss(tp, tt, wp, wt), 0.0
+
+    def kernel_form(self):
+        if not own_kernel_form(self.converter, "kernel_numbers"):
+            return None
+        sizes, numbers = self.converter.kernel_numbers()
+        return "converter", (self.pump, self.turbine, *sizes), numbers, (), (self.pump_torque, self.turbine_torque)
 
     def sample(self, ts, X, W):
         """The signals at the output times: the converter's torques once per time."""
         wp, wt = W[self.pump], W[self.turbine]
-        tp, tt = (a.astype(float) for a in elementwise(self.converter.torques, 2)(wp, wt))
+        if own_kernel_form(self.converter, "kernel_numbers"):  # its own tables: the loop of its formula
+            tp, tt = self.converter.torques_over(wp, wt)
+        else:
+            tp, tt = (a.astype(float) for a in elementwise(self.converter.torques, 2)(wp, wt))
         signals = {"converter_speed_ratio": np.divide(wt, wp, out=np.zeros(len(ts)), where=np.abs(wp) > 1e-9),
                    "converter_torque_ratio": np.divide(tt, tp, out=np.ones(len(ts)), where=np.abs(tp) > 1e-9),
                    "T_pump": tp, "T_turbine": tt, "P_converter": tp * wp - tt * wt}

@@ -23,14 +23,22 @@ Kinds (as written in a scenario file, see README "Scenario files"):
 ``periodic``  ``t = [...]``, ``value = [...]`` (a table, jumps allowed), ``period`` (default
               ``t[-1] - t[0]``, at least that): the table over ``[t[0], t[0] + period)`` repeated
               for all times, holding its last value to the end of each period
+
+The values are :func:`~.jit.compilable` functions of the signal's numbers, and every kind has a
+``kernel_form()``: ``(kind, numbers, parts)``, its description as data, with which the compiled
+right-hand side (:mod:`.kernel`) evaluates it by the same functions. A signal of another class
+(without its own ``kernel_form``) is evaluated in Python and passed to the compiled one.
 """
 from __future__ import annotations
 
 import math
 from bisect import bisect_left, bisect_right
 from dataclasses import dataclass
+from math import ulp
 
 import numpy as np
+
+from .jit import compilable, compiled_loop
 
 __all__ = ["Signal", "Constant", "Step", "Ramp", "Table", "Sine", "Pulse", "Periodic", "Sum", "Product", "Spliced"]
 
@@ -52,6 +60,11 @@ class Signal:
 
     def __call__(self, t: float) -> float:
         return self.value(t)
+
+    def kernel_form(self) -> tuple[str, tuple[float, ...], tuple["Signal", ...]] | None:
+        """``(kind, numbers, parts)``: the signal as data for the compiled right-hand side
+        (:mod:`.kernel`), or None when it has none (it is then evaluated in Python)."""
+        return None
 
     def sample(self, ts: np.ndarray) -> np.ndarray:
         """The signal at every time of ``ts`` (for output sampling)."""
@@ -123,6 +136,9 @@ class Constant(Signal):
     def value(self, t: float) -> float:
         return self.v
 
+    def kernel_form(self):
+        return "constant", (float(self.v),), ()
+
     def sample(self, ts: np.ndarray) -> np.ndarray:
         return np.full(len(ts), float(self.v))
 
@@ -140,7 +156,10 @@ class Step(Signal):
     after: float
 
     def value(self, t: float) -> float:
-        return self.after if t >= self.t else self.before
+        return step_value(t, self.t, self.before, self.after)
+
+    def kernel_form(self):
+        return "step", (float(self.t), float(self.before), float(self.after)), ()
 
     def breakpoints(self, t0: float = -math.inf, t1: float = math.inf) -> tuple[float, ...]:
         return _window((self.t,), t0, t1)
@@ -160,11 +179,10 @@ class Ramp(Signal):
     v1: float
 
     def value(self, t: float) -> float:
-        if t <= self.t0:
-            return self.v0
-        if t >= self.t1:
-            return self.v1
-        return self.v0 + (self.v1 - self.v0) * (t - self.t0) / (self.t1 - self.t0)
+        return ramp_value(t, self.t0, self.t1, self.v0, self.v1)
+
+    def kernel_form(self):
+        return "ramp", (float(self.t0), float(self.t1), float(self.v0), float(self.v1)), ()
 
     def breakpoints(self, t0: float = -math.inf, t1: float = math.inf) -> tuple[float, ...]:
         return _window((self.t0, self.t1), t0, t1)
@@ -199,17 +217,19 @@ class Table(Signal):
         object.__setattr__(self, "values", tuple(vs[k] for k in keep))
 
     def value(self, t: float) -> float:
-        ts, vs = self.times, self.values
-        if t < ts[0]:
-            return vs[0]
-        if t >= ts[-1]:
-            return vs[-1]
-        i = bisect_right(ts, t) - 1  # ts[i] <= t < ts[i + 1], so ts[i + 1] > ts[i]
-        return vs[i] + (vs[i + 1] - vs[i]) * (t - ts[i]) / (ts[i + 1] - ts[i])
+        return table_value(t, self.times, self.values)
+
+    def kernel_form(self):
+        return "table", self.times + self.values, ()
 
     def sample(self, ts: np.ndarray) -> np.ndarray:
         xs, ys = np.asarray(self.times), np.asarray(self.values)
         ts = np.asarray(ts, dtype=float)
+        loop = compiled_loop(table_values, len(ts)) if ts.ndim == 1 else None
+        if loop is not None:  # the values of :meth:`value`, in one compiled loop
+            out = np.empty(len(ts))
+            loop(np.ascontiguousarray(ts), xs, ys, out)
+            return out
         if len(xs) == 1:
             return np.full(len(ts), ys[0])
         i = np.clip(np.searchsorted(xs, ts, side="right") - 1, 0, len(xs) - 2)
@@ -237,7 +257,10 @@ class Sine(Signal):
     phase: float = 0.0
 
     def value(self, t: float) -> float:
-        return self.offset + self.amplitude * math.sin(2 * math.pi * self.frequency * t + self.phase)
+        return sine_value(t, self.offset, self.amplitude, self.frequency, self.phase)
+
+    def kernel_form(self):
+        return "sine", (float(self.offset), float(self.amplitude), float(self.frequency), float(self.phase)), ()
 
     def upper_bound(self, t0: float, t1: float) -> float:
         return self.offset + abs(self.amplitude)
@@ -272,6 +295,7 @@ class Sine(Signal):
         return best if best < t1 else math.inf
 
 
+@compilable
 def _period_start(t: float, first: float, period: float) -> float:
     """The start ``first + k*period`` of the period holding ``t`` (``k`` corrected for round-off
     in the division, so that ``start <= t < start + period`` with the same arithmetic as the
@@ -316,8 +340,11 @@ class Pulse(Signal):
             raise ValueError(f"a pulse train needs period > width (width {self.width:g}, period {self.period:g})")
 
     def value(self, t: float) -> float:
-        start = self.t0 if self.period is None or t < self.t0 else _period_start(t, self.t0, self.period)
-        return self.high if start <= t < start + self.width else self.low
+        return pulse_value(t, self.t0, self.width, self.low, self.high, 0.0 if self.period is None else self.period)
+
+    def kernel_form(self):
+        return "pulse", (float(self.t0), float(self.width), float(self.low), float(self.high),
+                         0.0 if self.period is None else float(self.period)), ()
 
     def breakpoints(self, t0: float = -math.inf, t1: float = math.inf) -> tuple[float, ...]:
         if self.period is None:
@@ -359,19 +386,13 @@ class Periodic(Signal):
             raise ValueError(f"a periodic table needs a period > 0 and >= its span {span:g} s, not {self.period:g}")
 
     def _phase(self, t: float) -> float:
-        """``t`` carried into the first period, snapped onto a table time that round-off misses
-        by a few ulps (so that a jump at a period's start stays right-continuous)."""
-        first = self.table.times[0]
-        u = first + (t - _period_start(t, first, self.period))
-        tol = 8 * math.ulp(max(abs(t), abs(first) + self.period))
-        times = self.table.times
-        j = bisect_left(times, u - tol)
-        if j < len(times) and abs(times[j] - u) <= tol:
-            u = times[j]
-        return u
+        return periodic_phase(t, self.table.times, self.period)
 
     def value(self, t: float) -> float:
-        return self.table.value(self._phase(t))
+        return periodic_value(t, self.table.times, self.table.values, self.period)
+
+    def kernel_form(self):
+        return "periodic", (float(self.period),) + self.table.times + self.table.values, ()
 
     def breakpoints(self, t0: float = -math.inf, t1: float = math.inf) -> tuple[float, ...]:
         _finite_window(self, t0, t1)
@@ -399,6 +420,9 @@ class Sum(Signal):
 
     def value(self, t: float) -> float:
         return sum(p.value(t) for p in self.parts)
+
+    def kernel_form(self):
+        return "sum", (), tuple(self.parts)
 
     def upper_bound(self, t0: float, t1: float) -> float:
         return sum(p.upper_bound(t0, t1) for p in self.parts)
@@ -435,6 +459,9 @@ class Spliced(Signal):
     def value(self, t: float) -> float:
         return self.after.value(t) if t >= self.t else self.before.value(t)
 
+    def kernel_form(self):
+        return "spliced", (float(self.t),), (self.before, self.after)
+
     def upper_bound(self, t0: float, t1: float) -> float:
         bounds = []
         if t0 < self.t:
@@ -466,3 +493,71 @@ class Spliced(Signal):
         if t1 > self.t:
             return self.after.next_crossing(level, max(t0, self.t), t1)
         return math.inf
+
+
+# ------------------------------------------------------------------ values (one implementation)
+
+
+@compilable
+def step_value(t: float, at: float, before: float, after: float) -> float:
+    """A step from ``before`` to ``after`` at ``at`` (right-continuous)."""
+    return after if t >= at else before
+
+
+@compilable
+def ramp_value(t: float, t0: float, t1: float, v0: float, v1: float) -> float:
+    """``v0`` up to ``t0``, linear to ``v1`` at ``t1``, ``v1`` after."""
+    if t <= t0:
+        return v0
+    if t >= t1:
+        return v1
+    return v0 + (v1 - v0) * (t - t0) / (t1 - t0)
+
+
+@compilable
+def table_value(t: float, ts, vs) -> float:
+    """The piecewise-linear table ``(ts, vs)`` at ``t`` (a jump at two equal times, right-continuous)."""
+    if t < ts[0]:
+        return vs[0]
+    if t >= ts[-1]:
+        return vs[-1]
+    i = bisect_right(ts, t) - 1  # ts[i] <= t < ts[i + 1], so ts[i + 1] > ts[i]
+    return vs[i] + (vs[i + 1] - vs[i]) * (t - ts[i]) / (ts[i + 1] - ts[i])
+
+
+@compilable
+def table_values(ts, times, values, out) -> None:
+    """:func:`table_value` at every time of ``ts``, into ``out``."""
+    for k in range(len(ts)):
+        out[k] = table_value(ts[k], times, values)
+
+
+@compilable
+def sine_value(t: float, offset: float, amplitude: float, frequency: float, phase: float) -> float:
+    return offset + amplitude * math.sin(2 * math.pi * frequency * t + phase)
+
+
+@compilable
+def pulse_value(t: float, t0: float, width: float, low: float, high: float, period: float) -> float:
+    """:class:`Pulse` at ``t``; ``period`` 0 for a single pulse."""
+    start = t0 if period == 0.0 or t < t0 else _period_start(t, t0, period)
+    return high if start <= t < start + width else low
+
+
+@compilable
+def periodic_phase(t: float, times, period: float) -> float:
+    """``t`` carried into the first period of a :class:`Periodic` table with the times ``times``,
+    snapped onto a table time that round-off misses by a few ulps (so that a jump at a period's
+    start stays right-continuous)."""
+    first = times[0]
+    u = first + (t - _period_start(t, first, period))
+    tol = 8 * ulp(max(abs(t), abs(first) + period))
+    j = bisect_left(times, u - tol)
+    if j < len(times) and abs(times[j] - u) <= tol:
+        u = times[j]
+    return u
+
+
+@compilable
+def periodic_value(t: float, times, values, period: float) -> float:
+    return table_value(periodic_phase(t, times, period), times, values)

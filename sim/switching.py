@@ -23,6 +23,11 @@ At each event, and at each breakpoint of an input signal, the new mode is decide
 :meth:`Transmission.decide` (every element at zero slip may lock or slip either way; the unique
 consistent combination is taken, otherwise the run stops naming the elements). The new mode's
 states are the link speeds at the event, so no link speed jumps.
+
+Between events the right-hand side and the torque events' holding margins are evaluated by the
+compiled kernel of :mod:`.kernel` (the same formulas, compiled with numba; the components without a
+compiled form are evaluated in Python and passed in), or, without numba or with
+``TRANSGEN_JIT=0``, by the Python functions ``point`` and ``locked_torques`` below.
 """
 from __future__ import annotations
 
@@ -34,8 +39,9 @@ import numpy as np
 from transgen.errors import ModeError, SimulationError
 
 from .integration import (ComponentEvaluator, Powertrain, Recorder, Segment, SolverOptions, StateLayout, apply_events,
-                          collect, memo_last, next_stop, sample_block, signal_time,
+                          collect, left_of, memo_last, next_stop, sample_block, signal_time,
                           slip_event)
+from .kernel import compiled_powertrain
 from .restart import SimState, check_compatible, controller_state, restore_controllers
 from .result import Event, Result
 
@@ -72,6 +78,7 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None, st
             events.append(Event(t, "start", tuple(tr.elements[i].name for i in sorted(locked)), "",
                                 tr.mode_name(locked), "from a saved state"))
     own_applies = {e.name: e.apply for e in tr.elements}  # what the controllers command differs
+    compiled = compiled_powertrain(pt)
 
     def slip_tol(w):
         return max(1e-9, options.slip_tol * max(1.0, float(np.max(np.abs(w)))))
@@ -154,14 +161,41 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None, st
             ww, u, derivs, p_in, diss, p_load, _ = evaluate(tt, y)
             return layout.derivative(mode.B @ u, derivs, p_in, diss, p_load)
 
+        def margin(tt, y, row, mode=mode):
+            return tr.holding_margin(mode, row, tt, event_torques(tt, y)[row])
+
+        inputs = lambda tt, y: evaluate(tt, y)[1]  # noqa: E731
         PC = tr.P @ mode.C
-        event_funcs = [slip_event(lambda tt, y: evaluate(tt, y)[6], i, int(seg_dirs[i]), tol, PC[i])
+        applies = apply_events(tr, slipping, t_sig, t_stop)
+        slip_events = [slip_event(lambda tt, y, PC=PC, dof=mode.dof: PC @ y[:dof], i, int(seg_dirs[i]), tol, PC[i])
                        for i in slipping if seg_dirs[i] != 0]
-        event_funcs += apply_events(tr, slipping, t_sig, t_stop)
+        step_events = None
+        if compiled is not None:  # the same functions, compiled (see the module docstring)
+            compiled = compiled.current()
+            kernel = compiled.segment(mode, layout, tr.slipping_set(locked, seg_dirs, t, t_stop),
+                                      [f.info[1] for f in applies], [f.linear for f in slip_events])
+            rhs = memo_last(model, kernel.rhs, t_stop, t_sig)
+            inputs = memo_last(model, kernel.inputs, t_stop, t_sig)
+            if kernel.jacobian is not None:
+                rhs.partial_jacobian = _jacobian(model, kernel.jacobian, t_stop, t_sig)
+            # every event's value at a step end from one evaluation (ode_solvers: ``batch``)
+            step_events = memo_last(model, kernel.events, t_stop, t_sig, "input_calls")
+            # in the order of event_funcs: the slips, the applies, the locked rows
+            for k, f in enumerate(slip_events):  # the event itself stays linear (for the root and the scan)
+                f.batch = (step_events, k)
+            applies = [_from_batch(step_events, len(slip_events) + k, f) for k, f in enumerate(applies)]
+            first_row = len(slip_events) + len(applies)
+
+            def margin(tt, y, row, step_events=step_events, first_row=first_row):
+                return step_events(tt, y)[first_row + row]
+        event_funcs = slip_events + applies
         for row, i in enumerate(mode.locked_order):  # one row per locked element or group in parallel
 
-            def torque_event(tt, y, row=row, mode=mode):
-                return tr.holding_margin(mode, row, tt, event_torques(tt, y)[row])
+            def torque_event(tt, y, row=row, margin=margin):
+                return margin(tt, y, row)
+
+            if step_events is not None:
+                torque_event.batch = (step_events, first_row + row)
 
             torque_event.terminal = True
             torque_event.direction = -1
@@ -194,7 +228,7 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None, st
         forced = {}
         if sol.status == 1:
             n_events += 1
-            u_end = evaluate(t_end, y_end)[1]
+            u_end = inputs(t_end, y_end)
             for f, te in zip(event_funcs, sol.t_events):
                 kind, i = f.info
                 if len(te) and kind == "control":
@@ -220,6 +254,31 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None, st
                             dict(forced), tuple(np.array(x, dtype=float) for x in comp_states), np.array(energy),
                             tuple(controller_state(c) for c in pt.controllers), commanded, SimState.shape_of(pt))
     return result
+
+
+def _jacobian(model, jacobian, t_stop: float, t_from: float):
+    """``partial_jacobian(n_dynamic)`` for :func:`.integration.integrate`: the compiled
+    forward-difference Jacobian, with the signals' times as :func:`.integration.memo_last` takes
+    them, its right-hand-side evaluations counted."""
+    t_left = left_of(t_stop)
+
+    def partial_jacobian(n_dynamic):
+        def jac(t, y):
+            model.calls += n_dynamic + 1
+            return jacobian(min(max(t, t_from), t_left), y, n_dynamic)
+        return jac
+
+    return partial_jacobian
+
+
+def _from_batch(values, index: int, like):
+    """The event ``like`` (its attributes) as entry ``index`` of the vector ``values(t, y)``."""
+    def event(tt, y):
+        return values(tt, y)[index]
+
+    event.terminal, event.direction, event.info = like.terminal, like.direction, like.info
+    event.batch = (values, index)
+    return event
 
 
 def _add_slipping(u: np.ndarray, t: float, slips: list, active: tuple, dissipated: float = 0.0) -> float:

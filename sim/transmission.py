@@ -44,6 +44,7 @@ ranges), kept together so that the decision and the torque split cannot drift ap
 from __future__ import annotations
 
 import itertools
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -57,6 +58,7 @@ from transgen.modes import Mode, mode_model, mode_models
 from transgen.statespace import _mode_state_space, state_space
 
 from .interp import interp_like_numpy
+from .jit import compilable
 from .signals import Constant, Signal
 
 __all__ = ["ElementConfig", "ModeData", "Transmission", "APPLY_THRESHOLD"]
@@ -68,6 +70,10 @@ APPLY_THRESHOLD = 1e-12
 #: How far past ``t`` [s, relative to max(1, |t|)] :meth:`ElementConfig.applied_after` looks for a
 #: rising apply.
 APPLY_LOOKAHEAD = 1e-9
+#: Codes of the element kinds in the compilable functions below (every other kind is a friction
+#: element: a clutch or a brake).
+FRICTION, ONEWAY, DOG = 0, 1, 2
+_KIND_CODES = {"oneway": ONEWAY, "dog": DOG}
 
 
 _DERIVED: dict[tuple, tuple[dict, dict]] = {}
@@ -108,6 +114,11 @@ class ElementConfig:
     gain: float = 1.0
     energizing: int = 0
 
+    @property
+    def code(self) -> int:
+        """The kind as :data:`FRICTION`, :data:`ONEWAY` or :data:`DOG` (for the compilable functions)."""
+        return _KIND_CODES.get(self.kind, FRICTION)
+
     def apply_at(self, t: float) -> float:
         return 1.0 if self.kind == "oneway" else max(0.0, self.apply.value(t))
 
@@ -128,20 +139,12 @@ class ElementConfig:
         return self.apply.value(t + APPLY_LOOKAHEAD * max(1.0, abs(t))) > APPLY_THRESHOLD
 
     def holding_margin(self, t: float, torque: float) -> float:
-        if self.kind == "dog" and self.static_capacity(t) == float("inf"):
-            return 1.0  # unlimited: holds any torque while engaged
         """How far the torque [N*m] of the element, locked, is inside its holding limit (>= 0: it
-        holds): ``T_static * apply - |t|`` for a friction element, ``-free * t`` for a one-way clutch,
-        each with the round-off allowance that the mode decision accepts (so that a lock decided
-        at its limit starts on the holding side of the unlock event)."""
-        if self.kind == "oneway":
-            return 1e-9 * (1.0 + abs(torque)) - self.free * torque
-        return self.static_capacity(t) * (1.0 + 1e-9) + 1e-9 - abs(torque)
+        holds): :func:`element_margin`."""
+        return element_margin(self.code, self.static_capacity(t), self.free, torque)
 
     def static_capacity(self, t: float) -> float:
-        if self.kind == "dog":  # engaged teeth hold their full capacity; released, nothing
-            return self.static if self.apply_at(t) > APPLY_THRESHOLD else 0.0
-        return float("inf") if self.kind == "oneway" else self.static * self.apply_at(t)
+        return static_capacity(self.code, self.static, self.apply_at(t))
 
     def signed_capacity(self, direction: int, capacity: str = "dynamic") -> float:
         """Capacity [N*m] times the band-brake gain, signed by ``direction``; 0 for none."""
@@ -161,12 +164,9 @@ class ElementConfig:
         right-hand side computes it once per segment); ``friction``: apply the friction table."""
         if scale == 0.0:
             return 0.0
-        a = self.apply_at(t)
-        if a <= 0.0:
-            return 0.0
         if friction and self.friction is not None:
-            a *= interp_like_numpy(abs(slip), self.friction[0], self.friction[1])
-        return scale * a
+            return slipping_torque(self.apply_at(t), slip, scale, self.friction[0], self.friction[1])
+        return slipping_torque(self.apply_at(t), slip, scale, (), ())
 
     def slip_torques(self, ts: np.ndarray, slips: np.ndarray, direction: int) -> np.ndarray:
         """:meth:`slip_torque` (dynamic capacity) at the times ``ts`` with the slips ``slips``."""
@@ -373,16 +373,7 @@ class Transmission:
         lo = hi = 0.0
         for i, sign in zip(mode.groups[row], mode.signs[row]):
             e = self.elements[i]
-            if e.kind == "oneway":
-                # free=+1 overruns with positive slip: locked it transmits t <= 0 (its own
-                # direction), i.e. -free*sign in the row's direction
-                if -e.free * sign > 0:
-                    hi = np.inf
-                else:
-                    lo = -np.inf
-            else:
-                c = e.static_capacity(t)
-                lo, hi = lo - c, hi + c
+            lo, hi = add_holding_range(lo, hi, e.code, e.free, sign, 0.0 if e.kind == "oneway" else e.static_capacity(t))
         return lo, hi
 
     def holding_margin(self, mode: ModeData, row: int, t: float, torque: float) -> float:
@@ -396,7 +387,7 @@ class Transmission:
             return self.elements[members[0]].holding_margin(t, torque)
         lo, hi = self.holding_limits(mode, row, t)
         friction = sum(self.elements[i].static_capacity(t) for i in members if self.elements[i].kind != "oneway")
-        return min(hi - torque, torque - lo) + 1e-9 * (1.0 + friction + abs(torque))
+        return group_margin(lo, hi, friction, torque)
 
     def unlock_directions(self, mode: ModeData, row: int, t: float, torque: float) -> dict[int, int]:
         """At the unlock of row ``row`` (its torque ``torque`` at a limit): the direction each of
@@ -659,3 +650,64 @@ class Transmission:
                 return (forced[i] * sign,)
         free = {self.elements[i].free * sign for i, sign in zip(members, signs) if self.elements[i].kind == "oneway"}
         return (0,) + tuple(d for d in (1, -1) if free <= {d})
+
+
+# ------------------------------------------------------- element formulas (one implementation)
+
+
+@compilable
+def slipping_torque(apply: float, slip: float, scale: float, friction_slips, friction_factors) -> float:
+    """Torque [N*m] of a slipping friction element at the apply fraction ``apply`` (``apply_at``)
+    and slip ``slip`` [rad/s]: ``scale * apply * friction(|slip|)`` with the signed capacity
+    ``scale`` (:meth:`ElementConfig.signed_capacity`); no friction table when ``friction_slips``
+    is empty; zero when released."""
+    if scale == 0.0 or apply <= 0.0:
+        return 0.0
+    if len(friction_slips):
+        apply *= interp_like_numpy(abs(slip), friction_slips, friction_factors)
+    return scale * apply
+
+
+@compilable
+def static_capacity(code: int, static: float, apply: float) -> float:
+    """Static capacity [N*m] of an element of kind ``code`` at the apply fraction ``apply``:
+    ``T_static * apply`` (friction), unlimited (one-way clutch), ``T_static`` while engaged
+    (dog: engaged teeth hold their full capacity; released, nothing)."""
+    if code == DOG:
+        return static if apply > APPLY_THRESHOLD else 0.0
+    return math.inf if code == ONEWAY else static * apply
+
+
+@compilable
+def element_margin(code: int, capacity: float, free: int, torque: float) -> float:
+    """How far the torque [N*m] of a lone locked element is inside its holding limit (>= 0: it
+    holds): ``T_static * apply - |t|`` for a friction element (``capacity``: :func:`static_capacity`),
+    ``-free * t`` for a one-way clutch, each with the round-off allowance that the mode decision
+    accepts (so that a lock decided at its limit starts on the holding side of the unlock event);
+    an engaged dog of unlimited capacity holds any torque."""
+    if code == DOG and capacity == math.inf:
+        return 1.0
+    if code == ONEWAY:
+        return 1e-9 * (1.0 + abs(torque)) - free * torque
+    return capacity * (1.0 + 1e-9) + 1e-9 - abs(torque)
+
+
+@compilable
+def add_holding_range(lo: float, hi: float, code: int, free: int, sign: int, capacity: float) -> tuple[float, float]:
+    """The holding range ``(lo, hi)`` of a locked group with one more member (kind ``code``,
+    ``sign`` relative to the group's direction): ``+-capacity`` for a friction element, without
+    limit in a one-way clutch's locking direction."""
+    if code == ONEWAY:
+        # free=+1 overruns with positive slip: locked it transmits t <= 0 (its own direction),
+        # i.e. -free*sign in the row's direction
+        if -free * sign > 0:
+            return lo, math.inf
+        return -math.inf, hi
+    return lo - capacity, hi + capacity
+
+
+@compilable
+def group_margin(lo: float, hi: float, friction: float, torque: float) -> float:
+    """How far a locked group's torque is inside its holding range ``(lo, hi)``, with a round-off
+    allowance relative to its friction capacity ``friction`` and the torque."""
+    return min(hi - torque, torque - lo) + 1e-9 * (1.0 + friction + abs(torque))

@@ -143,12 +143,19 @@ def test_monitor_can_be_switched_off(tmp_path):
     assert "invariants" not in sc.run().stats
 
 
-def test_a_friction_torque_of_the_wrong_sign_stops_the_run(tmp_path, monkeypatch):
+@pytest.mark.parametrize("patched", ["torque_at", "signed_capacity"])
+def test_a_friction_torque_of_the_wrong_sign_stops_the_run(tmp_path, monkeypatch, patched):
     from transgen.sim.transmission import ElementConfig
 
-    original = ElementConfig.torque_at
-    monkeypatch.setattr(ElementConfig, "torque_at", lambda self, t, slip, scale, friction=True:
-                        -original(self, t, slip, scale, friction))
+    if patched == "torque_at":  # the Python right-hand side's element torque (the compiled one calls the formula)
+        monkeypatch.setenv("TRANSGEN_JIT", "0")
+        original = ElementConfig.torque_at
+        monkeypatch.setattr(ElementConfig, "torque_at", lambda self, t, slip, scale, friction=True:
+                            -original(self, t, slip, scale, friction))
+    else:  # the signed capacity both right-hand sides take
+        original = ElementConfig.signed_capacity
+        monkeypatch.setattr(ElementConfig, "signed_capacity", lambda self, direction, capacity="dynamic":
+                            -original(self, direction, capacity))
     sc = scenario(tmp_path, clutch_body("0.5", 0.3, speeds="{ A = 10.0, B = 0.0 }"))
     r = sc.run()
     assert not r.success

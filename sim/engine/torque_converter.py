@@ -44,9 +44,10 @@ from transgen.errors import TransgenError
 
 from ..causality import Causality, ports
 from ..interp import interp1, interp1_pair
+from ..jit import compilable, compiled_loop
 from .map_file import DATA_DIR
 
-__all__ = ["TorqueConverter", "TorqueConverterError", "DEFAULT_TORQUE_CONVERTER"]
+__all__ = ["TorqueConverter", "TorqueConverterError", "DEFAULT_TORQUE_CONVERTER", "converter_torques"]
 
 DEFAULT_TORQUE_CONVERTER = DATA_DIR / "torque_converter_heavy_truck.toml"
 """Path of the shipped heavy-truck converter table."""
@@ -149,16 +150,48 @@ class TorqueConverter:
         >>> round(tt / tp, 2)
         2.2
         """
-        s = 1.0 if (omega_pump > 0.0 or (omega_pump == 0.0 and omega_turbine >= 0.0)) else -1.0
-        wp, wt = s * omega_pump, s * omega_turbine
-        if wt <= wp:                       # drive, wp > 0 here (or both zero)
-            if wp == 0.0:
-                return 0.0, 0.0
-            capacity, ratio = interp1_pair(max(wt / wp, 0.0), self._sr, self._c, self._tr)
-            tp = wp * wp * capacity
-            return s * tp, s * tp * ratio
-        t = wt * wt * interp1(wp / wt, self._csr, self._cc)   # coast, wt > wp >= 0
-        return -s * t, -s * t
+        return converter_torques(omega_pump, omega_turbine, self._sr, self._c, self._tr, self._csr, self._cc)
+
+    def torques_over(self, omega_pump: np.ndarray, omega_turbine: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`torques` at every pair of the arrays ``omega_pump``, ``omega_turbine`` (output
+        sampling; one compiled loop when the simulator compiles its right-hand side)."""
+        pump, turbine = np.empty(len(omega_pump)), np.empty(len(omega_pump))
+        over, tables = compiled_loop(converter_torques_over, len(pump)), self.tables()
+        if over is None:
+            over = converter_torques_over
+        else:
+            tables = tuple(np.array(x, dtype=float) for x in tables)
+        over(np.ascontiguousarray(omega_pump, dtype=float), np.ascontiguousarray(omega_turbine, dtype=float), *tables,
+             pump, turbine)
+        return pump, turbine
+
+    def tables(self) -> tuple[tuple[float, ...], ...]:
+        """The tables of :func:`converter_torques`: drive speed ratios, coefficients ``1/K^2``,
+        torque ratios, then the coast speed ratios and coefficients."""
+        return self._sr, self._c, self._tr, self._csr, self._cc
+
+    def kernel_numbers(self) -> tuple[tuple[int, int], tuple[float, ...]]:
+        """``((n_drive, n_coast), numbers)``: :meth:`tables` as data for the compiled right-hand
+        side (:mod:`transgen.sim.kernel`), one after the other."""
+        return (len(self._sr), len(self._csr)), sum(self.tables(), ())
+
+
+@compilable
+def converter_torques(omega_pump: float, omega_turbine: float, sr, coefficient, torque_ratio, coast_sr,
+                      coast_coefficient) -> tuple[float, float]:
+    """``(T_pump_absorbed, T_turbine_delivered)`` [N*m] at pump and turbine speeds [rad/s] of the
+    converter with the drive table ``(sr, coefficient = 1/K^2, torque_ratio)`` and the coast table
+    ``(coast_sr, coast_coefficient)`` (the model of the module docstring; odd in the speeds)."""
+    s = 1.0 if (omega_pump > 0.0 or (omega_pump == 0.0 and omega_turbine >= 0.0)) else -1.0
+    wp, wt = s * omega_pump, s * omega_turbine
+    if wt <= wp:                       # drive, wp > 0 here (or both zero)
+        if wp == 0.0:
+            return 0.0, 0.0
+        capacity, ratio = interp1_pair(max(wt / wp, 0.0), sr, coefficient, torque_ratio)
+        tp = wp * wp * capacity
+        return s * tp, s * tp * ratio
+    t = wt * wt * interp1(wp / wt, coast_sr, coast_coefficient)   # coast, wt > wp >= 0
+    return -s * t, -s * t
 
 
 @lru_cache(maxsize=None)
@@ -186,3 +219,12 @@ def _parse(text: str, path: str) -> TorqueConverter:
         if isinstance(exc, TorqueConverterError):
             raise TorqueConverterError(f"{path}: {exc}") from None
         raise TorqueConverterError(f"{path}: error: missing or non-numeric data ({exc})") from None
+
+
+@compilable
+def converter_torques_over(omega_pump, omega_turbine, sr, coefficient, torque_ratio, coast_sr, coast_coefficient,
+                           pump, turbine) -> None:
+    """:func:`converter_torques` at every pair of speeds, written into ``pump`` and ``turbine``."""
+    for k in range(len(omega_pump)):
+        pump[k], turbine[k] = converter_torques(omega_pump[k], omega_turbine[k], sr, coefficient, torque_ratio,
+                                                coast_sr, coast_coefficient)
