@@ -52,7 +52,23 @@ def _close(a, b, what):
 
 @pytest.mark.parametrize("name", sorted(bundled_scenarios()))
 def test_compiled_rhs_equals_the_python_one(name):
-    pt = load_scenario(name).powertrain
+    _compare_compiled_with_python(name)
+
+
+#: a shifts' torque request (issue 12) spanning a cut, no change and a boost up to full load
+_REQUEST = {"type": "table", "t": [0.0, 5.0, 10.0, 15.0, 20.0], "value": [0.3, 1.0, 1.6, 0.8, 1.2]}
+
+
+@pytest.mark.parametrize("kind", ["engine_converter", "engine_map"])
+def test_the_engine_torque_request_compiles_to_the_python_numbers(kind):
+    overrides = {"input.torque_request": _REQUEST}
+    if kind == "engine_map":  # the engine map on the input link (no converter)
+        overrides["input.type"] = "engine_map"
+    _compare_compiled_with_python("ht740_original", overrides)
+
+
+def _compare_compiled_with_python(name, overrides=None):
+    pt = load_scenario(name, overrides or {}).powertrain
     tr = pt.transmission
     rng = np.random.default_rng(sum(map(ord, name)))
     cp = K.CompiledPowertrain(pt)
