@@ -8,6 +8,11 @@ the same finiteness checks (a NaN from a rejected trial state raises the same ``
 the same singular-matrix warning: the results are those of the scipy classes, bit for bit.
 Sparse Jacobians keep scipy's ``splu``.
 
+:class:`LeanLSODA` is scipy's LSODA with the Python between two calls of the compiled lsoda
+routine cut down: the same call with the same arguments and work arrays, one step at a time,
+without the ``scipy.integrate.ode`` wrapper's argument shuffling, and a dense output built without
+a fresh power array per step.
+
 :func:`solve_segment` is ``solve_ivp``'s driver loop for the simulator's segments (dense output,
 terminal events), the same steps, event roots and solution, without its per-step array
 conversions.
@@ -20,13 +25,15 @@ from types import SimpleNamespace
 
 import numpy as np
 from scipy.integrate import BDF, LSODA, OdeSolution, Radau
+from scipy.integrate._ivp.base import ConstantDenseOutput
+from scipy.integrate._ivp.lsoda import LsodaDenseOutput
 from scipy.integrate._ivp.bdf import MAX_FACTOR, MAX_ORDER, MIN_FACTOR, NEWTON_MAXITER, compute_R
 from scipy.integrate._ivp.ivp import METHODS, MESSAGES
 from scipy.optimize import brentq
 from scipy.linalg import LinAlgWarning, get_lapack_funcs
 from scipy.sparse import issparse
 
-__all__ = ["LeanBDF", "LeanRadau", "SOLVERS", "solve_segment"]
+__all__ = ["LeanBDF", "LeanLSODA", "LeanRadau", "SOLVERS", "solve_segment"]
 
 
 class _LeanLU:
@@ -222,7 +229,115 @@ class LeanRadau(_LeanLU, Radau):
     """:class:`scipy.integrate.Radau` with the lean dense LU."""
 
 
-SOLVERS = {"BDF": LeanBDF, "Radau": LeanRadau}
+class _LsodaDense(LsodaDenseOutput):
+    """:class:`~scipy.integrate._ivp.lsoda.LsodaDenseOutput` (the Nordsieck polynomial of one
+    step) sharing its power array ``p = arange(order + 1)`` between steps of the same order; it
+    evaluates with the inherited ``_call_impl``, so the same values, bit for bit."""
+
+    def __init__(self, t_old, t, h, p, yh):
+        self.t_old, self.t = t_old, t
+        self.t_min, self.t_max = min(t, t_old), max(t, t_old)
+        self.h, self.yh, self.p = h, yh, p
+
+
+class LeanLSODA(LSODA):
+    """:class:`scipy.integrate.LSODA` (version 1.17: a C lsoda called one step at a time, ``itask
+    = 5``) with the step and the dense output written out: each step is the same call of
+    ``scipy.integrate._odepack.lsoda`` with the same arguments, work arrays and internal-state
+    arrays that scipy's ``_step_impl`` passes through ``scipy.integrate.ode``, so the same steps,
+    states and dense output, bit for bit. The solver is set up by scipy's own ``__init__``; a
+    scipy whose LSODA keeps other state runs scipy's step.
+
+    The right-hand side is called as scipy calls it (``asarray(fun(t, y), dtype=float)``, counted
+    in ``nfev``) with one Python frame less."""
+
+    _INTEGRATOR_STATE = ("call_args", "rwork", "iwork", "state_doubles", "state_ints", "messages")
+    _powers: dict = {}
+
+    def __init__(self, fun, t0, y0, t_bound, **options):
+        super().__init__(fun, t0, y0, t_bound, **options)
+        solver = self._lsoda_solver
+        integrator = solver._integrator
+        self._lean = (all(hasattr(integrator, a) for a in self._INTEGRATOR_STATE) and len(integrator.call_args) == 7
+                      and integrator.call_args[4] is integrator.rwork and integrator.call_args[5] is integrator.iwork
+                      and not solver.f_params and not solver.jac_params and _odepack_lsoda() is integrator.runner)
+        if not self._lean:
+            return
+        self._run = integrator.runner
+        self._integrator = integrator
+        rtol, atol, _, self._istate, rwork, iwork, jt = integrator.call_args
+        self._tolerances = (rtol, atol, 5)  # itask 5: one step, not past rwork[0] = t_bound
+        self._work = (rwork, iwork, solver.jac or (lambda: None), jt, (), 1, (), integrator.state_doubles,
+                      integrator.state_ints)
+        self._rwork, self._iwork = rwork, iwork
+        # the step's order and sizes read as Python numbers (no numpy scalars per step)
+        self._iwork_ints, self._rwork_floats = memoryview(iwork), memoryview(rwork)
+        self._y_c = solver._y  # the array the C code steps (in place); ``y`` is a copy of it
+
+        def f(t, y):
+            self.nfev += 1
+            return np.asarray(fun(t, y), dtype=float)
+
+        self._f = f
+
+    def step(self):
+        """:meth:`OdeSolver.step` with scipy's ``LSODA._step_impl`` inline."""
+        if not self._lean:
+            return super().step()
+        if self.status != "running":
+            raise RuntimeError("Attempt to step on a failed or finished solver.")
+        t = self.t
+        if self.n == 0 or t == self.t_bound:
+            self.t_old = t
+            self.t = self.t_bound
+            self.status = "finished"
+            return None
+        y, t_new, istate = self._run(self._f, self._y_c, t, self.t_bound, *self._tolerances, self._istate, *self._work)
+        self._y_c = y
+        if istate < 0:
+            integrator = self._integrator
+            warnings.warn(f"lsoda: {integrator.messages.get(istate, f'Unexpected istate={istate:d}')}", stacklevel=2)
+            self.status = "failed"
+            return "Unexpected istate in LSODA."
+        self._istate = 2
+        self.t = t_new
+        self.y = y.copy()
+        self.njev = self.nlu = self._iwork[12]
+        self.t_old = t
+        if self.direction * (t_new - self.t_bound) >= 0:
+            self.status = "finished"
+        return None
+
+    def dense_output(self):
+        """scipy's ``LSODA._dense_output_impl`` (the Nordsieck array of the last step, its last
+        column rescaled to the step when the order is to drop) in a :class:`_LsodaDense`."""
+        if not self._lean:
+            return super().dense_output()
+        if self.t_old is None:
+            raise RuntimeError("Dense output is available after a successful step was made.")
+        if self.n == 0 or self.t == self.t_old:
+            return ConstantDenseOutput(self.t_old, self.t, self.y)
+        ints, n = self._iwork_ints, self.n
+        order = ints[13]
+        h = self._rwork_floats[11]
+        yh = self._rwork[20:20 + (order + 1) * n].reshape((n, order + 1), order="F").copy()
+        if ints[14] < order:
+            iwork, rwork = self._iwork, self._rwork
+            yh[:, -1] *= (rwork[11] / rwork[10]) ** iwork[13]  # scipy's numpy scalars
+        p = self._powers.get(order)
+        if p is None:
+            p = self._powers[order] = np.arange(self._iwork[13] + 1)
+            p.flags.writeable = False
+        return _LsodaDense(self.t_old, self.t, h, p, yh)
+
+
+def _odepack_lsoda():
+    from scipy.integrate import _odepack
+
+    return getattr(_odepack, "lsoda", None)
+
+
+SOLVERS = {"BDF": LeanBDF, "Radau": LeanRadau, "LSODA": LeanLSODA}
 """Solver classes used for these method names (the others are passed to ``solve_ivp`` by name)."""
 
 
@@ -256,16 +371,18 @@ def solve_segment(fun, t0: float, t1: float, y0: np.ndarray, method, events: lis
     g = values(t0, y0)
     hit, root, y_root = None, None, None
     status, message = None, None
+    step, dense_output, keep = solver.step, solver.dense_output, interpolants.append
     while status is None:
-        message = solver.step()
-        if solver.status == "finished":
+        message = step()
+        state = solver.status
+        if state == "finished":
             status = 0
-        elif solver.status == "failed":
+        elif state == "failed":
             status = -1
             break
         t_old, t, y = solver.t_old, solver.t, solver.y
-        sol = solver.dense_output()
-        interpolants.append(sol)
+        sol = dense_output()
+        keep(sol)
         if events:
             g_new = values(t, y)
             active = [k for k, (a, b, d) in enumerate(zip(g, g_new, directions))
@@ -288,8 +405,8 @@ def solve_segment(fun, t0: float, t1: float, y0: np.ndarray, method, events: lis
     t_events = [np.array([root]) if k == hit else np.zeros(0) for k in range(len(events))]
     y_events = [np.array([y_root]) if k == hit else np.zeros(0) for k in range(len(events))]
     ts_arr = np.array(ts)
-    return SimpleNamespace(t=ts_arr, y=np.vstack(ys).T,
-                           sol=OdeSolution(ts_arr, interpolants, alt_segment=method in (BDF, LSODA)),
+    return SimpleNamespace(t=ts_arr, y=np.array(ys).T,
+                           sol=OdeSolution(ts_arr, interpolants, alt_segment=method in (BDF, LSODA, LeanLSODA)),
                            t_events=t_events, y_events=y_events, nfev=solver.nfev, njev=solver.njev,
                            nlu=solver.nlu, status=status, message=MESSAGES.get(status, message),
                            success=status >= 0)
