@@ -331,6 +331,39 @@ class LeanLSODA(LSODA):
         return _LsodaDense(self.t_old, self.t, h, p, yh)
 
 
+class LeanOdeSolution(OdeSolution):
+    """:class:`scipy.integrate.OdeSolution` whose evaluation at many times finds the runs of
+    times in one step with one array operation (scipy walks them one by one with
+    ``itertools.groupby``) and evaluates an LSODA step's polynomial inline: the same
+    interpolant on the same times with the same operations, so the same values, bit for bit."""
+
+    def __call__(self, t):
+        t = np.asarray(t)
+        if t.ndim != 1 or not t.size:
+            return super().__call__(t)
+        order = np.argsort(t)
+        reverse = np.empty_like(order)
+        reverse[order] = np.arange(order.shape[0])
+        t_sorted = t[order]
+        segments = np.searchsorted(self.ts_sorted, t_sorted, side=self.side)
+        segments -= 1
+        segments[segments < 0] = 0
+        segments[segments > self.n_segments - 1] = self.n_segments - 1
+        if not self.ascending:
+            segments = self.n_segments - 1 - segments
+        bounds = [0, *(np.flatnonzero(segments[1:] != segments[:-1]) + 1).tolist(), len(segments)]
+        interpolants = self.interpolants
+        ys = []
+        for segment, start, end in zip(segments[bounds[:-1]].tolist(), bounds, bounds[1:]):
+            interpolant, group = interpolants[segment], t_sorted[start:end]
+            if type(interpolant) is _LsodaDense:  # LsodaDenseOutput._call_impl on a 1-d array
+                ys.append(np.dot(interpolant.yh, ((group - interpolant.t) / interpolant.h) ** interpolant.p[:, None]))
+            else:
+                ys.append(interpolant(group))
+        ys = np.hstack(ys)
+        return ys[:, reverse]
+
+
 def _odepack_lsoda():
     from scipy.integrate import _odepack
 
@@ -406,7 +439,7 @@ def solve_segment(fun, t0: float, t1: float, y0: np.ndarray, method, events: lis
     y_events = [np.array([y_root]) if k == hit else np.zeros(0) for k in range(len(events))]
     ts_arr = np.array(ts)
     return SimpleNamespace(t=ts_arr, y=np.array(ys).T,
-                           sol=OdeSolution(ts_arr, interpolants, alt_segment=method in (BDF, LSODA, LeanLSODA)),
+                           sol=LeanOdeSolution(ts_arr, interpolants, alt_segment=method in (BDF, LSODA, LeanLSODA)),
                            t_events=t_events, y_events=y_events, nfev=solver.nfev, njev=solver.njev,
                            nlu=solver.nlu, status=status, message=MESSAGES.get(status, message),
                            success=status >= 0)

@@ -183,3 +183,23 @@ def test_bundled_scenarios_with_lsoda_are_scipy_lsoda_bit_for_bit(name, monkeypa
     assert got.modes == ref.modes
     assert got.stats["rhs_evaluations"] == ref.stats["rhs_evaluations"]
     assert got.stats["segments"] == ref.stats["segments"]
+
+
+@settings(max_examples=40, deadline=None, derandomize=True)
+@given(st.sampled_from(["LSODA", "BDF", "RK45"]), st.booleans(), st.integers(0, 2**32 - 1))
+def test_lean_ode_solution_is_scipys(method, backwards, seed):
+    """The segment's solution (:class:`LeanOdeSolution`) at unsorted times with repeats, step
+    ends, times outside the segment: scipy's :class:`OdeSolution` on the same steps, bit for bit."""
+    from scipy.integrate import OdeSolution
+
+    rng = np.random.default_rng(seed)
+    A = np.array([[-0.2, 6.0], [-6.0, -0.2]])
+    t1 = -2.0 if backwards else 2.0
+    got = solve_segment(lambda t, y: A @ y, 0.0, t1, np.array([1.0, 0.5]), method, [], rtol=1e-6, atol=1e-9)
+    sol = got.sol
+    ref = OdeSolution(sol.ts, sol.interpolants, alt_segment=sol.side == ("right" if not backwards else "left"))
+    assert ref.side == sol.side
+    ts = np.concatenate([rng.uniform(-0.1, 2.1, 30) * np.sign(t1), rng.choice(got.t, 8), got.t[:3]])
+    rng.shuffle(ts)
+    assert np.array_equal(sol(ts), ref(ts))
+    assert np.array_equal(sol(ts[:1]), ref(ts[:1])) and np.array_equal(sol(ts[0]), ref(ts[0]))
