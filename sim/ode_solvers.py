@@ -418,8 +418,14 @@ def solve_segment(fun, t0: float, t1: float, y0: np.ndarray, method, events: lis
         keep(sol)
         if events:
             g_new = values(t, y)
-            active = [k for k, (a, b, d) in enumerate(zip(g, g_new, directions))
-                      if (d > 0 and a <= 0 <= b) or (d < 0 and a >= 0 >= b) or (d == 0 and (a <= 0 <= b or a >= 0 >= b))]
+            for a, b in zip(g, g_new):
+                if a * b <= 0 or a != a or b != b:  # a sign change or a zero (or NaN): the full test
+                    active = [k for k, (a, b, d) in enumerate(zip(g, g_new, directions))
+                              if (d > 0 and a <= 0 <= b) or (d < 0 and a >= 0 >= b)
+                              or (d == 0 and (a <= 0 <= b or a >= 0 >= b))]
+                    break
+            else:
+                active = None  # every value kept its strict sign: no event in any direction
             if active:
                 roots = [brentq(lambda tt, e=events[k]: e(tt, sol(tt)), t_old, t, xtol=4 * _EPS, rtol=4 * _EPS)
                          for k in active]
@@ -455,6 +461,16 @@ def _event_values(events: list):
     rows = np.array([events[k].linear[0] for k in linear], dtype=float)
     offsets = np.array([events[k].linear[1] for k in linear], dtype=float)
     width = rows.shape[1]
+    if linear == list(range(len(linear))):  # the linear events first (the simulator's order)
+        rest = [e for _, e in others]
+
+        def values(t, y):
+            g = (rows @ y[:width] + offsets).tolist()
+            for e in rest:
+                g.append(e(t, y))
+            return g
+
+        return values
 
     def values(t, y):
         g = [0.0] * len(events)
