@@ -231,13 +231,38 @@ class LeanRadau(_LeanLU, Radau):
 
 class _LsodaDense(LsodaDenseOutput):
     """:class:`~scipy.integrate._ivp.lsoda.LsodaDenseOutput` (the Nordsieck polynomial of one
-    step) sharing its power array ``p = arange(order + 1)`` between steps of the same order; it
-    evaluates with the inherited ``_call_impl``, so the same values, bit for bit."""
+    step) built lazily: a step keeps its Nordsieck columns as the flat copy of LSODA's work array;
+    the ``(n, order + 1)`` array ``yh`` (scipy's reshape and copy of that array) is made on the
+    first evaluation, and the power array ``p = arange(order + 1)`` is shared between steps of
+    the same order. It evaluates with the inherited ``_call_impl``: the same values, bit for bit."""
 
-    def __init__(self, t_old, t, h, p, yh):
-        self.t_old, self.t = t_old, t
-        self.t_min, self.t_max = min(t, t_old), max(t, t_old)
-        self.h, self.yh, self.p = h, yh, p
+    _powers: dict = {}
+
+    def __init__(self, t_old, t, h, order: int, n: int, flat: np.ndarray):
+        self.t_old, self.t, self.h = t_old, t, h
+        self._order, self._n, self._flat, self._yh = order, n, flat, None
+
+    @property
+    def t_min(self):
+        return min(self.t, self.t_old)
+
+    @property
+    def t_max(self):
+        return max(self.t, self.t_old)
+
+    @property
+    def yh(self) -> np.ndarray:
+        if self._yh is None:
+            self._yh = self._flat.reshape((self._n, self._order + 1), order="F").copy()
+        return self._yh
+
+    @property
+    def p(self) -> np.ndarray:
+        p = self._powers.get(self._order)
+        if p is None:
+            p = self._powers[self._order] = np.arange(np.int32(self._order) + 1)  # LSODA's iwork is int32
+            p.flags.writeable = False
+        return p
 
 
 class LeanLSODA(LSODA):
@@ -252,7 +277,6 @@ class LeanLSODA(LSODA):
     in ``nfev``) with one Python frame less."""
 
     _INTEGRATOR_STATE = ("call_args", "rwork", "iwork", "state_doubles", "state_ints", "messages")
-    _powers: dict = {}
 
     def __init__(self, fun, t0, y0, t_bound, **options):
         super().__init__(fun, t0, y0, t_bound, **options)
@@ -310,7 +334,7 @@ class LeanLSODA(LSODA):
 
     def dense_output(self):
         """scipy's ``LSODA._dense_output_impl`` (the Nordsieck array of the last step, its last
-        column rescaled to the step when the order is to drop) in a :class:`_LsodaDense`."""
+        column rescaled to the step when the order is to drop) as a lazy :class:`_LsodaDense`."""
         if not self._lean:
             return super().dense_output()
         if self.t_old is None:
@@ -319,16 +343,11 @@ class LeanLSODA(LSODA):
             return ConstantDenseOutput(self.t_old, self.t, self.y)
         ints, n = self._iwork_ints, self.n
         order = ints[13]
-        h = self._rwork_floats[11]
-        yh = self._rwork[20:20 + (order + 1) * n].reshape((n, order + 1), order="F").copy()
+        flat = self._rwork[20:20 + (order + 1) * n].copy()  # yh in Fortran order: column j at j*n
         if ints[14] < order:
             iwork, rwork = self._iwork, self._rwork
-            yh[:, -1] *= (rwork[11] / rwork[10]) ** iwork[13]  # scipy's numpy scalars
-        p = self._powers.get(order)
-        if p is None:
-            p = self._powers[order] = np.arange(self._iwork[13] + 1)
-            p.flags.writeable = False
-        return _LsodaDense(self.t_old, self.t, h, p, yh)
+            flat[order * n:] *= (rwork[11] / rwork[10]) ** iwork[13]  # scipy's yh[:, -1], numpy scalars
+        return _LsodaDense(self.t_old, self.t, self._rwork_floats[11], order, n, flat)
 
 
 class LeanOdeSolution(OdeSolution):
