@@ -360,10 +360,13 @@ class LeanOdeSolution(OdeSolution):
         t = np.asarray(t)
         if t.ndim != 1 or not t.size:
             return super().__call__(t)
-        order = np.argsort(t)
-        reverse = np.empty_like(order)
-        reverse[order] = np.arange(order.shape[0])
-        t_sorted = t[order]
+        if t.size == 1 or bool(np.all(t[1:] >= t[:-1])):  # sorted already (the output grid): no permutation
+            reverse, t_sorted = None, t
+        else:
+            order = np.argsort(t)
+            reverse = np.empty_like(order)
+            reverse[order] = np.arange(order.shape[0])
+            t_sorted = t[order]
         segments = np.searchsorted(self.ts_sorted, t_sorted, side=self.side)
         segments -= 1
         segments[segments < 0] = 0
@@ -379,8 +382,8 @@ class LeanOdeSolution(OdeSolution):
                 ys.append(np.dot(interpolant.yh, ((group - interpolant.t) / interpolant.h) ** interpolant.p[:, None]))
             else:
                 ys.append(interpolant(group))
-        ys = np.hstack(ys)
-        return ys[:, reverse]
+        ys = np.concatenate(ys, axis=1) if all(y.ndim == 2 for y in ys) else np.hstack(ys)
+        return ys if reverse is None else ys[:, reverse]
 
 
 def _odepack_lsoda():

@@ -202,4 +202,5 @@ def test_lean_ode_solution_is_scipys(method, backwards, seed):
     ts = np.concatenate([rng.uniform(-0.1, 2.1, 30) * np.sign(t1), rng.choice(got.t, 8), got.t[:3]])
     rng.shuffle(ts)
     assert np.array_equal(sol(ts), ref(ts))
+    assert np.array_equal(sol(np.sort(ts)), ref(np.sort(ts)))  # sorted: no permutation
     assert np.array_equal(sol(ts[:1]), ref(ts[:1])) and np.array_equal(sol(ts[0]), ref(ts[0]))
