@@ -297,6 +297,7 @@ class LeanLSODA(LSODA):
         # the step's order and sizes read as Python numbers (no numpy scalars per step)
         self._iwork_ints, self._rwork_floats = memoryview(iwork), memoryview(rwork)
         self._y_c = solver._y  # the array the C code steps (in place); ``y`` is a copy of it
+        self._forward = self.direction > 0  # the end test on Python floats (``direction`` is +-1.0)
 
         def f(t, y):
             self.nfev += 1
@@ -326,9 +327,10 @@ class LeanLSODA(LSODA):
         self._istate = 2
         self.t = t_new
         self.y = y.copy()
-        self.njev = self.nlu = self._iwork[12]
+        self.njev = self.nlu = self._iwork_ints[12]  # LSODA's Jacobian evaluations = LU decompositions
         self.t_old = t
-        if self.direction * (t_new - self.t_bound) >= 0:
+        past = t_new - self.t_bound
+        if (past >= 0) if self._forward else (past <= 0):  # direction * (t - t_bound) >= 0
             self.status = "finished"
         return None
 

@@ -50,7 +50,8 @@ def _systems(draw):
     n = draw(st.integers(1, 6))
     seed = draw(st.integers(0, 2**32 - 1))
     rng = np.random.default_rng(seed)
-    stiff = draw(st.booleans())
+    t1 = draw(st.sampled_from([0.3, 2.0, 6.0, -0.3]))  # -0.3: backwards in time
+    stiff = t1 > 0 and draw(st.booleans())
     A = rng.normal(size=(n, n)) - np.diag(rng.uniform(0.1, 500.0 if stiff else 3.0, n))
     c = draw(st.sampled_from([0.0, 0.5, 2.0]))
     b, w = rng.normal(size=n), rng.uniform(0.5, 20.0)
@@ -58,7 +59,6 @@ def _systems(draw):
     rtol = draw(st.sampled_from([1e-3, 1e-5, 1e-7, 1e-9]))
     atol = draw(st.sampled_from([1e-6, 1e-8, rtol]))
     max_step = draw(st.sampled_from([np.inf, 0.05, 0.7]))
-    t1 = draw(st.sampled_from([0.3, 2.0, 6.0]))
     with_jac = draw(st.booleans())
     n_linear = draw(st.integers(0, 3))
     rows = [rng.normal(size=draw(st.integers(1, n))) if draw(st.booleans()) else rng.normal(size=n)
@@ -66,7 +66,7 @@ def _systems(draw):
     offsets = rng.normal(size=n_linear)
     directions = [draw(st.sampled_from([-1, 0, 1])) for _ in range(n_linear + 2)]
     level = rng.uniform(0.5, 3.0)
-    t_event = draw(st.sampled_from([None, 0.25, 1.5]))
+    t_event = draw(st.sampled_from([None, 0.25, 1.5])) if t1 > 0 else draw(st.sampled_from([None, -0.2]))
     return dict(n=n, A=A, c=c, b=b, w=w, y0=y0, rtol=rtol, atol=atol, max_step=max_step, t1=t1,
                 with_jac=with_jac, rows=rows, offsets=offsets, directions=directions, level=level, t_event=t_event)
 
@@ -109,15 +109,17 @@ def test_lean_lsoda_is_scipy_lsoda_bit_for_bit(p):
     _same_segment(got, ivp, p["n"])
 
 
-def test_lean_lsoda_steps_like_scipy_one_by_one():
-    """The solver objects themselves, step by step: time, state, counters, dense output."""
-    A = np.array([[0.0, 7.0, 0.0], [-7.0, -0.1, 1.0], [0.0, 0.0, -40.0]])
+@pytest.mark.parametrize("t_bound", [3.0, -3.0])
+def test_lean_lsoda_steps_like_scipy_one_by_one(t_bound):
+    """The solver objects themselves, step by step, forwards and backwards in time: time, state,
+    counters, dense output."""
+    A = np.array([[0.0, 7.0, 0.0], [-7.0, -0.1, 1.0], [0.0, 0.0, -40.0]]) * np.sign(t_bound)
 
     def fun(t, y):
         return A @ y + np.array([0.0, np.sin(t), 0.0])
 
-    lean = LeanLSODA(fun, 0.0, np.array([1.0, 0.0, 2.0]), 3.0, rtol=1e-8, atol=1e-10, max_step=0.2)
-    ref = LSODA(fun, 0.0, np.array([1.0, 0.0, 2.0]), 3.0, rtol=1e-8, atol=1e-10, max_step=0.2)
+    lean = LeanLSODA(fun, 0.0, np.array([1.0, 0.0, 2.0]), t_bound, rtol=1e-8, atol=1e-10, max_step=0.2)
+    ref = LSODA(fun, 0.0, np.array([1.0, 0.0, 2.0]), t_bound, rtol=1e-8, atol=1e-10, max_step=0.2)
     assert lean._lean
     while ref.status == "running":
         assert lean.step() == ref.step()
