@@ -10,8 +10,9 @@ Sparse Jacobians keep scipy's ``splu``.
 
 :class:`LeanLSODA` is scipy's LSODA with the Python between two calls of the compiled lsoda
 routine cut down: the same call with the same arguments and work arrays, one step at a time,
-without the ``scipy.integrate.ode`` wrapper's argument shuffling, and a dense output built without
-a fresh power array per step.
+without the ``scipy.integrate.ode`` wrapper's argument shuffling, and a dense output that keeps a
+copy of the step's Nordsieck columns and builds scipy's polynomial only when it is evaluated.
+:class:`LeanOdeSolution` evaluates a segment's steps at many times without scipy's walk over them.
 
 :func:`solve_segment` is ``solve_ivp``'s driver loop for the simulator's segments (dense output,
 terminal events), the same steps, event roots and solution, without its per-step array
