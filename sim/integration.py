@@ -269,7 +269,10 @@ def missed_crossing(sol, events: list):
     # the step or its neighbours (elsewhere the slip is far from zero for its rate of change)
     ends = rows @ np.asarray(sol.y)[: rows.shape[1]] + halves
     change = np.abs(np.diff(ends, axis=1))
-    near = np.maximum(change, np.maximum(np.pad(change, ((0, 0), (1, 0)))[:, :-1], np.pad(change, ((0, 0), (0, 1)))[:, 1:]))
+    # the change over the step before and after (zero past the ends; concatenation: np.pad is slow)
+    edge = np.zeros((len(change), 1))
+    near = np.maximum(change, np.maximum(np.concatenate([edge, change[:, :-1]], axis=1),
+                                         np.concatenate([change[:, 1:], edge], axis=1)))
     steps_in = np.flatnonzero(np.any(np.minimum(ends[:, :-1], ends[:, 1:]) <= 2.0 * near, axis=0))
     if not len(steps_in):
         return None

@@ -8,6 +8,12 @@ the same finiteness checks (a NaN from a rejected trial state raises the same ``
 the same singular-matrix warning: the results are those of the scipy classes, bit for bit.
 Sparse Jacobians keep scipy's ``splu``.
 
+:class:`LeanLSODA` is scipy's LSODA with the Python between two calls of the compiled lsoda
+routine cut down: the same call with the same arguments and work arrays, one step at a time,
+without the ``scipy.integrate.ode`` wrapper's argument shuffling, and a dense output that keeps a
+copy of the step's Nordsieck columns and builds scipy's polynomial only when it is evaluated.
+:class:`LeanOdeSolution` evaluates a segment's steps at many times without scipy's walk over them.
+
 :func:`solve_segment` is ``solve_ivp``'s driver loop for the simulator's segments (dense output,
 terminal events), the same steps, event roots and solution, without its per-step array
 conversions.
@@ -20,13 +26,15 @@ from types import SimpleNamespace
 
 import numpy as np
 from scipy.integrate import BDF, LSODA, OdeSolution, Radau
+from scipy.integrate._ivp.base import ConstantDenseOutput
+from scipy.integrate._ivp.lsoda import LsodaDenseOutput
 from scipy.integrate._ivp.bdf import MAX_FACTOR, MAX_ORDER, MIN_FACTOR, NEWTON_MAXITER, compute_R
 from scipy.integrate._ivp.ivp import METHODS, MESSAGES
 from scipy.optimize import brentq
 from scipy.linalg import LinAlgWarning, get_lapack_funcs
 from scipy.sparse import issparse
 
-__all__ = ["LeanBDF", "LeanRadau", "SOLVERS", "solve_segment"]
+__all__ = ["LeanBDF", "LeanLSODA", "LeanRadau", "SOLVERS", "solve_segment"]
 
 
 class _LeanLU:
@@ -222,7 +230,172 @@ class LeanRadau(_LeanLU, Radau):
     """:class:`scipy.integrate.Radau` with the lean dense LU."""
 
 
-SOLVERS = {"BDF": LeanBDF, "Radau": LeanRadau}
+class _LsodaDense(LsodaDenseOutput):
+    """:class:`~scipy.integrate._ivp.lsoda.LsodaDenseOutput` (the Nordsieck polynomial of one
+    step) built lazily: a step keeps its Nordsieck columns as the flat copy of LSODA's work array;
+    the ``(n, order + 1)`` array ``yh`` (scipy's reshape and copy of that array) is made on the
+    first evaluation, and the power array ``p = arange(order + 1)`` is shared between steps of
+    the same order. It evaluates with the inherited ``_call_impl``: the same values, bit for bit."""
+
+    _powers: dict = {}
+
+    def __init__(self, t_old, t, h, order: int, n: int, flat: np.ndarray):
+        self.t_old, self.t, self.h = t_old, t, h
+        self._order, self._n, self._flat, self._yh = order, n, flat, None
+
+    @property
+    def t_min(self):
+        return min(self.t, self.t_old)
+
+    @property
+    def t_max(self):
+        return max(self.t, self.t_old)
+
+    @property
+    def yh(self) -> np.ndarray:
+        if self._yh is None:
+            self._yh = self._flat.reshape((self._n, self._order + 1), order="F").copy()
+        return self._yh
+
+    @property
+    def p(self) -> np.ndarray:
+        p = self._powers.get(self._order)
+        if p is None:
+            p = self._powers[self._order] = np.arange(np.int32(self._order) + 1)  # LSODA's iwork is int32
+            p.flags.writeable = False
+        return p
+
+
+class LeanLSODA(LSODA):
+    """:class:`scipy.integrate.LSODA` (version 1.17: a C lsoda called one step at a time, ``itask
+    = 5``) with the step and the dense output written out: each step is the same call of
+    ``scipy.integrate._odepack.lsoda`` with the same arguments, work arrays and internal-state
+    arrays that scipy's ``_step_impl`` passes through ``scipy.integrate.ode``, so the same steps,
+    states and dense output, bit for bit. The solver is set up by scipy's own ``__init__``; a
+    scipy whose LSODA keeps other state runs scipy's step.
+
+    The right-hand side is called as scipy calls it (``asarray(fun(t, y), dtype=float)``, counted
+    in ``nfev``) with one Python frame less."""
+
+    _INTEGRATOR_STATE = ("call_args", "rwork", "iwork", "state_doubles", "state_ints", "messages")
+
+    def __init__(self, fun, t0, y0, t_bound, **options):
+        super().__init__(fun, t0, y0, t_bound, **options)
+        solver = self._lsoda_solver
+        integrator = solver._integrator
+        self._lean = (all(hasattr(integrator, a) for a in self._INTEGRATOR_STATE) and len(integrator.call_args) == 7
+                      and integrator.call_args[4] is integrator.rwork and integrator.call_args[5] is integrator.iwork
+                      and not solver.f_params and not solver.jac_params and _odepack_lsoda() is integrator.runner)
+        if not self._lean:
+            return
+        self._run = integrator.runner
+        self._integrator = integrator
+        rtol, atol, _, self._istate, rwork, iwork, jt = integrator.call_args
+        self._tolerances = (rtol, atol, 5)  # itask 5: one step, not past rwork[0] = t_bound
+        self._work = (rwork, iwork, solver.jac or (lambda: None), jt, (), 1, (), integrator.state_doubles,
+                      integrator.state_ints)
+        self._rwork, self._iwork = rwork, iwork
+        # the step's order and sizes read as Python numbers (no numpy scalars per step)
+        self._iwork_ints, self._rwork_floats = memoryview(iwork), memoryview(rwork)
+        self._y_c = solver._y  # the array the C code steps (in place); ``y`` is a copy of it
+        self._forward = self.direction > 0  # the end test on Python floats (``direction`` is +-1.0)
+
+        def f(t, y):
+            self.nfev += 1
+            return np.asarray(fun(t, y), dtype=float)
+
+        self._f = f
+
+    def step(self):
+        """:meth:`OdeSolver.step` with scipy's ``LSODA._step_impl`` inline."""
+        if not self._lean:
+            return super().step()
+        if self.status != "running":
+            raise RuntimeError("Attempt to step on a failed or finished solver.")
+        t = self.t
+        if self.n == 0 or t == self.t_bound:
+            self.t_old = t
+            self.t = self.t_bound
+            self.status = "finished"
+            return None
+        y, t_new, istate = self._run(self._f, self._y_c, t, self.t_bound, *self._tolerances, self._istate, *self._work)
+        self._y_c = y
+        if istate < 0:
+            integrator = self._integrator
+            warnings.warn(f"lsoda: {integrator.messages.get(istate, f'Unexpected istate={istate:d}')}", stacklevel=2)
+            self.status = "failed"
+            return "Unexpected istate in LSODA."
+        self._istate = 2
+        self.t = t_new
+        self.y = y.copy()
+        self.njev = self.nlu = self._iwork_ints[12]  # LSODA's Jacobian evaluations = LU decompositions
+        self.t_old = t
+        past = t_new - self.t_bound
+        if (past >= 0) if self._forward else (past <= 0):  # direction * (t - t_bound) >= 0
+            self.status = "finished"
+        return None
+
+    def dense_output(self):
+        """scipy's ``LSODA._dense_output_impl`` (the Nordsieck array of the last step, its last
+        column rescaled to the step when the order is to drop) as a lazy :class:`_LsodaDense`."""
+        if not self._lean:
+            return super().dense_output()
+        if self.t_old is None:
+            raise RuntimeError("Dense output is available after a successful step was made.")
+        if self.n == 0 or self.t == self.t_old:
+            return ConstantDenseOutput(self.t_old, self.t, self.y)
+        ints, n = self._iwork_ints, self.n
+        order = ints[13]
+        flat = self._rwork[20:20 + (order + 1) * n].copy()  # yh in Fortran order: column j at j*n
+        if ints[14] < order:
+            iwork, rwork = self._iwork, self._rwork
+            flat[order * n:] *= (rwork[11] / rwork[10]) ** iwork[13]  # scipy's yh[:, -1], numpy scalars
+        return _LsodaDense(self.t_old, self.t, self._rwork_floats[11], order, n, flat)
+
+
+class LeanOdeSolution(OdeSolution):
+    """:class:`scipy.integrate.OdeSolution` whose evaluation at many times finds the runs of
+    times in one step with one array operation (scipy walks them one by one with
+    ``itertools.groupby``) and evaluates an LSODA step's polynomial inline: the same
+    interpolant on the same times with the same operations, so the same values, bit for bit."""
+
+    def __call__(self, t):
+        t = np.asarray(t)
+        if t.ndim != 1 or not t.size:
+            return super().__call__(t)
+        if t.size == 1 or bool(np.all(t[1:] >= t[:-1])):  # sorted already (the output grid): no permutation
+            reverse, t_sorted = None, t
+        else:
+            order = np.argsort(t)
+            reverse = np.empty_like(order)
+            reverse[order] = np.arange(order.shape[0])
+            t_sorted = t[order]
+        segments = np.searchsorted(self.ts_sorted, t_sorted, side=self.side)
+        segments -= 1
+        segments[segments < 0] = 0
+        segments[segments > self.n_segments - 1] = self.n_segments - 1
+        if not self.ascending:
+            segments = self.n_segments - 1 - segments
+        bounds = [0, *(np.flatnonzero(segments[1:] != segments[:-1]) + 1).tolist(), len(segments)]
+        interpolants = self.interpolants
+        ys = []
+        for segment, start, end in zip(segments[bounds[:-1]].tolist(), bounds, bounds[1:]):
+            interpolant, group = interpolants[segment], t_sorted[start:end]
+            if type(interpolant) is _LsodaDense:  # LsodaDenseOutput._call_impl on a 1-d array
+                ys.append(np.dot(interpolant.yh, ((group - interpolant.t) / interpolant.h) ** interpolant.p[:, None]))
+            else:
+                ys.append(interpolant(group))
+        ys = np.concatenate(ys, axis=1) if all(y.ndim == 2 for y in ys) else np.hstack(ys)
+        return ys if reverse is None else ys[:, reverse]
+
+
+def _odepack_lsoda():
+    from scipy.integrate import _odepack
+
+    return getattr(_odepack, "lsoda", None)
+
+
+SOLVERS = {"BDF": LeanBDF, "Radau": LeanRadau, "LSODA": LeanLSODA}
 """Solver classes used for these method names (the others are passed to ``solve_ivp`` by name)."""
 
 
@@ -258,20 +431,28 @@ def solve_segment(fun, t0: float, t1: float, y0: np.ndarray, method, events: lis
     g = values(t0, y0)
     hit, root, y_root = None, None, None
     status, message = None, None
+    step, dense_output, keep = solver.step, solver.dense_output, interpolants.append
     while status is None:
-        message = solver.step()
-        if solver.status == "finished":
+        message = step()
+        state = solver.status
+        if state == "finished":
             status = 0
-        elif solver.status == "failed":
+        elif state == "failed":
             status = -1
             break
         t_old, t, y = solver.t_old, solver.t, solver.y
-        sol = solver.dense_output()
-        interpolants.append(sol)
+        sol = dense_output()
+        keep(sol)
         if events:
             g_new = values(t, y)
-            active = [k for k, (a, b, d) in enumerate(zip(g, g_new, directions))
-                      if (d > 0 and a <= 0 <= b) or (d < 0 and a >= 0 >= b) or (d == 0 and (a <= 0 <= b or a >= 0 >= b))]
+            for a, b in zip(g, g_new):
+                if a * b <= 0 or a != a or b != b:  # a sign change or a zero (or NaN): the full test
+                    active = [k for k, (a, b, d) in enumerate(zip(g, g_new, directions))
+                              if (d > 0 and a <= 0 <= b) or (d < 0 and a >= 0 >= b)
+                              or (d == 0 and (a <= 0 <= b or a >= 0 >= b))]
+                    break
+            else:
+                active = None  # every value kept its strict sign: no event in any direction
             if active:
                 roots = [brentq(lambda tt, e=events[k]: e(tt, sol(tt)), t_old, t, xtol=4 * _EPS, rtol=4 * _EPS)
                          for k in active]
@@ -290,8 +471,8 @@ def solve_segment(fun, t0: float, t1: float, y0: np.ndarray, method, events: lis
     t_events = [np.array([root]) if k == hit else np.zeros(0) for k in range(len(events))]
     y_events = [np.array([y_root]) if k == hit else np.zeros(0) for k in range(len(events))]
     ts_arr = np.array(ts)
-    return SimpleNamespace(t=ts_arr, y=np.vstack(ys).T,
-                           sol=OdeSolution(ts_arr, interpolants, alt_segment=method in (BDF, LSODA)),
+    return SimpleNamespace(t=ts_arr, y=np.array(ys).T,
+                           sol=LeanOdeSolution(ts_arr, interpolants, alt_segment=method in (BDF, LSODA, LeanLSODA)),
                            t_events=t_events, y_events=y_events, nfev=solver.nfev, njev=solver.njev,
                            nlu=solver.nlu, status=status, message=MESSAGES.get(status, message),
                            success=status >= 0)
@@ -318,6 +499,16 @@ def _event_values(events: list):
         rows = np.array([events[k].linear[0] for k in linear], dtype=float)
         offsets = np.array([events[k].linear[1] for k in linear], dtype=float)
         width = rows.shape[1]
+    if linear and not batches and linear == list(range(len(linear))):  # the linear events first (the simulator's order)
+        rest = [e for _, e in others]
+
+        def values(t, y):
+            g = (rows @ y[:width] + offsets).tolist()
+            for e in rest:
+                g.append(e(t, y))
+            return g
+
+        return values
 
     def values(t, y):
         g = [0.0] * len(events)
