@@ -52,7 +52,7 @@ def dense_values(sol, ts: np.ndarray) -> np.ndarray:
         return sol(ts)
     from scipy.integrate._ivp.lsoda import LsodaDenseOutput  # here: reading a scenario needs no scipy
 
-    if any(type(ip) is not LsodaDenseOutput for ip in interpolants):
+    if not all(isinstance(ip, LsodaDenseOutput) for ip in interpolants):  # scipy's or LeanLSODA's lazy one
         return sol(ts)
     # OdeSolution's choice of the interpolant of each time
     segment = np.searchsorted(sol.ts_sorted, ts, side=sol.side) - 1
