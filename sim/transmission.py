@@ -51,7 +51,7 @@ import numpy as np
 
 from transgen.equations import locking_groups
 from transgen.errors import ModeError, SimulationError
-from transgen.graph import build_graph, link_nodes
+from transgen.graph import bond_graph, link_nodes
 from transgen.kinematics import constraint_matrix, numeric_rank
 from transgen.model import HOUSING, Mechanism
 from transgen.modes import Mode, mode_model, mode_models
@@ -224,7 +224,7 @@ class Transmission:
 
     def __init__(self, mech: Mechanism, elements: dict | None = None, coordinates=None, modes: str = "auto"):
         self.mech = mech
-        self.graph = build_graph(mech)
+        self.graph = bond_graph(mech)  # the numeric pipeline's graph: no networkx (import and copy) per run
         self.links = link_nodes(self.graph)
         self.link_index = {name: i for i, name in enumerate(self.links)}
         self.inertia = np.array([self.graph.nodes[k]["J"] for k in self.links])

@@ -156,6 +156,7 @@ class DaskExecutor:
         try:
             _check_environment(client, self.address or repr(client))
             client.run(_stop_profiler)
+            client.run(_warm_up)
             [shared_future] = client.scatter([shared], broadcast=True, hash=False)
             futures = [client.submit(fn, shared_future, task, pure=False) for task in tasks]
             try:
@@ -202,6 +203,14 @@ def _check_environment(client, where: str) -> None:
                            f"{', '.join(f'{k}: {v}' for k, v in sorted(wrong.items()))}); {hint}")
 
 
+def _warm_up() -> None:
+    """On a Dask worker: the simulator's compiled code loaded before the tasks (the local pool's
+    workers load it when they start; a no-op where it is loaded already)."""
+    from .task import warm_up
+
+    warm_up()
+
+
 def _stop_profiler(dask_worker) -> None:
     """On a Dask worker: stop its statistical profiler, which samples the running task's stack
     every 10 ms (distributed.worker.profile) and made a simulation 32 % slower than in the local
@@ -214,14 +223,16 @@ def _stop_profiler(dask_worker) -> None:
 
 
 def _start_worker() -> None:
-    """Local worker start: one BLAS thread, and the simulator imported once per process."""
+    """Local worker start: one BLAS thread, the simulator imported and its compiled code loaded
+    once per process."""
     import importlib
 
-    from .task import PRELOAD
+    from .task import PRELOAD, warm_up
 
     _one_blas_thread()
     for name in PRELOAD:
         importlib.import_module(name)
+    warm_up()
 
 
 def _one_blas_thread() -> None:
