@@ -57,12 +57,14 @@ def _noop(shared, task):
 
 
 def _preload() -> None:
+    """As a local pool's worker starts: the simulator imported and its compiled code loaded."""
     import importlib
 
-    from transgen.sim.study.task import PRELOAD
+    from transgen.sim.study.task import PRELOAD, warm_up
 
     for name in PRELOAD:
         importlib.import_module(name)
+    warm_up()
 
 
 def task_overhead(executor, shared: dict, few: int = 20, many: int = 220) -> float:
