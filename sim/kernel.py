@@ -479,19 +479,20 @@ class CompiledSegment:
         n_y, n_events, empty = layout.size, int(S[6] + S[14] + S[16]), np.empty
         fill = self._filler(pt, mode, layout, ext) if pt.external or pt.python else None
 
-        def rhs(t, y):
-            if fill is not None:
-                fill(t, y, True)
-            out = empty(n_y)
-            rhs_into(t, y, P, F, S, G, ext, out)
-            return out
+        def into(kernel, size: int, derivatives: bool):
+            """``f(t, y)``: a new array of ``size`` filled by ``kernel`` (the Python-evaluated parts
+            first, with their derivatives where ``derivatives``)."""
+            def call(t, y):
+                if fill is not None:
+                    fill(t, y, derivatives)
+                out = empty(size)
+                kernel(t, y, P, F, S, G, ext, out)
+                return out
 
-        def events(t, y):
-            if fill is not None:
-                fill(t, y, False)
-            out = empty(n_events)
-            events_into(t, y, P, F, S, G, ext, out)
-            return out
+            return call
+
+        rhs = into(rhs_into, n_y, True)
+        events = into(events_into, n_events, False)
 
         def inputs_at(t, y):
             if fill is not None:
