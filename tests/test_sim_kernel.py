@@ -224,13 +224,13 @@ def test_a_subclass_that_changes_the_physics_runs_in_python():
     assert Louder("T_in", 0).kernel_form()[0] == "link_load"  # a subclass that says it compiles does
 
 
-def test_reading_a_scenario_does_not_load_numba():
+def test_reading_a_scenario_does_not_load_numba(tmp_path):
     import subprocess
     import sys
 
     code = ("import sys; from transgen.sim.scenario import load_scenario; load_scenario('ht740_improved'); "
             "assert 'numba' not in sys.modules, 'numba loaded'")
-    subprocess.run([sys.executable, "-c", code], check=True)
+    subprocess.run([sys.executable, "-c", code], check=True, cwd=tmp_path)  # not the checkout: the installed package
 
 
 @pytest.mark.parametrize("method", ["LSODA", "BDF"])
