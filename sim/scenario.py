@@ -24,6 +24,7 @@ disk; :func:`scenario_files` collects those texts and :func:`scenario_keys` list
 from __future__ import annotations
 
 import difflib
+import functools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
@@ -162,8 +163,15 @@ def _mechanism(r: Reader, path: Path, ref: str) -> Mechanism:
                 text = r.access.read_text(candidate)
             except (OSError, UnicodeDecodeError):
                 break  # load_mechanism says why
-            return parse_mechanism(text, str(candidate))
+            return _parsed(text, str(candidate))
     return load_mechanism(ref)
+
+
+@functools.lru_cache(maxsize=16)
+def _parsed(text: str, name: str) -> Mechanism:
+    """:func:`~transgen.language.parse_mechanism`, remembered for the last texts: the runs of a
+    sweep and an optimizer's candidates read the same mechanism (the model is immutable)."""
+    return parse_mechanism(text, name)
 
 
 def _build(data: dict, source: Source, path: Path, overrides=None, access: FileAccess | None = None) -> Scenario:

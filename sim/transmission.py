@@ -92,6 +92,26 @@ def _derived(mech: Mechanism, coordinates: tuple, modes: str) -> tuple[dict, dic
     return pair
 
 
+_SPACES: dict[tuple, object] = {}
+
+
+def _state_space(mech: Mechanism, coordinates, modes: str):
+    """:func:`~transgen.statespace.state_space` of the modes of ``mech`` (their models from
+    :func:`~transgen.modes.mode_models`): what the gearing alone decides, built once per
+    mechanism, coordinates and mode selection in a process and shared by its transmissions (a
+    sweep's runs, an optimizer's candidates: the mechanism is parsed anew for each, equal to the
+    last); immutable. The least recently built of more than :data:`_DERIVED_MECHANISMS` is dropped."""
+    key = (mech, None if coordinates is None else tuple(coordinates), modes)
+    ss = _SPACES.pop(key, None)
+    if ss is None:
+        models = mode_models(mech, modes)
+        ss = state_space(mech, coordinates, modes, models=[m for m in models if m.equations is not None])
+    _SPACES[key] = ss
+    while len(_SPACES) > _DERIVED_MECHANISMS:
+        del _SPACES[next(iter(_SPACES))]
+    return ss
+
+
 @dataclass
 class ElementConfig:
     """Run-time data of one shift element.
@@ -247,8 +267,7 @@ class Transmission:
         # elements in parallel: (member indices, signs relative to the first member)
         self.groups = [(tuple(self.element_index[x] for x in grp.members), grp.signs)
                        for grp in locking_groups(self.graph)]
-        models = mode_models(mech, modes)
-        ss = state_space(mech, coordinates, modes, models=[m for m in models if m.equations is not None])
+        ss = _state_space(mech, coordinates, modes)
         self.coordinates = ss.coordinates
         self.inputs = ss.inputs
         self.input_index = {name: i for i, name in enumerate(self.inputs)}
