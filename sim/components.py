@@ -297,7 +297,7 @@ class EngineWithConverter(Component):
 
     def sample(self, ts, X, W):
         omega_e, omega_t = X[0], W[self.link]
-        if own_kernel_form(self) and self.kernel_form() is not None:  # loops over the output times, compiled when the simulator is
+        if self.request is None and own_kernel_form(self) and self.kernel_form() is not None:  # loops over the output times, compiled when the simulator is
             pump, turbine = self.converter.torques_over(omega_e, omega_t)
             demand = np.array([self.throttle.value(t) for t in ts], dtype=float)
             throttle, t_engine = np.empty(len(ts)), np.empty(len(ts))
@@ -311,9 +311,7 @@ class EngineWithConverter(Component):
         else:
             pump, turbine = (a.astype(float) for a in elementwise(self.converter.torques, 2)(omega_e, omega_t))
             throttle = elementwise(self._throttle)(ts, omega_e).astype(float)
-            t_engine = elementwise(self.engine)(omega_e, throttle).astype(float)
-        if self.request is not None:
-            t_engine = elementwise(self._engine_torque)(ts, omega_e).astype(float)
+            t_engine = elementwise(self._engine_torque)(ts, omega_e).astype(float)  # with a shift's torque request
         ratio = np.divide(omega_t, omega_e, out=np.zeros_like(omega_e), where=omega_e > 1e-6)
         signals = {"omega_engine": omega_e, "T_engine": t_engine, "T_pump": pump, "T_in": turbine,
                    "throttle": throttle, "converter_speed_ratio": ratio}
