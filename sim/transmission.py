@@ -354,12 +354,7 @@ class Transmission:
                          capacity: str = "dynamic") -> np.ndarray:
         """Torques of every element as inputs (locked ones zero); ``directions`` is the slip
         direction each slipping element transmits in (+1/-1, 0 for none)."""
-        slips = self.P @ w
-        out = np.zeros(len(self.elements))
-        for i, e in enumerate(self.elements):
-            if i not in locked:
-                out[i] = e.slip_torque(t, slips[i], int(directions[i]), capacity)
-        return out
+        return self._slipping_torques_memo(t, self.P @ w, locked, directions, capacity, {})
 
     def slipping_set(self, locked: frozenset, directions: np.ndarray, t0: float = -np.inf,
                      t1: float = np.inf) -> tuple[tuple, ...]:
