@@ -112,7 +112,11 @@ def _deferred_import(packages: tuple[str, ...], load):
 
 def lsoda_classes() -> tuple:
     """``(LSODA, LsodaDenseOutput, ConstantDenseOutput, OdeSolution)`` of ``scipy.integrate``,
-    without running ``scipy/integrate/__init__.py`` (see the module docstring)."""
+    without running ``scipy/integrate/__init__.py`` (see the module docstring).
+
+    scipy.linalg is deferred too: the simulator's path does not use it, but loading numba's
+    compiled code imports ``scipy.linalg.cython_blas`` (numba's check for a BLAS), which ran
+    scipy.linalg's ``__init__`` (0.03 s of a sweep worker's start)."""
 
     def load():
         integrate = sys.modules["scipy.integrate"]
@@ -126,7 +130,7 @@ def lsoda_classes() -> tuple:
 
         return LSODA, LsodaDenseOutput, ConstantDenseOutput, OdeSolution
 
-    return _deferred_import(("scipy.integrate", "scipy.integrate._ivp"), load)
+    return _deferred_import(("scipy.integrate", "scipy.integrate._ivp", "scipy.linalg"), load)
 
 
 def _scipy_brentq():

@@ -46,7 +46,7 @@ def test_the_lsoda_path_imports_no_other_scipy_package_and_gives_scipys_solution
     answer = fresh(SOLVE + f"""
 from transgen.sim.ode_solvers import LeanLSODA, solve_segment
 {SCIPY_LOADED}
-out['deferred'] = type(sys.modules['scipy.integrate']).__name__
+out['deferred'] = [type(sys.modules[m]).__name__ for m in ('scipy.integrate', 'scipy.linalg')]
 ours = solve_segment(f, 0.0, 5.0, np.array([0.1, 0.0]), LeanLSODA, [event], rtol=1e-8, atol=1e-10)
 from scipy.integrate import LSODA, solve_ivp, quad
 import scipy.integrate
@@ -59,9 +59,14 @@ out['same'] = (ours.t.tolist() == ref.t.tolist() and ours.y.tolist() == ref.y.to
                and ours.sol(grid).tolist() == ref.sol(grid).tolist() and ours.message == ref.message)
 out['quad'] = quad(lambda x: x * x, 0.0, 3.0)[0]
 out['dir'] = sorted(dir(scipy.integrate))
+import scipy.linalg
+out['solve'] = scipy.linalg.solve([[2.0, 0.0], [0.0, 4.0]], [1.0, 1.0]).tolist()
+out['linalg'] = type(scipy.linalg).__name__
 """)
-    assert answer["loaded"] == ["scipy.integrate"]  # the package registered, its __init__ not run
-    assert answer["deferred"] == "_DeferredPackage" and answer["completed"] == "module"
+    # the packages registered, their __init__ not run (scipy.linalg: numba's BLAS check imports a submodule)
+    assert answer["loaded"] == ["scipy.integrate", "scipy.linalg"]
+    assert answer["deferred"] == ["_DeferredPackage"] * 2 and answer["completed"] == "module"
+    assert answer["solve"] == [0.5, 0.25] and answer["linalg"] == "module"
     assert answer["same_class"] and answer["same"]
     assert answer["quad"] == pytest.approx(9.0)
     ordinary = fresh("import scipy.integrate\nout['dir'] = sorted(dir(scipy.integrate))")
