@@ -98,6 +98,26 @@ def cpu_estimate(workers: int, design: dict) -> tuple[float, float, float]:
     return check + start + runs / workers, runs / workers, start
 
 
+def _without_bytecode() -> list[str]:
+    """The modules of transgen a worker imports that have no up-to-date cached bytecode."""
+    import importlib
+    import importlib.util
+    import sys
+
+    from transgen.sim.study.task import PRELOAD
+
+    for name in PRELOAD + ("transgen.sim.ode_solvers",):
+        importlib.import_module(name)
+    missing = []
+    for name, module in list(sys.modules.items()):
+        source = getattr(module, "__file__", None) or ""
+        if name.startswith("transgen") and source.endswith(".py"):
+            cached = importlib.util.cache_from_source(source)
+            if not os.path.exists(cached) or os.path.getmtime(cached) < os.path.getmtime(source):
+                missing.append(name)
+    return missing
+
+
 def _start_cpu(shared, task) -> tuple[int, float]:
     """In a fresh worker: the CPU time [s] its process has used before this, its first task."""
     import resource
@@ -136,6 +156,12 @@ def main() -> None:
     args = ap.parse_args()
     design = grid(args.runs, args.t_end)
     print(f"sweep of {args.runs} ht740_improved runs on {os.cpu_count()} cores:", flush=True)
+    uncached = _without_bytecode()
+    if uncached:
+        print(f"  note: {len(uncached)} of transgen's modules have no cached bytecode (PYTHONDONTWRITEBYTECODE="
+              f"{os.environ.get('PYTHONDONTWRITEBYTECODE', '')!r}): every worker compiles them from source, about 0.1 s of "
+              f"its start that an installed transgen does not pay (pip compiles them); 'python -m compileall' on the "
+              f"source folders caches them", flush=True)
     serial = timed("serial", SerialExecutor(), design)
     one = timed("1 local worker", LocalExecutor(1), design)
     two = timed("2 local workers", LocalExecutor(2), design)
