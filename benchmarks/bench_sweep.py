@@ -78,7 +78,8 @@ def _cpu_task(shared, task):
 
 def cpu_estimate(workers: int, design: dict) -> tuple[float, float, float]:
     """The sweep's end-to-end time on an idle machine estimated from CPU times, which other
-    processes on the machine disturb far less than wall-clock: the design checked in this process,
+    processes on the machine disturb less than wall-clock (on a busy machine a run's CPU time
+    still grows, by a third at a load of 8 on 2 cores): the design checked in this process,
     a worker's start (its process's CPU time at its first task, the mean of the workers) and the
     runs' CPU time (each task's in its worker) shared evenly by the workers (the end of a sweep
     leaves one worker idle for up to one run, 0.1 s: not counted); and without the start (a kept
@@ -181,8 +182,8 @@ def main() -> None:
     print(f"  a worker's start: {min(starts):.2f}-{max(starts):.2f} s CPU (interpreter, imports, compiled code; 2 "
           f"workers starting together)", flush=True)
     (cold1, kept1, start1), (cold2, kept2, start2) = cpu_estimate(1, design), cpu_estimate(2, design)
-    print(f"  estimate from CPU times (the design's check, a worker's start, the runs shared evenly; little "
-          f"disturbed by other load): 1 worker "
+    print(f"  estimate from CPU times (the design's check, a worker's start, the runs shared evenly; less "
+          f"disturbed by other load than wall-clock): 1 worker "
           f"{cold1:.2f} s, 2 workers {cold2:.2f} s: {cold1 / cold2:.2f}x cold; {kept1:.2f} s and {kept2:.2f} s: "
           f"{kept1 / kept2:.2f}x kept (a worker's start {start1:.2f}, {start2:.2f} s CPU)", flush=True)
     from transgen.sim import scenario_files
