@@ -21,10 +21,6 @@ from scipy.integrate._ivp.radau import Radau
 from scipy.linalg import LinAlgWarning, get_lapack_funcs
 from scipy.sparse import issparse
 
-from .scipy_parts import lsoda_classes
-
-lsoda_classes()  # scipy.integrate's __init__ deferred as on the LSODA path, where this is imported first
-
 __all__ = ["LeanBDF", "LeanRadau", "change_D"]
 
 
