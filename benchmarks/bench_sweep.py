@@ -6,7 +6,11 @@ sweeps, as the pool's workers import the simulator when they start).
 
 Each sweep is timed end to end (validation, pool start, runs) and over its runs alone (from the
 moment the runs start to the last row); the rows of every engine are checked to be identical,
-number for number. The cost of an engine per task (sending the scenario texts and overrides,
+number for number. The local pools are timed twice: cold (the pool started by the sweep, as one
+``transgen sweep`` command) and kept (``with LocalExecutor(n) as executor:`` started and used by a
+first small sweep, then the 64 runs on it: what a script or notebook that runs many sweeps gets,
+as the Dask cluster's start is not timed either). A worker's start (interpreter, imports, the
+simulator's compiled code) is measured as the CPU time of the worker process at its first task. The cost of an engine per task (sending the scenario texts and overrides,
 scheduling, returning the row) is measured with tasks that do nothing: the marginal time of 220
 against 20 of them, which a loaded machine disturbs far less than the runs.
 
@@ -56,6 +60,74 @@ def _noop(shared, task):
     return task[0], {"success": True, "files": len(shared["files"])}
 
 
+def _cpu_task(shared, task):
+    """A sweep's task with the CPU time [s] of its worker process before and after it and the
+    worker's pid (the CPU-time estimate)."""
+    import resource
+
+    from transgen.sim.study.task import run_task
+
+    def cpu() -> float:
+        usage = resource.getrusage(resource.RUSAGE_SELF)
+        return usage.ru_utime + usage.ru_stime
+
+    before = cpu()
+    index, row = run_task(shared, task)
+    return index, row, os.getpid(), before, cpu()
+
+
+def cpu_estimate(workers: int, design: dict) -> tuple[float, float, float]:
+    """The sweep's end-to-end time on an idle machine estimated from CPU times, which other
+    processes on the machine disturb less than wall-clock (on a busy machine a run's CPU time
+    still grows, by a third at a load of 8 on 2 cores): the design checked in this process,
+    a worker's start (its process's CPU time at its first task, the mean of the workers) and the
+    runs' CPU time (each task's in its worker) shared evenly by the workers (the end of a sweep
+    leaves one worker idle for up to one run, 0.1 s: not counted); and without the start (a kept
+    pool). Returns (cold, kept, mean start) in seconds."""
+    from transgen.sim.study.runner import design_variants, scenario_path, validate_variants
+
+    path = scenario_path("ht740_improved")
+    tasks = list(enumerate(design_variants(design)))
+    start = time.process_time()
+    files = validate_variants(path, [v for _, v in tasks])
+    check = time.process_time() - start
+    first, runs = {}, 0.0
+    for _, _, pid, before, after in LocalExecutor(workers).run(_cpu_task, {"path": path, "files": files}, tasks):
+        first[pid] = min(first.get(pid, before), before)
+        runs += after - before
+    start = sum(first.values()) / len(first)
+    return check + start + runs / workers, runs / workers, start
+
+
+def _without_bytecode() -> list[str]:
+    """The modules of transgen a worker imports that have no up-to-date cached bytecode."""
+    import importlib
+    import importlib.util
+    import sys
+
+    from transgen.sim.study.task import PRELOAD
+
+    for name in PRELOAD + ("transgen.sim.ode_solvers",):
+        importlib.import_module(name)
+    missing = []
+    for name, module in list(sys.modules.items()):
+        source = getattr(module, "__file__", None) or ""
+        if name.startswith("transgen") and source.endswith(".py"):
+            cached = importlib.util.cache_from_source(source)
+            if not os.path.exists(cached) or os.path.getmtime(cached) < os.path.getmtime(source):
+                missing.append(name)
+    return missing
+
+
+def _start_cpu(shared, task) -> tuple[int, float]:
+    """In a fresh worker: the CPU time [s] its process has used before this, its first task."""
+    import resource
+
+    time.sleep(0.5)  # the other worker takes the other task
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return task, usage.ru_utime + usage.ru_stime
+
+
 def _preload() -> None:
     """As a local pool's worker starts: the simulator imported and its compiled code loaded."""
     import importlib
@@ -85,12 +157,35 @@ def main() -> None:
     args = ap.parse_args()
     design = grid(args.runs, args.t_end)
     print(f"sweep of {args.runs} ht740_improved runs on {os.cpu_count()} cores:", flush=True)
+    uncached = _without_bytecode()
+    if uncached:
+        print(f"  note: {len(uncached)} of transgen's modules have no cached bytecode (PYTHONDONTWRITEBYTECODE="
+              f"{os.environ.get('PYTHONDONTWRITEBYTECODE', '')!r}): every worker compiles them from source, about 0.1 s of "
+              f"its start that an installed transgen does not pay (pip compiles them); 'python -m compileall' on the "
+              f"source folders caches them", flush=True)
     serial = timed("serial", SerialExecutor(), design)
     one = timed("1 local worker", LocalExecutor(1), design)
     two = timed("2 local workers", LocalExecutor(2), design)
     assert one[2] == serial[2] and two[2] == serial[2], "local workers gave different numbers"
-    print(f"  speed-up of 2 workers over 1: {one[0] / two[0]:.2f}x end to end, {one[1] / two[1]:.2f}x over the runs "
-          f"(goal >= 1.8x on an idle machine)")
+    print(f"  speed-up of 2 workers over 1, cold pools: {one[0] / two[0]:.2f}x end to end, {one[1] / two[1]:.2f}x over "
+          f"the runs (goal >= 1.8x on an idle machine)", flush=True)
+    kept = []
+    for workers in (1, 2):
+        with LocalExecutor(workers) as executor:
+            sweep("ht740_improved", {"simulation.t_end": [0.5], "driveline.vehicle_mass": [20000 + i for i in range(workers)]},
+                  executor=executor)  # the workers started and warm
+            kept.append(timed(f"{workers} local worker{'s' * (workers > 1)}, kept", executor, design))
+    assert kept[0][2] == serial[2] and kept[1][2] == serial[2], "kept local workers gave different numbers"
+    print(f"  speed-up of 2 workers over 1, kept pools: {kept[0][0] / kept[1][0]:.2f}x end to end, "
+          f"{kept[0][1] / kept[1][1]:.2f}x over the runs (goal >= 1.8x on an idle machine)")
+    starts = [cpu for _, cpu in LocalExecutor(2).run(_start_cpu, None, [0, 1])]
+    print(f"  a worker's start: {min(starts):.2f}-{max(starts):.2f} s CPU (interpreter, imports, compiled code; 2 "
+          f"workers starting together)", flush=True)
+    (cold1, kept1, start1), (cold2, kept2, start2) = cpu_estimate(1, design), cpu_estimate(2, design)
+    print(f"  estimate from CPU times (the design's check, a worker's start, the runs shared evenly; less "
+          f"disturbed by other load than wall-clock): 1 worker "
+          f"{cold1:.2f} s, 2 workers {cold2:.2f} s: {cold1 / cold2:.2f}x cold; {kept1:.2f} s and {kept2:.2f} s: "
+          f"{kept1 / kept2:.2f}x kept (a worker's start {start1:.2f}, {start2:.2f} s CPU)", flush=True)
     from transgen.sim import scenario_files
     from transgen.sim.study.runner import scenario_path
 

@@ -184,6 +184,19 @@ def test_local_process_pool_gives_the_same_numbers(serial):
     assert _numbers(pooled) == _numbers(serial)
 
 
+def test_a_sweep_on_an_open_pool_leaves_it_open_and_a_bad_design_stops_the_pool_it_started(serial):
+    with LocalExecutor(2) as executor:
+        pool = executor._pool
+        first = sweep(SCENARIO, GRID, executor=executor)
+        assert executor._pool is pool  # the caller's pool: used, not stopped
+        second = sweep(SCENARIO, GRID, executor=executor)
+    assert executor._pool is None and _numbers(first) == _numbers(second) == _numbers(serial)
+    executor = LocalExecutor(2)
+    with pytest.raises(ScenarioError, match="did you mean 'driveline.vehicle_mass'"):
+        sweep(SCENARIO, {"driveline.vehicle_mas": [1]}, executor=executor)  # found while its workers start
+    assert executor._pool is None
+
+
 def test_dask_cluster_gives_the_same_numbers(serial):
     distributed = pytest.importorskip("distributed")
     from transgen.sim.study import DaskExecutor

@@ -20,6 +20,7 @@ after the other (an optimizer's generations) starts its workers once.
 """
 from __future__ import annotations
 
+import contextlib
 import os
 from collections.abc import Callable, Iterable, Iterator
 
@@ -71,14 +72,30 @@ class LocalExecutor:
         return ProcessPoolExecutor(max_workers=self.workers, mp_context=context, initializer=_start_worker)
 
     def __enter__(self):
+        """Start the workers now (they import the simulator while the caller goes on, e.g. while
+        :func:`~.runner.sweep` checks the design), not at the first :meth:`run`."""
         if self._pool is None:
             self._pool = self._new_pool()
+            for _ in range(self.workers):  # a pool with spawn starts a worker per submitted call
+                self._pool.submit(os.getpid)
         return self
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, exc_type=None, *exc) -> None:
+        """Stop the workers: the runs not started are cancelled; the workers exit in the
+        background (0.1-0.2 s each, not waited for; Python joins them at its exit), at once
+        where the block ends with an error (a bad design found while they were starting, Ctrl-C)."""
         pool, self._pool = self._pool, None
-        if pool is not None:
-            pool.shutdown(wait=True, cancel_futures=True)
+        if pool is None:
+            return
+        if exc_type is not None:  # not worth finishing their start or their run (3.11 has no public way)
+            for process in list((getattr(pool, "_processes", None) or {}).values()):
+                process.terminate()
+        pool.shutdown(wait=False, cancel_futures=True)
+
+    def opened(self):
+        """Context manager: the pool open inside; started at its beginning and stopped at its end
+        (as ``with executor:``) unless it is open already (then left open)."""
+        return contextlib.nullcontext(self) if self._pool is not None else self
 
     def run(self, fn: Callable, shared, tasks: Iterable) -> Iterator:
         from concurrent.futures import FIRST_COMPLETED, wait
@@ -100,8 +117,8 @@ class LocalExecutor:
                                            "finished so far are kept: run the sweep again to resume") from None
                     yield row
         finally:
-            if not kept:
-                pool.shutdown(wait=True, cancel_futures=True)
+            if not kept:  # the finished workers exit in the background (as in __exit__)
+                pool.shutdown(wait=False, cancel_futures=True)
             else:
                 for future in pending:
                     future.cancel()
@@ -227,8 +244,11 @@ def _start_worker() -> None:
     once per process."""
     import importlib
 
+    from transgen.blas import one_thread_from_start
+
     from .task import PRELOAD, warm_up
 
+    one_thread_from_start()  # numpy not loaded yet: its BLAS, and scipy's, start with one thread
     _one_blas_thread()
     for name in PRELOAD:
         importlib.import_module(name)

@@ -14,6 +14,7 @@ are not in the design are kept, after the design's rows.
 """
 from __future__ import annotations
 
+import contextlib
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -141,7 +142,6 @@ def sweep(scenario: str | Path, grid: Mapping[str, Sequence], samples: int | Non
         For a bad key or value (before any run); ValueError for a bad design or results file.
     """
     from .executors import LocalExecutor
-    from .task import run_task
 
     path = scenario_path(scenario)
     name = Path(path).stem
@@ -152,8 +152,6 @@ def sweep(scenario: str | Path, grid: Mapping[str, Sequence], samples: int | Non
         by_key.setdefault(row_key(name, variant), variant)
     keys, unique = list(by_key), list(by_key.values())
     earlier = SweepTable.from_csv(results) if results is not None and Path(results).is_file() else None
-    files = validate_variants(path, unique)
-
     previous = {str(r["key"]): r for r in (earlier.rows if earlier else [])}
     rows: list[dict | None] = [previous.get(k) for k in keys]
     extra = [r for k, r in previous.items() if k not in by_key]
@@ -161,6 +159,20 @@ def sweep(scenario: str | Path, grid: Mapping[str, Sequence], samples: int | Non
     todo = [(i, unique[i]) for i, row in enumerate(rows) if row is None]
     resumed = len(keys) - len(todo)
     failed = sum(1 for r in rows if r is not None and not r.get("success"))
+    if executor is None and todo:
+        executor = LocalExecutor()
+    with executor.opened() if isinstance(executor, LocalExecutor) and todo else contextlib.nullcontext():
+        # a local pool's workers start here and import the simulator while the design is checked
+        files = validate_variants(path, unique)
+        return _run(executor, path, files, keys, unique, rows, extra, parameters, todo, resumed, failed, results,
+                    progress)
+
+
+def _run(executor, path: str, files: dict, keys: list, unique: list, rows: list, extra: list, parameters: list,
+         todo: list, resumed: int, failed: int, results, progress) -> SweepTable:
+    """The runs of :func:`sweep` (its design checked): rows as they complete, the results file
+    rewritten, progress reported."""
+    from .task import run_task
 
     def table() -> SweepTable:
         return SweepTable([r for r in rows if r is not None] + extra, parameters)
@@ -172,7 +184,7 @@ def sweep(scenario: str | Path, grid: Mapping[str, Sequence], samples: int | Non
         progress(SweepProgress(done, failed, len(keys), resumed, 0.0))
     try:
         if todo:
-            for index, row in (executor or LocalExecutor()).run(run_task, {"path": path, "files": files}, todo):
+            for index, row in executor.run(run_task, {"path": path, "files": files}, todo):
                 rows[index] = {"key": keys[index], **unique[index], **row}
                 done += 1
                 failed += not row.get("success")
