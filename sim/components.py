@@ -297,9 +297,12 @@ class EngineWithConverter(Component):
 
     def sample(self, ts, X, W):
         omega_e, omega_t = X[0], W[self.link]
-        if self.request is None and own_kernel_form(self) and self.kernel_form() is not None:  # loops over the output times, compiled when the simulator is
+        if own_kernel_form(self) and self.kernel_form() is not None:  # loops over the output times, compiled when the simulator is
             pump, turbine = self.converter.torques_over(omega_e, omega_t)
             demand = np.array([self.throttle.value(t) for t in ts], dtype=float)
+            # a shift's torque request (1: none; requested_torque leaves the torque as it is then)
+            factor = (np.ones(len(ts)) if self.request is None
+                      else np.array([self.request.value(t) for t in ts], dtype=float))
             throttle, t_engine = np.empty(len(ts)), np.empty(len(ts))
             tables = (self.engine.speeds, self.engine.throttles, self.engine.torque)
             over = compiled_loop(engine_over, len(ts))
@@ -307,7 +310,8 @@ class EngineWithConverter(Component):
                 over = engine_over
             else:
                 tables = tuple(np.array(x, dtype=float) for x in tables)
-            over(demand, np.ascontiguousarray(omega_e, dtype=float), float(self.idle), *tables, throttle, t_engine)
+            over(demand, factor, np.ascontiguousarray(omega_e, dtype=float), float(self.idle), *tables, throttle,
+                 t_engine)
         else:
             pump, turbine = (a.astype(float) for a in elementwise(self.converter.torques, 2)(omega_e, omega_t))
             throttle = elementwise(self._throttle)(ts, omega_e).astype(float)
@@ -529,13 +533,15 @@ def engine_converter_rates(t_engine: float, pump: float, turbine: float, omega_e
 
 
 @compilable
-def engine_over(demand, omega_e, idle: float, speeds, throttles, torque, throttle, t_engine) -> None:
+def engine_over(demand, factor, omega_e, idle: float, speeds, throttles, torque, throttle, t_engine) -> None:
     """The governed throttle and the engine torque of the map ``(speeds, throttles, torque)`` at
     every output time (written into ``throttle`` and ``t_engine``) from the throttle demand
-    ``demand`` and the engine speeds ``omega_e``."""
+    ``demand``, the torque-request factor ``factor`` (:func:`requested_torque`; 1: none) and the
+    engine speeds ``omega_e``."""
     for k in range(len(omega_e)):
         throttle[k] = governed_throttle(demand[k], omega_e[k], idle)
-        t_engine[k] = interp2(omega_e[k], throttle[k], speeds, throttles, torque)
+        t_engine[k] = requested_torque(interp2(omega_e[k], throttle[k], speeds, throttles, torque), factor[k],
+                                       omega_e[k], speeds, throttles, torque)
 
 
 @compilable

@@ -108,10 +108,10 @@ def _plain(value, key: str):
         out = value
     elif isinstance(value, float):
         out = float(value)
-    elif isinstance(value, Mapping):
-        out = {str(k): _plain(v, key) for k, v in value.items()}
+    elif isinstance(value, Mapping):  # its entries are checked (the first bad one named) as they are converted
+        return {str(k): _plain(v, key) for k, v in value.items()}
     elif isinstance(value, (list, tuple)):
-        out = [_plain(v, key) for v in value]
+        return [_plain(v, key) for v in value]
     else:
         raise _error(key, f"{shown(value)} is not a TOML value (a number, string, boolean, list or table)")
     bad = non_finite(out)

@@ -127,8 +127,10 @@ def scenario_keys(path: str | Path, overrides: Mapping[str, object] | None = Non
 def scenario_path(path: str | Path, access: FileAccess | None = None) -> Path:
     """The scenario file ``path`` names: the file, or the bundled scenario of that name."""
     path, access = Path(path), access or FileAccess()
+    if access.is_file(path):
+        return path
     bundled = bundled_scenarios()
-    if not access.is_file(path) and path.stem in bundled and path.suffix in ("", ".toml"):
+    if path.stem in bundled and path.suffix in ("", ".toml"):
         path = bundled[path.stem]
     if not access.is_file(path):
         close = difflib.get_close_matches(path.stem, list(bundled), n=1)
@@ -157,7 +159,12 @@ def _mechanism(r: Reader, path: Path, ref: str) -> Mechanism:
     scenario's file access."""
     from transgen.library import bundled_path
 
-    for candidate in (path.parent / ref, Path(ref), bundled_path(Path(ref).name)):
+    def candidates():  # lazily: the bundled mechanisms are listed (a folder's glob) only when needed
+        yield path.parent / ref
+        yield Path(ref)
+        yield bundled_path(Path(ref).name)
+
+    for candidate in candidates():
         if candidate is not None and r.access.is_file(candidate):
             try:
                 text = r.access.read_text(candidate)

@@ -10,7 +10,9 @@ scenario from what this module reads.
 """
 from __future__ import annotations
 
+import copy
 import difflib
+import functools
 import math
 import re
 import sys
@@ -34,10 +36,10 @@ class Source:
     ``includes`` are the sources of the included files in the order they are merged; a key's
     value comes from the last file that gives it, so errors about it are located there."""
 
-    def __init__(self, path: Path, text: str):
+    def __init__(self, path: Path, text: str, positions: dict | None = None):
         self.path = path
         self.lines = text.splitlines()
-        self.positions = key_positions(text)
+        self.positions = key_positions(text) if positions is None else positions  # read only
         self.includes: list[Source] = []
         self.overrides: dict[tuple, str] = {}  # key path set with --set -> its dotted key
         self.created: set[tuple] = set()  # tables that only --set made
@@ -128,9 +130,9 @@ def read_source(path: Path, text: str | None = None, seen: tuple[Path, ...] = ()
         except (OSError, UnicodeDecodeError) as exc:
             raise ScenarioError(f"{path}:1:1: error: cannot read scenario file ({exc})") from None
     try:
-        data = tomllib.loads(text)
-        source = Source(path, text)
-        bad = non_finite(data)
+        parsed, positions, bad = _parsed(text)
+        data = copy.deepcopy(parsed)  # the caller merges and overrides it in place
+        source = Source(path, text, positions)
     except RecursionError:
         raise located(path, text.splitlines(), 1, 1, "arrays or tables nested too deeply") from None
     except tomllib.TOMLDecodeError as exc:
@@ -167,6 +169,16 @@ def read_source(path: Path, text: str | None = None, seen: tuple[Path, ...] = ()
         merge(merged, inc_data)
     merge(merged, data)
     return merged, source
+
+
+@functools.lru_cache(maxsize=32)
+def _parsed(text: str) -> tuple[dict, dict, tuple | None]:
+    """The TOML data of a file's ``text``, the position of each key (:func:`key_positions`) and the
+    key path of its first non-finite number (:func:`non_finite`), remembered for the last texts:
+    the runs of a sweep and an optimizer's candidates read the same files, and parsing them is
+    about a third of loading a scenario. Read only (:func:`read_source` copies the data)."""
+    data = tomllib.loads(text)
+    return data, key_positions(text), non_finite(data)
 
 
 def bundled_include(name: str) -> Path | None:

@@ -354,12 +354,7 @@ class Transmission:
                          capacity: str = "dynamic") -> np.ndarray:
         """Torques of every element as inputs (locked ones zero); ``directions`` is the slip
         direction each slipping element transmits in (+1/-1, 0 for none)."""
-        slips = self.P @ w
-        out = np.zeros(len(self.elements))
-        for i, e in enumerate(self.elements):
-            if i not in locked:
-                out[i] = e.slip_torque(t, slips[i], int(directions[i]), capacity)
-        return out
+        return self._slipping_torques_memo(t, self.P @ w, locked, directions, capacity, {})
 
     def slipping_set(self, locked: frozenset, directions: np.ndarray, t0: float = -np.inf,
                      t1: float = np.inf) -> tuple[tuple, ...]:
@@ -529,6 +524,7 @@ class Transmission:
         base_dir = np.sign(slips).astype(int)
         consistent = []
         rejected = 0
+        torque_memo: dict = {}  # (element, direction, capacity) -> its slipping torque, at this t and w
         for share in (False, True):
             if share and consistent:
                 break
@@ -543,7 +539,7 @@ class Transmission:
                         continue
                     refused = False
                     passed = self._consistent(t, w, external_u, zero, choice, locked, data, forced, released,
-                                              base_dir, sliding, share)
+                                              base_dir, sliding, share, (slips, torque_memo))
                     if passed is None:
                         break  # an unforced group that cannot slip: the lock choice decides it
                     if passed is not False:
@@ -585,11 +581,14 @@ class Transmission:
         raise SimulationError(f"t={t:.6g} s: several consistent modes for the elements at zero slip ({names}): {options}")
 
     def _consistent(self, t, w, external_u, zero, choice, locked, data, forced, released, base_dir, sliding,
-                    share: bool = False):
+                    share: bool = False, memo: tuple | None = None):
         """:meth:`decide`'s test of one combination ``choice`` realised by the lock set ``locked``
         (mode ``data``): ``(directions, idle)`` when consistent, ``False`` when not, ``None`` when
         an unforced group that the locks hold at zero kinematically would have to slip. ``idle``:
-        the locked elements whose row holds only round-off torque."""
+        the locked elements whose row holds only round-off torque. ``memo``: the slips ``P @ w``
+        and a dict of the slipping torques computed so far at ``t`` and ``w`` (:meth:`decide` tests
+        many combinations at the same instant; each element slips one of two ways)."""
+        slips, torque_memo = memo if memo is not None else (self.P @ w, {})
         directions = base_dir.copy()
         implied = set()  # slipping groups whose slip the mode's locks hold at zero kinematically
         for (members, signs, _, _), c in zip(zero, choice):
@@ -603,13 +602,14 @@ class Transmission:
             return False  # tested in the first pass
         free = set(forced) | {i for m in unforced for i in m}  # sliding without the slip test
         u = external_u.copy()
-        torques = self.slipping_torques(t, w, locked, directions)
+        torques = self._slipping_torques_memo(t, slips, locked, directions, "dynamic", torque_memo)
         # elements leaving zero slip are tested at their static capacity, except those that have
         # broken loose already: forced ones (their static limit was just exceeded) and sliding ones
         starting = [i for z, c in zip(zero, choice) if c != 0 and z[0] not in implied for i in z[0]
                     if i not in forced and (sliding is None or sliding[i] != directions[i])]
         if starting:
-            torques[starting] = self.slipping_torques(t, w, locked, directions, "static")[starting]
+            torques[starting] = self._slipping_torques_memo(t, slips, locked, directions, "static",
+                                                            torque_memo)[starting]
         u[self.element_input] += torques
         slip_acc = self.P @ (data.C @ (data.B @ u))
         t_locked = data.D @ u
@@ -625,6 +625,20 @@ class Transmission:
         tiny = np.abs(t_locked) <= 1e-9 * (1.0 + np.max(np.abs(u)))
         idle = frozenset(i for row in np.flatnonzero(tiny) for i in data.groups[row])
         return directions, idle
+
+    def _slipping_torques_memo(self, t: float, slips: np.ndarray, locked: frozenset, directions: np.ndarray,
+                               capacity: str, memo: dict) -> np.ndarray:
+        """:meth:`slipping_torques` at the slips ``slips`` (``P @ w``), each element's torque taken
+        from ``memo`` where it was computed already (the same call, the same number)."""
+        out = np.zeros(len(self.elements))
+        for i, e in enumerate(self.elements):
+            if i not in locked:
+                key = (i, int(directions[i]), capacity)
+                torque = memo.get(key)
+                if torque is None:
+                    torque = memo[key] = e.slip_torque(t, slips[i], key[1], capacity)
+                out[i] = torque
+        return out
 
     def _lock_sets(self, locked: frozenset, previous: frozenset):
         """The lock sets that realise the lock choice ``locked``: itself, and where its torques are

@@ -14,7 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from transgen.sim import kernel as K
-from transgen.sim.components import Component, Driveline, EngineMap, InputTorque, LinkLoad
+from transgen.sim.components import Component, Driveline, EngineMap, EngineWithConverter, InputTorque, LinkLoad
 from transgen.sim.integration import ComponentEvaluator, StateLayout, _partial_jacobian
 from transgen.sim.interp import interp2
 from transgen.sim.jit import compiled, jit_enabled
@@ -65,6 +65,29 @@ def test_the_engine_torque_request_compiles_to_the_python_numbers(kind):
     if kind == "engine_map":  # the engine map on the input link (no converter)
         overrides["input.type"] = "engine_map"
     _compare_compiled_with_python("ht740_original", overrides)
+
+
+def test_an_engine_under_a_torque_request_samples_its_right_hand_side_numbers():
+    """The output sampling of an engine behind a converter under a shift's torque request (one loop
+    over the output times, compiled where the simulator is) gives the per-point numbers of its
+    right-hand side bit for bit: the engine torque with the request, the governed throttle (speeds
+    below idle included), the converter's torques."""
+    import numba  # noqa: F401 - compiled_loop compiles where numba is loaded, as in a simulation
+
+    pt = load_scenario("ht740_original", {"input.torque_request": _REQUEST}).powertrain
+    [engine] = [c for c in pt.components if isinstance(c, EngineWithConverter)]
+    rng = np.random.default_rng(12)
+    n = 64
+    ts = np.sort(rng.uniform(0.0, 20.0, n))
+    omega_e = rng.uniform(0.2, 1.5, n) * max(engine.idle, 50.0)
+    W = np.zeros((len(pt.transmission.links), n))
+    W[engine.link] = rng.uniform(0.0, 1.0, n) * omega_e
+    _, signals, _ = engine.sample(ts, omega_e[None, :], W)
+    assert np.array_equal(signals["T_engine"], [engine._engine_torque(t, w) for t, w in zip(ts, omega_e)])
+    assert np.array_equal(signals["throttle"], [engine._throttle(t, w) for t, w in zip(ts, omega_e)])
+    pump, turbine = zip(*(engine.converter.torques(a, b) for a, b in zip(omega_e, W[engine.link])))
+    assert np.array_equal(signals["T_pump"], pump) and np.array_equal(signals["T_in"], turbine)
+    assert len(set(signals["torque_request"])) > 3  # the request varies over the times sampled
 
 
 def _compare_compiled_with_python(name, overrides=None):

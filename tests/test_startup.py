@@ -2,6 +2,7 @@
 libraries a command imports, in a fresh interpreter; the times are in benchmarks/bench_startup.py."""
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import tempfile
@@ -100,6 +101,26 @@ def test_the_command_line_starts_the_blas_with_one_thread():
     assert _blas_threads(run_cli(["check", "simple2"])) == "[1]"
     assert _blas_threads(run_cli(["check", "simple2"]), OPENBLAS_NUM_THREADS="2", MKL_NUM_THREADS="2") == many
     assert _blas_threads("import numpy\n" + run_cli(["check", "simple2"])) == _blas_threads("import numpy\n")
+
+
+def test_a_run_limits_the_blas_to_one_thread_every_time():
+    """transgen.blas.single_threaded finds the BLAS libraries once (and again after imports): each
+    use limits them to one thread and restores the setting, also with a library loaded in between."""
+    many = _blas_threads("import numpy\n", OPENBLAS_NUM_THREADS="2")
+    if many in ("[]", "[1]"):
+        pytest.skip("no multi-threaded BLAS that threadpoolctl knows")
+    code = ("import json, numpy, threadpoolctl\nfrom transgen.blas import single_threaded\n"
+            "def blas():\n    return sorted({i['num_threads'] for i in threadpoolctl.threadpool_info() "
+            "if i['user_api'] == 'blas'})\n"
+            "seen = []\nfor preload in ((), (), ('scipy.linalg',), ('scipy.linalg',)):\n"
+            "    with single_threaded(*preload):\n        seen.append(blas())\n    seen.append(blas())\n"
+            "print(json.dumps(seen))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                         env={k: v for k, v in os.environ.items() if not k.endswith("_NUM_THREADS")}
+                         | {"OPENBLAS_NUM_THREADS": "2"}, cwd=tempfile.gettempdir())
+    seen = json.loads(out.stdout.strip().splitlines()[-1])
+    assert seen[0::2] == [[1]] * 4
+    assert all(after != [1] for after in seen[1::2])
 
 
 def test_the_package_names_still_resolve():

@@ -44,13 +44,26 @@ def single_threaded(*preload: str):
     need it does not import it (scipy.linalg costs a worker 0.05 s)."""
     import importlib
 
-    from threadpoolctl import threadpool_limits  # here: start-up time of the command line
-
     if not all(os.environ.get(name) == "1" for name in BLAS_THREAD_VARIABLES):
         for name in preload:
             importlib.import_module(name)
 
-    return threadpool_limits(limits=1, user_api="blas")
+    return _controller().limit(limits=1, user_api="blas")
+
+
+_CONTROLLER: list = []  # [(number of modules loaded when scanned, threadpoolctl.ThreadpoolController)]
+
+
+def _controller():
+    """The BLAS libraries of this process (a ``threadpoolctl.ThreadpoolController``), found once
+    and again only after modules were imported since (a BLAS comes with an extension module): the
+    search reads the process's loaded libraries, 0.6 ms per call in a simulator process, which
+    every run (an optimizer's candidate costs about 40 ms) would otherwise pay."""
+    from threadpoolctl import ThreadpoolController  # here: start-up time of the command line
+
+    if not _CONTROLLER or _CONTROLLER[0][0] != len(sys.modules):
+        _CONTROLLER[:] = [(len(sys.modules), ThreadpoolController())]
+    return _CONTROLLER[0][1]
 
 
 def one_blas_thread(*preload: str):

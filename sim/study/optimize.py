@@ -514,7 +514,9 @@ def shift_metrics(result, oncoming: str, offgoing: str, t_start: float, name: st
 
     if not result.success or len(result.time) < 2:
         return {"success": False, "message": result.message}
-    [q] = shift_report(result, [Shift(oncoming, offgoing, t_start, name)])
+    # no frequency weighting: the VDV is the only figure that needs it (its FFT filter is a fifth of
+    # the report's cost), and no metric here reads it; jerk and all else are the same numbers
+    [q] = shift_report(result, [Shift(oncoming, offgoing, t_start, name)], weighting="none")
     jerk = q.jerk_max
     return {"success": True, "completed": bool(q.completed), "energy": float(q.energy_total),
             "duration": None if q.shift_duration is None else float(q.shift_duration),
