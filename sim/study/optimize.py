@@ -57,8 +57,8 @@ bindup appears at a threshold), which rules out gradients and makes local deriva
 (Nelder-Mead, COBYLA) stall at the first kink; a population method evaluates a whole generation in
 parallel. CMA-ES uses the candidates' ranks only (the penalty's jumps do not distort it) and learns
 the correlations of the parameters (fill against ramp, cut against its time), which the
-differential evolution used before did not: on the HT-740 3-4 it reached in 1600 evaluations the
-score that differential evolution reached in about 2800.
+differential evolution used before did not: on the HT-740 3-4 (seed 0) it scored 0.33 after 1041
+evaluations where the differential evolution scored 0.40 after 1047 (README "Shift calibration").
 """
 from __future__ import annotations
 
