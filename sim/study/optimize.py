@@ -704,8 +704,9 @@ def optimize(path, shifts: Sequence[str] | None = None, objective: Objective = O
              population: int = 12, progress: Callable | None = None, overrides: Mapping | None = None,
              engine_torque: bool | None = None) -> OptimizeResult:
     """Tune the shifts of the scenario ``path`` (all, or those named in ``shifts``: ``1-2`` or a
-    number from 1); see the module docstring. ``max_evaluations``: per shift (rounded to whole
-    generations of ``population`` candidates); ``executor``: where candidates run (default in
+    number from 1); see the module docstring. ``max_evaluations``: simulations per shift at most
+    (the start and every stage; whole generations of ``population`` candidates and compass
+    steps, so a few less may run); ``executor``: where candidates run (default in
     this process); ``progress(OptimizeProgress)`` after every generation; ``overrides``: dotted
     keys set in the scenario first (as ``--set``); ``engine_torque``: tune the engine torque
     intervention too (None: where the input is an engine; False: the clutches only, the
