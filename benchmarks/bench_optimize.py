@@ -10,10 +10,11 @@ against a whole run of the scenario. Goal (issue 12): each shift in under 60 s o
 
 Wall times on a machine shared with other work are not the machine's speed: read the CPU figures.
 
-With an engine at the input the engine torque intervention is tuned too (a second stage of half the
-evaluations after the clutches); --no-engine-torque measures the clutches alone.
+With an engine at the input the engine torque intervention is tuned too (the clutches with half of a
+shift's evaluations, then all sixteen parameters with the rest); --no-engine-torque measures the
+clutches alone.
 
-    python benchmarks/bench_optimize.py [--scenario ht740_original] [--workers 2] [--evaluations 720]
+    python benchmarks/bench_optimize.py [--scenario ht740_original] [--workers 2] [--evaluations 1600]
                                         [--no-engine-torque]
 """
 import argparse
@@ -28,7 +29,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--scenario", default="ht740_original")
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--evaluations", type=int, default=720)
+    parser.add_argument("--evaluations", type=int, default=1600)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--no-engine-torque", action="store_true", help="tune the clutches only")
     args = parser.parse_args()

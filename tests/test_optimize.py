@@ -243,3 +243,45 @@ def test_local_processes_and_dask_give_the_same_calibration():
     assert [r["score"] for r in local.history] == scores
     assert [r["score"] for r in on_dask.history] == scores
     assert local.overrides == serial.overrides == on_dask.overrides
+
+
+def _quadratic(dim: int, calls: list):
+    """A batch evaluator for :func:`_search` on a bowl in the unit box with its minimum at
+    ``0.2 .. 0.8`` and a penalty wall as the score's (feasible first: ``x0 + x1 <= 1.2``), and
+    the best point kept as :func:`optimize` keeps it."""
+    target = np.linspace(0.2, 0.8, dim)
+    best = {"x": np.full(dim, 0.95), "score": math.inf}
+
+    def batch_map(func, xs):
+        scores = []
+        for x in xs:
+            x = np.asarray(x, dtype=float)
+            violation = max(x[0] + x[1] - 1.2, 0.0)
+            s = 1e3 * (1.0 + violation) if violation else float(np.sum((x - target) ** 2))
+            calls.append(x.copy())
+            scores.append(s)
+            if s < best["score"]:
+                best.update(x=x, score=s)
+        return scores
+
+    return batch_map, best, target
+
+
+@pytest.mark.parametrize("dim, budget, reached", [(9, 600, 1e-3), (16, 1000, 1e-2)])
+def test_search_converges_within_its_budget_repeatably(dim, budget, reached):
+    from transgen.sim.study.optimize import _search
+
+    before = np.random.get_state()[1].copy()
+    runs = []
+    for _ in range(2):
+        calls: list = []
+        batch_map, best, target = _quadratic(dim, calls)
+        counter = {"evaluations": 1}
+        wrapped = lambda f, xs: (counter.__setitem__("evaluations", counter["evaluations"] + len(xs)), batch_map(f, xs))[1]  # noqa: E731
+        _search(wrapped, best, counter, [(0.0, 1.0)] * dim, budget, 12, seed=5)
+        assert len(calls) <= budget
+        assert all(np.all((0.0 <= x) & (x <= 1.0)) for x in calls)  # never outside the box
+        assert best["score"] < reached and np.allclose(best["x"], target, atol=math.sqrt(reached))
+        runs.append(np.array(calls))
+    assert np.array_equal(runs[0], runs[1])  # the same seed, the same candidates
+    assert np.array_equal(np.random.get_state()[1], before)  # numpy's global random state untouched

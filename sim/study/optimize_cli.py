@@ -56,10 +56,11 @@ def add_optimize_command(sub) -> None:
     engine.add_argument("--scheduler", metavar="tcp://HOST:PORT",
                         help="evaluate on a Dask distributed cluster (needs transgen[distributed])")
     s.add_argument("--seed", type=int, default=0, help="seed of the optimizer (default 0): the same seed, the same result")
-    s.add_argument("--evaluations", type=int, default=720, metavar="N",
-                   help="simulations per shift, in whole generations (default 720)")
-    s.add_argument("--population", type=int, default=36, metavar="N",
-                   help="candidates per generation, rounded up to a multiple of the 9 parameters (default 36)")
+    s.add_argument("--evaluations", type=int, default=1600, metavar="N",
+                   help="simulations per shift at most, all stages (clutches, engine torque) and the start included "
+                        "(default 1600)")
+    s.add_argument("--population", type=int, default=12, metavar="N",
+                   help="candidates per generation of the CMA-ES, evaluated together (default 12)")
     s.add_argument("-o", "--output", required=True, metavar="TUNED.toml", help="the tuned scenario file")
     s.add_argument("--history", metavar="FILE.csv",
                    help="every evaluation: shift, parameters, metrics, score (default: OUTPUT with .history.csv)")
