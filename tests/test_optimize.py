@@ -96,6 +96,19 @@ def test_score_puts_every_feasible_candidate_first():
     assert failed > worse
 
 
+def test_the_default_objective_leaves_out_a_term_the_scenario_cannot_measure():
+    """Jerk without a vehicle (None in the candidate and the start) is no term at all (not a
+    constant added to every score); with a vehicle it counts, relative to the start's jerk."""
+    ref = {"success": True, "completed": True, "energy": 1000.0, "duration": 0.5, "hole": 40.0, "flare": 0.0,
+           "bindup": False, "bindup_torque": 0.0, "offgoing_torque": 100.0, "chatter": False, "locks": 1, "jerk": None}
+    candidate = {**ref, "energy": 500.0, "hole": 20.0, "duration": 0.25}
+    s, terms, _ = score(candidate, ref, Objective(), Constraints())
+    assert "jerk" in Objective().weights and "jerk" not in terms
+    assert s == pytest.approx(0.5 + 0.5 + 0.1 * 0.5)
+    s, terms, _ = score({**candidate, "jerk": 5.0}, {**ref, "jerk": 10.0}, Objective(), Constraints())
+    assert terms["jerk"] == pytest.approx(Objective().weights["jerk"] * 0.5)
+
+
 def test_parse_objective():
     assert parse_objective("energy=1,jerk=0.2,duration=0.1").weights == {"energy": 1.0, "jerk": 0.2, "duration": 0.1}
     for bad, what in (("energy=1,comfort=2", "unknown term"), ("energy=x", "not a number"),

@@ -32,9 +32,9 @@ def add_optimize_command(sub) -> None:
     s.add_argument("scenario", metavar="SCENARIO", help="scenario .toml file or bundled name")
     s.add_argument("--shift", metavar="NAME", action="append",
                    help="tune only this shift: its gears (1-2) or number (1 = first); repeatable (default: all)")
-    s.add_argument("--objective", default="energy=1,hole=1,duration=0.1", metavar="TERM=W,...",
+    s.add_argument("--objective", default="energy=1,hole=1,jerk=0.2,duration=0.1", metavar="TERM=W,...",
                    help="weights of the objective terms energy, hole, duration, flare, jerk, each relative to "
-                        "the starting calibration (default energy=1,hole=1,duration=0.1)")
+                        "the starting calibration (default energy=1,hole=1,jerk=0.2,duration=0.1; jerk is left out without a vehicle)")
     s.add_argument("--max-flare", type=float, default=20.0, metavar="RPM",
                    help="largest flare of the input speed [rpm] (default 20)")
     s.add_argument("--max-hole", type=float, metavar="PCT", help="deepest torque hole [%% of the output torque before]")
