@@ -56,7 +56,7 @@ def parts(shared, task) -> dict:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--scenario", default="ht740_original")
-    parser.add_argument("--evaluations", type=int, default=108, help="per shift and stage of the recorded run")
+    parser.add_argument("--evaluations", type=int, default=108, help="simulations per shift of the recorded run (all stages, as optimize's --evaluations)")
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
