@@ -8,8 +8,13 @@ error, Ctrl-C) cancels the runs not started.
 
 * :class:`SerialExecutor` - one after the other in this process;
 * :class:`LocalExecutor` - a :class:`concurrent.futures.ProcessPoolExecutor` (``workers``, default
-  :func:`os.cpu_count`), started with the ``spawn`` method (see :meth:`LocalExecutor.run` for
-  why); each worker imports the simulator once and runs its BLAS on one thread;
+  :func:`os.cpu_count`), each worker on one BLAS thread. The workers are forked from this process
+  where it has the simulator's compiled code loaded already (it has simulated) and runs no other
+  thread: they start in milliseconds with the simulator in their memory. Otherwise (a fresh
+  process, such as a ``transgen sweep`` command's; a Dask client or a Jupyter kernel's threads
+  alive) they are spawned and each imports the simulator and loads its compiled code once, about
+  0.6 s CPU (why fork is safe then and why spawn otherwise: :func:`_can_fork` and
+  ``LocalExecutor._new_pool``; :attr:`LocalExecutor.start_method` says which);
 * :class:`DaskExecutor` - a Dask distributed cluster by scheduler address
   (``tcp://HOST:PORT``) or an existing ``distributed.Client``; the optional extra
   ``transgen[distributed]``, imported only here.
@@ -53,7 +58,12 @@ class SerialExecutor:
 
 
 class LocalExecutor:
-    """Runs the tasks in ``workers`` local processes (default: :func:`os.cpu_count`)."""
+    """Runs the tasks in ``workers`` local processes (default: :func:`os.cpu_count`).
+
+    A pool is started by each :meth:`run`, or once for a ``with executor:`` block (kept across the
+    sweeps inside it). Its workers are forked from this process where that is both worth it and
+    safe (the simulator warm here, one thread, no OpenMP runtime: :func:`_can_fork`), else spawned
+    (``start_method`` says which: ``"fork"`` or ``"spawn"``); the numbers are the same."""
 
     def __init__(self, workers: int | None = None):
         if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
@@ -69,7 +79,7 @@ class LocalExecutor:
 
         # fork where this process has the simulator warm and nothing makes fork unsafe
         # (_can_fork says why it is safe then): the workers are ready in milliseconds, its compiled code in their memory,
-        # instead of ~0.5 s CPU each. Else spawn: not fork, since threads of the parent (a Dask
+        # instead of ~0.6 s CPU each. Else spawn: not fork, since threads of the parent (a Dask
         # client, a Jupyter kernel's) may hold locks a forked child never sees released; not
         # forkserver, since Python 3.11's fork server ignores the parent's sys.path and imports
         # from its working directory first, so a folder named transgen there (a source checkout)
