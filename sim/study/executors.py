@@ -77,13 +77,13 @@ class LocalExecutor:
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor
 
-        # fork where this process has the simulator warm and nothing makes fork unsafe
-        # (_can_fork says why it is safe then): the workers are ready in milliseconds, its compiled code in their memory,
-        # instead of ~0.6 s CPU each. Else spawn: not fork, since threads of the parent (a Dask
-        # client, a Jupyter kernel's) may hold locks a forked child never sees released; not
-        # forkserver, since Python 3.11's fork server ignores the parent's sys.path and imports
-        # from its working directory first, so a folder named transgen there (a source checkout)
-        # shadows the installed package
+        # fork where this process has the simulator warm and nothing makes fork unsafe (_can_fork
+        # says why it is safe then): the workers are ready in milliseconds with the compiled code
+        # in their memory, instead of ~0.6 s CPU each. Else spawn: not fork, since threads of the
+        # parent (a Dask client's, a Jupyter kernel's) may hold locks a forked child never sees
+        # released; not forkserver, since Python 3.11's fork server ignores the parent's sys.path
+        # and imports from its working directory first, so a folder named transgen there (a
+        # source checkout) shadows the installed package
         if _can_fork():
             _preload()  # once here, not in every child
             self.start_method, initializer = "fork", _one_blas_thread
@@ -105,7 +105,8 @@ class LocalExecutor:
 
     def __exit__(self, exc_type=None, *exc) -> None:
         """Stop the workers: the runs not started are cancelled; the workers exit in the
-        background (0.1-0.2 s each, not waited for; Python joins them at its exit), at once
+        background (spawned ones in 0.1-0.2 s each, forked ones in milliseconds; not waited for
+        here, but before a later pool forks, and Python joins them at its exit), at once
         where the block ends with an error (a bad design found while they were starting, Ctrl-C)."""
         pool, self._pool = self._pool, None
         if pool is None:
