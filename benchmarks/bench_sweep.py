@@ -2,17 +2,29 @@
 each; an 8 x 8 grid of vehicle mass and throttle) serially in this process, on 1 and 2 local
 worker processes and on a Dask cluster of 2 worker processes on 127.0.0.1 (started here, its start
 and the workers' import of the simulator not timed: a cluster is started once and used for many
-sweeps, as the pool's workers import the simulator when they start).
+sweeps).
 
-Each sweep is timed end to end (validation, pool start, runs) and over its runs alone (from the
-moment the runs start to the last row); the rows of every engine are checked to be identical,
-number for number. The local pools are timed twice: cold (the pool started by the sweep, as one
-``transgen sweep`` command) and kept (``with LocalExecutor(n) as executor:`` started and used by a
-first small sweep, then the 64 runs on it: what a script or notebook that runs many sweeps gets,
-as the Dask cluster's start is not timed either). A worker's start (interpreter, imports, the
-simulator's compiled code) is measured as the CPU time of the worker process at its first task. The cost of an engine per task (sending the scenario texts and overrides,
-scheduling, returning the row) is measured with tasks that do nothing: the marginal time of 220
-against 20 of them, which a loaded machine disturbs far less than the runs.
+Three kinds of figure for the local workers, each sweep timed end to end (validation, pool start,
+runs) and, in this process, also over its runs alone (from the moment the runs start to the last
+row):
+
+* ``transgen sweep`` commands, as a user runs them from a shell: a cold interpreter each
+  (``--workers 1``: the runs in the command's process; ``--workers 2``: 2 spawned workers, each
+  importing the simulator and loading its compiled code when it starts), wall clock of the whole
+  command, two repetitions alternating;
+* new pools in this process, started by the sweep after its serial sweep: this process has the
+  simulator warm, so the workers are forked from it (ready in milliseconds, as in a script or
+  notebook that calls ``sweep()`` again);
+* kept pools (``with LocalExecutor(n) as executor:`` started and used by a first small sweep, then
+  the 64 runs on it: what a script that runs many sweeps on one pool gets, as the Dask cluster's
+  start is not timed either).
+
+The rows of every engine (and the commands' CSV files) are checked to be identical, number for
+number. A worker's start (interpreter, imports, the simulator's compiled code) is measured as the
+CPU time of the worker process at its first task, spawned and forked. The cost of an engine per
+task (sending the scenario texts and overrides, scheduling, returning the row) is measured with
+tasks that do nothing: the marginal time of 220 against 20 of them, which a loaded machine
+disturbs far less than the runs.
 
 Goals (issue 11): on an idle 2-core machine 2 local workers at least 1.8x faster than 1; Dask adds
 at most 10 % per run over the local pool.
@@ -20,11 +32,16 @@ at most 10 % per run over the local pool.
     python benchmarks/bench_sweep.py [--runs 64] [--t-end 20] [--no-dask]
 """
 import argparse
+import contextlib
 import math
 import os
+import subprocess
+import sys
+import tempfile
+import threading
 import time
 
-from transgen.sim.study import DaskExecutor, LocalExecutor, SerialExecutor, sweep
+from transgen.sim.study import DaskExecutor, LocalExecutor, SerialExecutor, SweepTable, sweep
 
 
 def grid(runs: int, t_end: float | None) -> dict:
@@ -48,10 +65,53 @@ def timed(label: str, executor, design: dict) -> tuple[float, float, list]:
     runs = time.perf_counter() - marks[0]
     assert not table.failed, table.failed[0]["message"]
     n = len(table)
-    print(f"  {label:<22} {n / total:7.3f} runs/s end to end ({total:6.1f} s), {n / runs:7.3f} runs/s over "
+    method = f", {executor.start_method}ed" if isinstance(executor, LocalExecutor) else ""
+    print(f"  {label + method:<34} {n / total:7.3f} runs/s end to end ({total:6.1f} s), {n / runs:7.3f} runs/s over "
           f"the runs ({runs:6.1f} s)", flush=True)
-    cells = [[r.get(c) for c in table.columns if c != "wall_time"] for r in table.rows]
-    return total, runs, cells
+    return total, runs, cells(table)
+
+
+def cells(table: SweepTable) -> list[list]:
+    """Every cell of the table but the wall times (the only column that may differ)."""
+    return [[r.get(c) for c in table.columns if c != "wall_time"] for r in table.rows]
+
+
+def commands(design: dict, repetitions: int = 2) -> tuple[list[float], list[float], list]:
+    """``transgen sweep ... --workers 1`` and ``--workers 2`` run as commands in a temporary folder
+    (a cold interpreter each; not a source checkout), alternating; returns the wall-clock seconds
+    of each command with 1 and with 2 workers and the cells of the results, which must be equal."""
+    options = [f"--grid={key}={','.join(str(v) for v in values)}" for key, values in design.items()]
+    times: dict[int, list[float]] = {1: [], 2: []}
+    results = []
+    with tempfile.TemporaryDirectory() as folder:
+        for repetition in range(repetitions):
+            for workers in (1, 2):
+                out = os.path.join(folder, f"r{workers}_{repetition}.csv")
+                start = time.perf_counter()
+                done = subprocess.run([sys.executable, "-m", "transgen", "sweep", "ht740_improved", *options,
+                                       "--workers", str(workers), "--quiet", "-o", out],
+                                      cwd=folder, capture_output=True, text=True)
+                times[workers].append(time.perf_counter() - start)
+                assert done.returncode == 0, done.stderr
+                table = SweepTable.from_csv(out)
+                assert not table.failed, table.failed[0]["message"]
+                results.append(cells(table))
+    assert all(r == results[0] for r in results), "the commands' results differ"
+    return times[1], times[2], results[0]
+
+
+@contextlib.contextmanager
+def spawned():
+    """Inside: a second thread alive, so that a new local pool spawns its workers (as in a cold
+    process) instead of forking them from this warm one."""
+    release = threading.Event()
+    thread = threading.Thread(target=release.wait)
+    thread.start()
+    try:
+        yield
+    finally:
+        release.set()
+        thread.join()
 
 
 def _noop(shared, task):
@@ -83,7 +143,8 @@ def cpu_estimate(workers: int, design: dict) -> tuple[float, float, float]:
     a worker's start (its process's CPU time at its first task, the mean of the workers) and the
     runs' CPU time (each task's in its worker) shared evenly by the workers (the end of a sweep
     leaves one worker idle for up to one run, 0.1 s: not counted); and without the start (a kept
-    pool). Returns (cold, kept, mean start) in seconds."""
+    pool). The workers are spawned, as a ``transgen sweep`` command's. Returns (cold, kept, mean
+    start) in seconds."""
     from transgen.sim.study.runner import design_variants, scenario_path, validate_variants
 
     path = scenario_path("ht740_improved")
@@ -92,9 +153,10 @@ def cpu_estimate(workers: int, design: dict) -> tuple[float, float, float]:
     files = validate_variants(path, [v for _, v in tasks])
     check = time.process_time() - start
     first, runs = {}, 0.0
-    for _, _, pid, before, after in LocalExecutor(workers).run(_cpu_task, {"path": path, "files": files}, tasks):
-        first[pid] = min(first.get(pid, before), before)
-        runs += after - before
+    with spawned():  # the workers' start as in a `transgen sweep` command
+        for _, _, pid, before, after in LocalExecutor(workers).run(_cpu_task, {"path": path, "files": files}, tasks):
+            first[pid] = min(first.get(pid, before), before)
+            runs += after - before
     start = sum(first.values()) / len(first)
     return check + start + runs / workers, runs / workers, start
 
@@ -163,12 +225,20 @@ def main() -> None:
               f"{os.environ.get('PYTHONDONTWRITEBYTECODE', '')!r}): every worker compiles them from source, about 0.1 s of "
               f"its start that an installed transgen does not pay (pip compiles them); 'python -m compileall' on the "
               f"source folders caches them", flush=True)
+    one_cmd, two_cmd, command_cells = commands(design)
+    n = len(command_cells)
+    for label, times in (("--workers 1", one_cmd), ("--workers 2", two_cmd)):
+        print(f"  {'transgen sweep ' + label:<34} " + ", ".join(f"{n / t:7.3f} runs/s ({t:6.1f} s)" for t in times)
+              + " end to end", flush=True)
+    print(f"  speed-up of 2 workers over 1, `transgen sweep` commands (cold interpreter, spawned workers): "
+          f"{sum(one_cmd) / sum(two_cmd):.2f}x end to end (goal >= 1.8x on an idle machine)", flush=True)
     serial = timed("serial", SerialExecutor(), design)
-    one = timed("1 local worker", LocalExecutor(1), design)
-    two = timed("2 local workers", LocalExecutor(2), design)
+    assert command_cells == serial[2], "the commands gave other numbers than this process"
+    one = timed("1 local worker, new pool", LocalExecutor(1), design)
+    two = timed("2 local workers, new pool", LocalExecutor(2), design)
     assert one[2] == serial[2] and two[2] == serial[2], "local workers gave different numbers"
-    print(f"  speed-up of 2 workers over 1, cold pools: {one[0] / two[0]:.2f}x end to end, {one[1] / two[1]:.2f}x over "
-          f"the runs (goal >= 1.8x on an idle machine)", flush=True)
+    print(f"  speed-up of 2 workers over 1, new pools, forked from this warm process: {one[0] / two[0]:.2f}x end "
+          f"to end, {one[1] / two[1]:.2f}x over the runs (goal >= 1.8x on an idle machine)", flush=True)
     kept = []
     for workers in (1, 2):
         with LocalExecutor(workers) as executor:
@@ -178,14 +248,17 @@ def main() -> None:
     assert kept[0][2] == serial[2] and kept[1][2] == serial[2], "kept local workers gave different numbers"
     print(f"  speed-up of 2 workers over 1, kept pools: {kept[0][0] / kept[1][0]:.2f}x end to end, "
           f"{kept[0][1] / kept[1][1]:.2f}x over the runs (goal >= 1.8x on an idle machine)")
-    starts = [cpu for _, cpu in LocalExecutor(2).run(_start_cpu, None, [0, 1])]
-    print(f"  a worker's start: {min(starts):.2f}-{max(starts):.2f} s CPU (interpreter, imports, compiled code; 2 "
-          f"workers starting together)", flush=True)
+    for how, context, what in (("spawned", spawned, "interpreter, imports, compiled code"),
+                               ("forked", contextlib.nullcontext, "fork, one BLAS thread")):
+        with context():
+            starts = [cpu for _, cpu in LocalExecutor(2).run(_start_cpu, None, [0, 1])]
+        print(f"  a {how} worker's start: {min(starts):.3f}-{max(starts):.3f} s CPU ({what}; 2 workers starting "
+              f"together)", flush=True)
     (cold1, kept1, start1), (cold2, kept2, start2) = cpu_estimate(1, design), cpu_estimate(2, design)
     print(f"  estimate from CPU times (the design's check, a worker's start, the runs shared evenly; less "
           f"disturbed by other load than wall-clock): 1 worker "
-          f"{cold1:.2f} s, 2 workers {cold2:.2f} s: {cold1 / cold2:.2f}x cold; {kept1:.2f} s and {kept2:.2f} s: "
-          f"{kept1 / kept2:.2f}x kept (a worker's start {start1:.2f}, {start2:.2f} s CPU)", flush=True)
+          f"{cold1:.2f} s, 2 workers {cold2:.2f} s: {cold1 / cold2:.2f}x spawned; {kept1:.2f} s and {kept2:.2f} s: "
+          f"{kept1 / kept2:.2f}x kept (a spawned worker's start {start1:.2f}, {start2:.2f} s CPU)", flush=True)
     from transgen.sim import scenario_files
     from transgen.sim.study.runner import scenario_path
 
@@ -218,7 +291,7 @@ def main() -> None:
           f"{100 * (dask[1] / two[1] - 1):+.1f} % over the runs (goal <= +10 %)")
     print(f"  cost per task on Dask: {dask_cost * 1e3:.2f} ms, {1e3 * (dask_cost - pool_cost):+.2f} ms over the pool = "
           f"{100 * (dask_cost - pool_cost) / per_run:+.2f} % of a run")
-    print("  rows identical, number for number: serial = 1 worker = 2 workers = Dask")
+    print("  rows identical, number for number: commands = serial = 1 worker = 2 workers = Dask")
 
 
 if __name__ == "__main__":

@@ -22,7 +22,8 @@ import sys
 import types
 from bisect import bisect_left, bisect_right
 
-__all__ = ["compilable", "compiled_as", "compiled", "jit_enabled", "compiled_loop", "settle_after_loading"]
+__all__ = ["compilable", "compiled_as", "compiled", "jit_enabled", "compiled_loop", "settle_after_loading",
+           "compiled_loaded"]
 
 _COMPILABLE: set = set()
 _COMPILED: dict = {}
@@ -80,6 +81,13 @@ def settle_after_loading() -> None:
         _COMPILED["settled"] = True
         gc.collect()
         gc.freeze()
+
+
+def compiled_loaded() -> bool:
+    """Whether this process has the simulator's compiled right-hand side loaded (a compiled run
+    was set up here, :func:`settle_after_loading` ran): what a local worker's warm-up
+    (:func:`~.study.task.warm_up`) loads, so that a process forked from this one need not."""
+    return bool(_COMPILED.get("settled"))
 
 
 def _sources_digest() -> str:

@@ -8,6 +8,7 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -195,6 +196,74 @@ def test_a_sweep_on_an_open_pool_leaves_it_open_and_a_bad_design_stops_the_pool_
     with pytest.raises(ScenarioError, match="did you mean 'driveline.vehicle_mass'"):
         sweep(SCENARIO, {"driveline.vehicle_mas": [1]}, executor=executor)  # found while its workers start
     assert executor._pool is None
+
+
+# a script that has simulated (warm), then sweeps on new pools one after the other and on a kept
+# one; stdout is a pipe (block-buffered): a line written before the fork is still in its buffer
+_WARM_SCRIPT = """
+import atexit, json, sys
+from transgen.sim import load_scenario
+from transgen.sim.study import LocalExecutor, SerialExecutor, sweep
+
+GRID = {"simulation.t_end": [0.8], "driveline.vehicle_mass": [20000, 36000], "input.throttle_signal": [0.6, 0.8]}
+
+
+def numbers(table):
+    return [[row.get(c) for c in table.columns if c != "wall_time"] for row in table.rows]
+
+
+def main():
+    atexit.register(print, "atexit handler")
+    load_scenario("ht740_improved", {"simulation.t_end": 0.3}).run()
+    serial = numbers(sweep("ht740_improved", GRID, executor=SerialExecutor()))
+    sys.stdout.write("written before the fork\\n")
+    methods, same = [], []
+    for executor in (LocalExecutor(2), LocalExecutor(2)):
+        same.append(numbers(sweep("ht740_improved", GRID, executor=executor)) == serial)
+        methods.append(executor.start_method)
+    with LocalExecutor(2) as executor:
+        same.append(numbers(sweep("ht740_improved", GRID, executor=executor)) == serial)
+        methods.append(executor.start_method)
+    print(json.dumps({"methods": methods, "same": same}))
+
+
+if __name__ == "__main__":
+    main()
+"""
+
+
+def test_a_warm_process_forks_its_workers_and_they_give_the_same_numbers(tmp_path):
+    """In a fresh interpreter (pytest's own threads, e.g. left by a Dask test, would make it spawn)."""
+    (tmp_path / "warm.py").write_text(_WARM_SCRIPT)
+    done = subprocess.run([sys.executable, "warm.py"], capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    [result] = [line for line in done.stdout.splitlines() if line.startswith("{")]
+    assert json.loads(result) == {"methods": ["fork"] * 3, "same": [True] * 3}
+    # the children leave with os._exit: neither the parent's buffered output nor its atexit handlers again
+    assert done.stdout.count("written before the fork") == 1 and done.stdout.count("atexit handler") == 1
+
+
+def test_a_second_thread_makes_the_pool_spawn_its_workers(serial):
+    release = threading.Event()
+    thread = threading.Thread(target=release.wait)
+    thread.start()
+    try:
+        executor = LocalExecutor(2)
+        spawned = sweep(SCENARIO, GRID, executor=executor)
+    finally:
+        release.set()
+        thread.join()
+    assert executor.start_method == "spawn" and _numbers(spawned) == _numbers(serial)
+
+
+def test_a_cold_process_spawns_its_workers(tmp_path):
+    code = ("from transgen.sim.study import LocalExecutor\n"
+            "executor = LocalExecutor(1)\n"
+            "executor._new_pool().shutdown()\n"  # no task: no worker started
+            "print(executor.start_method)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["spawn"]
 
 
 def test_dask_cluster_gives_the_same_numbers(serial):

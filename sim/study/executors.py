@@ -8,8 +8,13 @@ error, Ctrl-C) cancels the runs not started.
 
 * :class:`SerialExecutor` - one after the other in this process;
 * :class:`LocalExecutor` - a :class:`concurrent.futures.ProcessPoolExecutor` (``workers``, default
-  :func:`os.cpu_count`), started with the ``spawn`` method (see :meth:`LocalExecutor.run` for
-  why); each worker imports the simulator once and runs its BLAS on one thread;
+  :func:`os.cpu_count`), each worker on one BLAS thread. The workers are forked from this process
+  where it has the simulator's compiled code loaded already (it has simulated) and runs no other
+  thread: they start in milliseconds with the simulator in their memory. Otherwise (a fresh
+  process, such as a ``transgen sweep`` command's; a Dask client or a Jupyter kernel's threads
+  alive) they are spawned and each imports the simulator and loads its compiled code once, about
+  0.6 s CPU (why fork is safe then and why spawn otherwise: :func:`_can_fork` and
+  ``LocalExecutor._new_pool``; :attr:`LocalExecutor.start_method` says which);
 * :class:`DaskExecutor` - a Dask distributed cluster by scheduler address
   (``tcp://HOST:PORT``) or an existing ``distributed.Client``; the optional extra
   ``transgen[distributed]``, imported only here.
@@ -22,6 +27,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import time
 from collections.abc import Callable, Iterable, Iterator
 
 from transgen.errors import TransgenError
@@ -52,37 +58,55 @@ class SerialExecutor:
 
 
 class LocalExecutor:
-    """Runs the tasks in ``workers`` local processes (default: :func:`os.cpu_count`)."""
+    """Runs the tasks in ``workers`` local processes (default: :func:`os.cpu_count`).
+
+    A pool is started by each :meth:`run`, or once for a ``with executor:`` block (kept across the
+    sweeps inside it). Its workers are forked from this process where that is both worth it and
+    safe (the simulator warm here, one thread, no OpenMP runtime: :func:`_can_fork`), else spawned
+    (``start_method`` says which: ``"fork"`` or ``"spawn"``); the numbers are the same."""
 
     def __init__(self, workers: int | None = None):
         if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
             raise ValueError(f"--workers: error: the number of workers is a whole number >= 1, not {workers!r}")
         self.workers = workers or os.cpu_count() or 1
+        #: how the workers of the last pool started: ``"fork"`` or ``"spawn"`` (None before the first pool)
+        self.start_method: str | None = None
         self._pool = None
 
     def _new_pool(self):
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor
 
-        # spawn, not fork (threads of the parent, e.g. a BLAS pool, are unsafe to fork) and not
-        # forkserver: Python 3.11's fork server ignores the parent's sys.path and imports from its
-        # working directory first, so a folder named transgen there (a source checkout) shadows the
-        # installed package
-        context = multiprocessing.get_context("spawn")
-        return ProcessPoolExecutor(max_workers=self.workers, mp_context=context, initializer=_start_worker)
+        # fork where this process has the simulator warm and nothing makes fork unsafe (_can_fork
+        # says why it is safe then): the workers are ready in milliseconds with the compiled code
+        # in their memory, instead of ~0.6 s CPU each. Else spawn: not fork, since threads of the
+        # parent (a Dask client's, a Jupyter kernel's) may hold locks a forked child never sees
+        # released; not forkserver, since Python 3.11's fork server ignores the parent's sys.path
+        # and imports from its working directory first, so a folder named transgen there (a
+        # source checkout) shadows the installed package
+        if _can_fork():
+            _preload()  # once here, not in every child
+            self.start_method, initializer = "fork", _one_blas_thread
+        else:
+            self.start_method, initializer = "spawn", _start_worker
+        return ProcessPoolExecutor(max_workers=self.workers, mp_context=multiprocessing.get_context(self.start_method),
+                                   initializer=initializer)
 
     def __enter__(self):
-        """Start the workers now (they import the simulator while the caller goes on, e.g. while
-        :func:`~.runner.sweep` checks the design), not at the first :meth:`run`."""
+        """Start the workers now (spawned ones import the simulator while the caller goes on, e.g.
+        while :func:`~.runner.sweep` checks the design), not at the first :meth:`run`."""
         if self._pool is None:
             self._pool = self._new_pool()
-            for _ in range(self.workers):  # a pool with spawn starts a worker per submitted call
+            # with spawn a pool starts a worker per submitted call; with fork it forks them all
+            # at the first (before its manager thread starts: this process has one thread then)
+            for _ in range(self.workers):
                 self._pool.submit(os.getpid)
         return self
 
     def __exit__(self, exc_type=None, *exc) -> None:
         """Stop the workers: the runs not started are cancelled; the workers exit in the
-        background (0.1-0.2 s each, not waited for; Python joins them at its exit), at once
+        background (spawned ones in 0.1-0.2 s each, forked ones in milliseconds; not waited for
+        here, but before a later pool forks, and Python joins them at its exit), at once
         where the block ends with an error (a bad design found while they were starting, Ctrl-C)."""
         pool, self._pool = self._pool, None
         if pool is None:
@@ -90,7 +114,7 @@ class LocalExecutor:
         if exc_type is not None:  # not worth finishing their start or their run (3.11 has no public way)
             for process in list((getattr(pool, "_processes", None) or {}).values()):
                 process.terminate()
-        pool.shutdown(wait=False, cancel_futures=True)
+        _stop(pool)
 
     def opened(self):
         """Context manager: the pool open inside; started at its beginning and stopped at its end
@@ -118,7 +142,7 @@ class LocalExecutor:
                     yield row
         finally:
             if not kept:  # the finished workers exit in the background (as in __exit__)
-                pool.shutdown(wait=False, cancel_futures=True)
+                _stop(pool)
             else:
                 for future in pending:
                     future.cancel()
@@ -239,25 +263,86 @@ def _stop_profiler(dask_worker) -> None:
             callback.stop()
 
 
-def _start_worker() -> None:
-    """Local worker start: one BLAS thread, the simulator imported and its compiled code loaded
-    once per process."""
+_STOPPING: list = []  # the manager threads of the pools stopped and not yet found ended (see _stop)
+
+
+def _stop(pool) -> None:
+    """Stop a local pool without waiting: the runs not started are cancelled, its workers exit in
+    the background, and its manager thread (which joins them) is noted for :func:`_can_fork`."""
+    thread = getattr(pool, "_executor_manager_thread", None)  # None where no task was submitted (and after shutdown)
+    pool.shutdown(wait=False, cancel_futures=True)
+    if thread is not None:
+        _STOPPING.append(thread)
+
+
+def _stopped(timeout: float) -> bool:
+    """Whether the manager threads of the pools stopped here have ended, waiting up to ``timeout``
+    [s] in all: the thread of a pool stopped after its runs ends once its workers have exited
+    (measured 4-12 ms for forked workers, about 50 ms for spawned ones); that of a pool stopped
+    during runs only when they finish."""
+    end = time.monotonic() + timeout
+    for thread in list(_STOPPING):
+        thread.join(max(0.0, end - time.monotonic()))
+        if not thread.is_alive():
+            _STOPPING.remove(thread)
+    return not _STOPPING
+
+
+def _can_fork() -> bool:
+    """Whether a local pool's workers can be forked from this process: the platform has fork, the
+    simulator's compiled code is loaded here (:func:`~transgen.sim.jit.compiled_loaded`; a cold
+    process gains nothing from fork), only the main thread runs and no OpenMP runtime is loaded.
+
+    Fork copies the memory of this process but only the thread that calls it, so it is safe where
+    no other thread can hold a lock or run a pool the child would need: the only Python thread is
+    the main one (the pool forks its workers before it starts its own manager thread); OpenBLAS
+    (numpy's and scipy's, pthreads) stops its thread pool around a fork with pthread_atfork
+    handlers and the child starts its own; numba runs no threads of its own (the simulator's code
+    is compiled without ``parallel=True``). An OpenMP runtime (GNU libgomp: a child that uses the
+    parent's thread pool hangs) may come with an MKL or OpenMP build of the BLAS or numba's
+    parallel code: then spawn."""
+    import multiprocessing
+    import threading
+
+    from transgen.sim.jit import compiled_loaded
+
+    if not compiled_loaded() or "fork" not in multiprocessing.get_all_start_methods():
+        return False
+    # the previous pool's thread outlives it briefly: a script's next sweep would spawn without this
+    if not _stopped(timeout=0.5) or threading.active_count() != 1:
+        return False
+    from threadpoolctl import threadpool_info
+
+    return not any(library.get("user_api") == "openmp" for library in threadpool_info())
+
+
+def _preload() -> None:
+    """The modules a worker needs (:data:`~.task.PRELOAD`) imported."""
     import importlib
 
+    from .task import PRELOAD
+
+    for name in PRELOAD:
+        importlib.import_module(name)
+
+
+def _start_worker() -> None:
+    """Spawned local worker's start: one BLAS thread, the simulator imported and its compiled
+    code loaded once per process."""
     from transgen.blas import one_thread_from_start
 
-    from .task import PRELOAD, warm_up
+    from .task import warm_up
 
     one_thread_from_start()  # numpy not loaded yet: its BLAS, and scipy's, start with one thread
     _one_blas_thread()
-    for name in PRELOAD:
-        importlib.import_module(name)
+    _preload()
     warm_up()
 
 
 def _one_blas_thread() -> None:
-    """Worker start: one BLAS thread (the pool has one process per core; a BLAS pool per process
-    would oversubscribe the cores, as Dask's nanny also prevents with OPENBLAS_NUM_THREADS=1).
+    """Worker start (a forked worker's whole start: the simulator is in its memory already): one
+    BLAS thread (the pool has one process per core; a BLAS pool per process would oversubscribe
+    the cores, as Dask's nanny also prevents with OPENBLAS_NUM_THREADS=1).
     threadpoolctl where it is installed, else the BLAS keeps its setting."""
     try:
         from threadpoolctl import threadpool_limits
