@@ -264,6 +264,7 @@ def _stop_profiler(dask_worker) -> None:
 
 
 _STOPPING: list = []  # the manager threads of the pools stopped and not yet found ended (see _stop)
+_STOPPING_HOOK: list = []  # the exit hook registered (see _wait_at_exit)
 
 
 def _stop(pool) -> None:
@@ -273,6 +274,23 @@ def _stop(pool) -> None:
     pool.shutdown(wait=False, cancel_futures=True)
     if thread is not None:
         _STOPPING.append(thread)
+        _wait_at_exit()
+
+
+def _wait_at_exit() -> None:
+    """Once per process: at the interpreter's exit, wait (5 s at most) for the pools stopped here
+    before concurrent.futures' own exit hook wakes their manager threads. That hook writes to a
+    thread's wake-up pipe unlocked while the ending thread closes it (CPython 3.11), which now and
+    then printed ``OSError: [Errno 9] Bad file descriptor`` when a script ended just after a
+    sweep; once the threads have ended it finds the pipes closed and writes nothing. threading's
+    exit hooks run last registered first, and concurrent.futures registered its hook when it was
+    imported, before any pool of ours stopped."""
+    import threading
+
+    register = getattr(threading, "_register_atexit", None)  # CPython's, as concurrent.futures uses it
+    if not _STOPPING_HOOK and register is not None:
+        _STOPPING_HOOK.append(register)
+        register(_stopped, 5.0)
 
 
 def _stopped(timeout: float) -> bool:
