@@ -5,6 +5,7 @@ said with the binding constraint, command-line errors (exit 2)."""
 from __future__ import annotations
 
 import csv
+import json
 import math
 
 import numpy as np
@@ -96,6 +97,39 @@ def test_score_puts_every_feasible_candidate_first():
     assert failed > worse
 
 
+def test_max_energy_and_a_reference_calibration_limit_each_shift():
+    ref = {"success": True, "completed": True, "energy": 1000.0, "duration": 0.5, "hole": 40.0, "flare": 0.0,
+           "bindup": False, "bindup_torque": 0.0, "offgoing_torque": 100.0, "chatter": False, "locks": 1, "jerk": None}
+    s, _, violations = score({**ref, "energy": 900.0}, ref, Objective({"energy": 1.0}), Constraints(max_energy=800.0))
+    assert s > 1e3 and violations == {"max energy": pytest.approx(100.0 / 800.0)}
+    s, _, violations = score({**ref, "energy": 700.0}, ref, Objective({"energy": 1.0}), Constraints(max_energy=800.0))
+    assert s == pytest.approx(0.7) and not violations
+    own = Constraints(max_hole_pct=30.0).for_shift(40.0, 500.0)  # the tighter of the run's and the reference's
+    assert (own.max_hole_pct, own.max_energy) == (30.0, 500.0)
+    own = Constraints(max_energy=400.0).for_shift(None, 500.0)  # a reference shift without a hole leaves it free
+    assert (own.max_hole_pct, own.max_energy) == (None, 400.0)
+
+
+def test_no_worse_than_limits_each_shift_by_the_reference_calibration(tmp_path, capsys):
+    """--no-worse-than: each shift's torque hole and clutch energy at most the reference's at the
+    same gears (here the scenario itself: its own whole-run report), in the JSON and the header."""
+    out = tmp_path / "tuned.toml"
+    code = main(["optimize", "simple2_upshift", "--workers", "1", "--evaluations", "10", "--population", "9",
+                 "--no-worse-than", "simple2_upshift", "--allow-bindup", "--max-flare", "1000", "-o", str(out),
+                 "--quiet", "--json"])
+    doc = json.loads(capsys.readouterr().out)
+    assert code in (0, 1) and doc["constraints"]["no_worse_than"] == "simple2_upshift"
+    [before], [shift] = doc["report_before"], doc["shifts"]
+    assert shift["constraints"]["max_hole_pct"] == pytest.approx(before["torque_hole_pct"])
+    assert shift["constraints"]["max_energy"] == pytest.approx(before["energy_total"])
+    if shift["feasible"]:
+        assert shift["metrics_after"]["hole"] <= before["torque_hole_pct"]
+        assert shift["metrics_after"]["energy"] <= before["energy_total"]
+    else:
+        assert shift["binding"] in ("max hole", "max energy")
+    assert "limits (no worse than simple2_upshift): torque hole <=" in out.read_text()
+
+
 def test_the_default_objective_leaves_out_a_term_the_scenario_cannot_measure():
     """Jerk without a vehicle (None in the candidate and the start) is no term at all (not a
     constant added to every score); with a vehicle it counts, relative to the start's jerk."""
@@ -164,6 +198,8 @@ def test_infeasible_constraints_name_the_binding_one(tmp_path, capsys):
     (["--set", "driveline.mass=3"], "--set driveline.mass: error"),
     (["--evaluations", "1"], "--evaluations: error"),
     (["--seed", "-1"], "--seed: error"),
+    (["--max-energy", "0"], "--max-energy: error"),
+    (["--no-worse-than", "no_such_scenario"], "no such scenario file"),
 ])
 def test_cli_errors_exit_2(argv, message, tmp_path, capsys):
     out = tmp_path / "tuned.toml"

@@ -147,13 +147,26 @@ class Objective:
 class Constraints:
     """The constraints of every shift: ``no_bindup``, ``max_flare_rpm`` [rpm], ``no_chatter``,
     ``max_hole_pct`` [% of the output torque before, None: free], ``max_duration`` [s, None:
-    free]; the shift must complete."""
+    free], ``max_energy`` [J, the clutch energy of the shift, None: free]; the shift must
+    complete. ``no_worse_than``: a reference scenario (file or bundled name, None: none) whose
+    torque hole and clutch energy at the same shift (the same gears) each tuned shift must not
+    exceed (:func:`reference_limits`, :meth:`for_shift`)."""
 
     no_bindup: bool = True
     max_flare_rpm: float | None = 20.0
     no_chatter: bool = True
     max_hole_pct: float | None = None
     max_duration: float | None = None
+    max_energy: float | None = None
+    no_worse_than: str | None = None
+
+    def for_shift(self, hole_pct: float | None = None, energy: float | None = None) -> Constraints:
+        """These constraints with the torque hole [%] and clutch energy [J] of one shift limited to
+        ``hole_pct`` and ``energy`` too (a reference calibration's at that shift)."""
+        def tighter(limit, other):
+            return other if limit is None else limit if other is None else min(limit, other)
+        return replace(self, max_hole_pct=tighter(self.max_hole_pct, hole_pct),
+                       max_energy=tighter(self.max_energy, energy))
 
     def text(self) -> str:
         parts = ["completes"] + (["no bindup"] if self.no_bindup else [])
@@ -161,6 +174,8 @@ class Constraints:
         parts += ["no chatter"] if self.no_chatter else []
         parts += [f"torque hole <= {self.max_hole_pct:g} %"] if self.max_hole_pct is not None else []
         parts += [f"duration <= {self.max_duration:g} s"] if self.max_duration is not None else []
+        parts += [f"clutch energy <= {self.max_energy / 1e3:g} kJ"] if self.max_energy is not None else []
+        parts += [f"torque hole and clutch energy of each shift <= {self.no_worse_than}'s"] if self.no_worse_than else []
         return ", ".join(parts)
 
 
@@ -516,6 +531,38 @@ def plan_calibration(path, files: Mapping[str, str], result, scenario) -> tuple[
     return Calibration("tables", t_run, raw=raw, request=request), plans
 
 
+def reference_limits(reference, overrides: Mapping, plans: Sequence[ShiftPlan]) -> dict[int, tuple]:
+    """The torque hole [%] and clutch energy [J] of the scenario ``reference`` (a file or bundled
+    name, run with the same ``overrides``) at each shift of ``plans``, matched by name (its gears,
+    ``1-2``; the k-th shift of a name to the reference's k-th of that name): {plan number:
+    (hole or None, energy)}. ScenarioError where the reference's run fails or lacks a shift."""
+    from transgen.sim import load_scenario, scenario_files
+    from transgen.sim.report import shift_report
+    from transgen.sim.scenario import scenario_path
+
+    key = str(scenario_path(reference).resolve())
+    files = scenario_files(key, overrides)
+    scenario = load_scenario(key, overrides, files)
+    result = scenario.run()
+    if not result.success:
+        raise ScenarioError(f"--no-worse-than {reference}: error: its run fails, nothing to compare with: {result.message}")
+    _, ref_plans = plan_calibration(key, files, result, scenario)
+    qualities = shift_report(result, scenario.shifts or None)
+    by_name: dict[str, list] = {}
+    for p in ref_plans:
+        q = min(qualities, key=lambda q, t=p.t_start: abs(q.t_start - t))
+        by_name.setdefault(p.name, []).append((q.torque_hole_pct, q.energy_total))
+    limits, seen = {}, {}
+    for p in plans:
+        k = seen[p.name] = seen.get(p.name, -1) + 1
+        found = by_name.get(p.name, [])
+        if k >= len(found):
+            raise ScenarioError(f"--no-worse-than {reference}: error: its run has no shift {p.name} to compare with "
+                                f"(its shifts: {', '.join(by_name) or 'none'})")
+        limits[p.number] = found[k]
+    return limits
+
+
 def _locked_at(result, t: float) -> frozenset:
     names = {e: i for i, e in enumerate(result.meta.get("elements", []))}
     for m in result.modes:
@@ -568,6 +615,8 @@ def score(metrics: Mapping, reference: Mapping, objective: Objective, constraint
         violations["no chatter"] = 1.0 + max(metrics["locks"] - 3, 0)
     if constraints.max_hole_pct is not None and (metrics["hole"] or 0.0) > constraints.max_hole_pct:
         violations["max hole"] = (metrics["hole"] - constraints.max_hole_pct) / max(constraints.max_hole_pct, 1.0)
+    if constraints.max_energy is not None and metrics["energy"] > constraints.max_energy:
+        violations["max energy"] = (metrics["energy"] - constraints.max_energy) / max(constraints.max_energy, 1.0)
     if constraints.max_duration is not None and (metrics["duration"] is None or metrics["duration"] > constraints.max_duration):
         violations["max duration"] = (((metrics["duration"] or 10 * constraints.max_duration) - constraints.max_duration)
                                       / constraints.max_duration)
@@ -642,6 +691,7 @@ class ShiftOutcome:
     wall_time: float
     cpu_time: float
     evaluation_cpu_time: float
+    constraints: Constraints | None = None  # this shift's own (the reference's limits applied), None: the run's
 
     @property
     def binding(self) -> str | None:
@@ -755,6 +805,7 @@ def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluati
         calibration = replace(calibration, request=None)
     names = PARAMETERS + (TORQUE_PARAMETERS if engine_torque else ())
     selected = _select(plans, shifts, path)
+    limits = reference_limits(constraints.no_worse_than, base, selected) if constraints.no_worse_than else {}
     templates = {p.number: p.template for p in plans if p.number in {s.number for s in selected}}
     history: list[dict] = []
     outcomes: list[ShiftOutcome] = []
@@ -763,6 +814,7 @@ def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluati
     chosen = dict(templates)
     for n, plan in enumerate(selected, start=1):
         wall0, cpu0 = time.perf_counter(), time.process_time()
+        own = constraints.for_shift(*limits.get(plan.number, (None, None)))  # this shift's, the reference's limits applied
         # the run up to just before this shift, with the shifts tuned so far, from the last state
         fixed = {k: v for k, v in chosen.items() if k < plan.number}
         run_overrides = {**base, **calibration.overrides(plans, fixed)}
@@ -793,7 +845,7 @@ def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluati
         [(_, start_metrics)] = list(executor.run(evaluate_candidate, shared,
                                                  [task_of(0, _vector(plan.template, PARAMETERS))]))
         reference = start_metrics if start_metrics.get("success") else {}
-        start_score, start_terms, start_viol = score(start_metrics, reference, objective, constraints)
+        start_score, start_terms, start_viol = score(start_metrics, reference, objective, own)
         best = {"score": start_score, "template": plan.template, "metrics": start_metrics, "violations": start_viol}
         history.append(_row(plan, 0, 0, _vector(plan.template, names), names, start_metrics, start_score, start_terms,
                             start_viol))
@@ -803,7 +855,7 @@ def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluati
         torque_budget = total - budget
         t_gen = time.perf_counter()
 
-        def batch_map(func, population_x, p=plan):
+        def batch_map(func, population_x, p=plan, own=own):
             xs = [np.asarray(x, dtype=float) for x in population_x]
             tasks = [task_of(i, x) for i, x in enumerate(xs)]
             rows = dict(executor.run(evaluate_candidate, shared, tasks))
@@ -811,7 +863,7 @@ def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluati
             scores = []
             for i, x in enumerate(xs):
                 m = rows[i]
-                s, terms, viol = score(m, reference, objective, constraints)
+                s, terms, viol = score(m, reference, objective, own)
                 scores.append(s)
                 counter["evaluations"] += 1
                 counter["cpu"] += m.get("cpu_time", 0.0)
@@ -845,7 +897,7 @@ def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluati
         outcomes.append(ShiftOutcome(plan, plan.template, tuned, start_metrics, best["metrics"], start_score,
                                      min(best_score, start_score), not best["violations"], dict(best["violations"]),
                                      counter["evaluations"], time.perf_counter() - wall0, time.process_time() - cpu0,
-                                     counter["cpu"]))
+                                     counter["cpu"], own))
         state, t_state = window_state, t_window if before is not None else t_state
     final = {**base, **calibration.overrides(plans, chosen)}
     return OptimizeResult(key, scenario.title, objective, constraints, calibration, plans, outcomes, final, history, seed,
@@ -993,6 +1045,11 @@ def tuned_scenario_text(result: OptimizeResult, output, before: Sequence | None 
         status = "feasible" if s.feasible else f"INFEASIBLE (binding: {s.binding})"
         lines.append(f"# shift {s.plan.name} ({s.plan.oncoming} on, {s.plan.offgoing} off): {status}, "
                      f"{s.evaluations} evaluations, score {s.start_score:.4g} -> {s.best_score:.4g}")
+        if result.constraints.no_worse_than and s.constraints is not None:
+            c = s.constraints
+            hole = "free" if c.max_hole_pct is None else f"<= {c.max_hole_pct:.1f} %"
+            lines.append(f"#   limits (no worse than {result.constraints.no_worse_than}): torque hole {hole}, "
+                         f"clutch energy <= {c.max_energy / 1e3:.2f} kJ")
         if s.plan.fit_residual is not None:
             lines.append(f"#   raw tables fitted to the template (RMS apply difference {s.plan.fit_residual:.3g})")
         lines.append(f"#   engine torque intervention: "

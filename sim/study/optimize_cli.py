@@ -44,6 +44,11 @@ def add_optimize_command(sub) -> None:
     bind.add_argument("--allow-bindup", dest="no_bindup", action="store_false", help="let the offgoing torque reverse")
     s.add_argument("--allow-chatter", action="store_true", help="let an element lock more than once in a shift")
     s.add_argument("--max-duration", type=float, metavar="S", help="longest shift duration [s]")
+    s.add_argument("--max-energy", type=float, metavar="KJ",
+                   help="most clutch energy of a shift [kJ] (oncoming and offgoing element together)")
+    s.add_argument("--no-worse-than", metavar="SCENARIO",
+                   help="a reference calibration (scenario file or bundled name, run with the same --set): each tuned "
+                        "shift's torque hole and clutch energy at most the reference's at the same gears")
     torque = s.add_mutually_exclusive_group()
     torque.add_argument("--engine-torque", dest="engine_torque", action="store_true", default=None,
                         help="tune the engine torque intervention too (torque-phase increase, inertia-phase reduction; "
@@ -79,17 +84,23 @@ def _options(args):
 
     objective = parse_objective(args.objective)
     for name, value, low in (("--max-flare", args.max_flare, 0.0), ("--max-hole", args.max_hole, 0.0),
-                             ("--max-duration", args.max_duration, 0.0)):
+                             ("--max-duration", args.max_duration, 0.0), ("--max-energy", args.max_energy, 0.0)):
         if value is not None and not (math.isfinite(value) and value > low):
             raise ValueError(f"{name}: error: give a finite number > 0, not {value:g}")
     for name, value in (("--evaluations", args.evaluations), ("--population", args.population)):
         if value < 2:
             raise ValueError(f"{name}: error: give a whole number >= 2, not {value}")
+    if args.no_worse_than is not None:  # a missing reference is said before anything runs
+        from transgen.sim.scenario import scenario_path
+
+        scenario_path(args.no_worse_than)
     if not 0 <= args.seed < 2**32:  # the range of numpy's seed
         raise ValueError(f"--seed: error: give a whole number from 0 to 2**32 - 1, not {args.seed}")
     constraints = Constraints(no_bindup=args.no_bindup, max_flare_rpm=args.max_flare,
                               no_chatter=not args.allow_chatter, max_hole_pct=args.max_hole,
-                              max_duration=args.max_duration)
+                              max_duration=args.max_duration,
+                              max_energy=None if args.max_energy is None else 1e3 * args.max_energy,
+                              no_worse_than=args.no_worse_than)
     return objective, constraints, make_executor(args.workers, args.scheduler)
 
 
@@ -179,6 +190,7 @@ def _violations(s) -> str:
     shown = {"no bindup": f"no bindup (offgoing torque reversed by {m.get('bindup_torque', 0):.1f} N*m)",
              "max flare": f"max flare (flare {m.get('flare') or 0:.1f} rpm)",
              "max hole": f"max hole (torque hole {m.get('hole') or 0:.1f} %)",
+             "max energy": f"max energy (clutch energy {(m.get('energy') or 0) / 1e3:.2f} kJ)",
              "max duration": f"max duration ({m.get('duration') or float('nan'):.3f} s)",
              "no chatter": "no chatter (an element locked more than once)",
              "completes": "completes (the oncoming element never locked)", "run": f"run ({m.get('message', '')})"}
@@ -218,6 +230,7 @@ def _summary(args, result, executor, elapsed, before, after, written) -> dict:
             "evaluations": s.evaluations, "wall_time": s.wall_time, "cpu_time": s.cpu_time,
             "evaluation_cpu_time": s.evaluation_cpu_time, "score_before": s.start_score, "score_after": s.best_score,
             "fit_residual": s.plan.fit_residual,
+            "constraints": asdict(s.constraints) if s.constraints is not None else None,
             "template_before": asdict(s.start_template), "template_after": asdict(s.best_template),
             "metrics_before": {k: v for k, v in s.start_metrics.items() if k != "message"},
             "metrics_after": {k: v for k, v in s.best_metrics.items() if k != "message"},
@@ -239,7 +252,7 @@ def optimize_units() -> dict[str, str]:
             "number": "1", "seed": "1", "energy": "J", "energy_total": "J", "duration": "s", "shift_duration": "s",
             "hole": "%", "torque_hole_pct": "%", "hole_torque": "N*m", "flare": "rpm", "flare_max_rpm": "rpm",
             "bindup_torque": "N*m", "offgoing_torque": "N*m", "jerk": "m/s^3", "jerk_max": "m/s^3", "locks": "1",
-            "max_flare_rpm": "rpm", "max_hole_pct": "%", "max_duration": "s", "fill_time": "s", "fill_level": "1",
+            "max_flare_rpm": "rpm", "max_hole_pct": "%", "max_duration": "s", "max_energy": "J", "fill_time": "s", "fill_level": "1",
             "ramp_time": "s", "ramp_end": "1", "hold_time": "s", "final_time": "s", "offgoing_delay": "s",
             "offgoing_level": "1", "offgoing_ramp": "s", "torque_boost": "1", "boost_delay": "s", "boost_time": "s",
             "torque_cut": "1", "cut_delay": "s", "cut_time": "s", "torque_ramp": "s", "torque_request_min": "1",
