@@ -165,23 +165,6 @@ def test_small_optimization_on_simple2_is_repeatable_and_no_worse():
     assert tuned.success
 
 
-def test_a_shift_without_a_feasible_candidate_is_searched_again():
-    """No candidate meets the constraints: the shift is searched afresh (twice the population,
-    another seed, as many evaluations again) and the best of both searches kept; a feasible shift
-    is not, and --restarts 0 turns it off."""
-    impossible = Constraints(max_duration=0.001)
-    once = optimize("simple2_upshift", seed=1, constraints=impossible, max_evaluations=40, population=9, restarts=0)
-    twice = optimize("simple2_upshift", seed=1, constraints=impossible, max_evaluations=40, population=9)
-    [a], [b] = once.shifts, twice.shifts
-    assert not a.feasible and a.restarts == 0 and a.evaluations <= 40
-    assert not b.feasible and b.restarts == 1 and a.evaluations < b.evaluations <= 80
-    assert b.best_score <= a.best_score  # the first search's best is kept where the second finds nothing better
-    assert [r["score"] for r in twice.history[:a.evaluations]] == [r["score"] for r in once.history]
-    feasible = optimize("simple2_upshift", seed=1, constraints=Constraints(no_bindup=False, max_flare_rpm=None),
-                        max_evaluations=40, population=9)
-    assert feasible.shifts[0].feasible and feasible.shifts[0].restarts == 0
-
-
 def test_cli_writes_a_scenario_that_simulate_runs(tmp_path, capsys):
     out = tmp_path / "tuned.toml"
     code = main(["optimize", "simple2_upshift", "--workers", "1", "--evaluations", "10", "--population", "9",
@@ -216,7 +199,6 @@ def test_infeasible_constraints_name_the_binding_one(tmp_path, capsys):
     (["--evaluations", "1"], "--evaluations: error"),
     (["--seed", "-1"], "--seed: error"),
     (["--max-energy", "0"], "--max-energy: error"),
-    (["--restarts", "-1"], "--restarts: error"),
     (["--no-worse-than", "no_such_scenario"], "no such scenario file"),
 ])
 def test_cli_errors_exit_2(argv, message, tmp_path, capsys):

@@ -692,7 +692,6 @@ class ShiftOutcome:
     cpu_time: float
     evaluation_cpu_time: float
     constraints: Constraints | None = None  # this shift's own (the reference's limits applied), None: the run's
-    restarts: int = 0  # searches run again because none found a candidate that meets the constraints
 
     @property
     def binding(self) -> str | None:
@@ -763,7 +762,7 @@ def _bounds(template, t_gap: float, names: Sequence[str] = PARAMETERS) -> list[t
 def optimize(path, shifts: Sequence[str] | None = None, objective: Objective = Objective(),
              constraints: Constraints = Constraints(), executor=None, seed: int = 0, max_evaluations: int = 1600,
              population: int = 12, progress: Callable | None = None, overrides: Mapping | None = None,
-             engine_torque: bool | None = None, restarts: int = 1) -> OptimizeResult:
+             engine_torque: bool | None = None) -> OptimizeResult:
     """Tune the shifts of the scenario ``path`` (all, or those named in ``shifts``: ``1-2`` or a
     number from 1); see the module docstring. ``max_evaluations``: simulations per shift at most
     (the start and every stage; whole generations of ``population`` candidates and compass
@@ -771,20 +770,17 @@ def optimize(path, shifts: Sequence[str] | None = None, objective: Objective = O
     this process); ``progress(OptimizeProgress)`` after every generation; ``overrides``: dotted
     keys set in the scenario first (as ``--set``); ``engine_torque``: tune the engine torque
     intervention too (None: where the input is an engine; False: the clutches only, the
-    scenario's own intervention kept; True: an error without an engine); ``restarts``: how many
-    times a shift whose search found no candidate that meets the constraints is searched again,
-    each time afresh from the scenario's calibration with twice the population and another seed
-    and as many evaluations again (IPOP; the best of all searches is kept)."""
+    scenario's own intervention kept; True: an error without an engine)."""
     from .executors import SerialExecutor
 
     executor = executor or SerialExecutor()
     with executor:  # one pool of workers (or Dask client) for all the generations
         return _optimize(path, shifts, objective, constraints, executor, seed, max_evaluations, population, progress,
-                         dict(overrides or {}), engine_torque, restarts)
+                         dict(overrides or {}), engine_torque)
 
 
 def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluations, population, progress, base,
-              engine_torque=None, restarts=1):
+              engine_torque=None):
     from transgen.sim import load_scenario, scenario_files
     from transgen.sim.scenario import scenario_path
 
@@ -859,9 +855,6 @@ def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluati
         torque_budget = total - budget
         t_gen = time.perf_counter()
 
-        tracked = [best]  # the bests a candidate may improve: the shift's, and a restart's own
-        shown = {"budget": total + 1}
-
         def batch_map(func, population_x, p=plan, own=own):
             xs = [np.asarray(x, dtype=float) for x in population_x]
             tasks = [task_of(i, x) for i, x in enumerate(xs)]
@@ -877,42 +870,25 @@ def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluati
                 tmpl = _template(x, stage["names"], stage["base"])
                 history.append(_row(p, counter["generation"], counter["evaluations"] - 1, _vector(tmpl, names), names,
                                     m, s, terms, viol))
-                for b in tracked:
-                    if s < b["score"]:
-                        b.update(score=s, x=x, template=tmpl, metrics=m, violations=viol)
+                if s < best["score"]:
+                    best.update(score=s, x=x, template=tmpl, metrics=m, violations=viol)
             if progress is not None:
                 elapsed = max(time.perf_counter() - t_gen, 1e-9)
-                progress(OptimizeProgress(n, len(selected), p.name, counter["evaluations"], shown["budget"],
+                progress(OptimizeProgress(n, len(selected), p.name, counter["evaluations"], total + 1,
                                           best["score"], not best["violations"], (counter["evaluations"] - 1) / elapsed))
             return scores
 
+        # the clutches: the nine apply parameters from the scenario's calibration
         gap = limit - plan.t_start - SETTLE
-        restarted = 0
-        for attempt in range(1 + restarts):
-            if attempt:
-                if not best["violations"]:
-                    break  # feasible: no restart
-                # IPOP: a fresh search from the scenario's calibration with twice the population and
-                # another seed; its own best guides it, the shift's best of all is kept in ``best``
-                restarted += 1
-                trial = {"score": math.inf, "template": plan.template, "violations": {"start": 1.0}}
-                tracked[1:] = [trial]
-                shown["budget"] += total
-            else:
-                trial = best
-            seed_a, population_a, used = seed + 1000 * attempt, population * 2 ** attempt, counter["evaluations"]
-            # the clutches: the nine apply parameters from the scenario's calibration
-            stage.update(names=PARAMETERS, base=plan.template)
-            trial["x"] = _vector(plan.template, PARAMETERS)
-            _search(batch_map, trial, counter, _bounds(plan.template, gap, PARAMETERS), budget, population_a, seed_a)
-            if engine_torque:  # then the engine torque with them, from the best clutch calibration
-                stage.update(names=names, base=trial["template"])
-                trial["x"] = _vector(trial["template"], names)
-                bounds = _bounds(trial["template"], gap, names)
-                fresh = np.array([k in TORQUE_PARAMETERS for k in names])
-                _search(batch_map, trial, counter, bounds, budget + torque_budget - (counter["evaluations"] - used),
-                        population_a, seed_a + 1, fresh=fresh)
-        del tracked[1:]
+        best["x"] = _vector(plan.template, PARAMETERS)
+        _search(batch_map, best, counter, _bounds(plan.template, gap, PARAMETERS), budget, population, seed)
+        if engine_torque:  # then the engine torque with them, from the best clutch calibration
+            stage.update(names=names, base=best["template"])
+            best["x"] = _vector(best["template"], names)
+            bounds = _bounds(best["template"], gap, names)
+            fresh = np.array([k in TORQUE_PARAMETERS for k in names])
+            _search(batch_map, best, counter, bounds, budget + torque_budget - (counter["evaluations"] - 1), population,
+                    seed + 1, fresh=fresh)
         tuned = best["template"]
         chosen[plan.number] = tuned
         best_score = best["score"]
@@ -921,7 +897,7 @@ def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluati
         outcomes.append(ShiftOutcome(plan, plan.template, tuned, start_metrics, best["metrics"], start_score,
                                      min(best_score, start_score), not best["violations"], dict(best["violations"]),
                                      counter["evaluations"], time.perf_counter() - wall0, time.process_time() - cpu0,
-                                     counter["cpu"], own, restarted))
+                                     counter["cpu"], own))
         state, t_state = window_state, t_window if before is not None else t_state
     final = {**base, **calibration.overrides(plans, chosen)}
     return OptimizeResult(key, scenario.title, objective, constraints, calibration, plans, outcomes, final, history, seed,
@@ -1067,9 +1043,8 @@ def tuned_scenario_text(result: OptimizeResult, output, before: Sequence | None 
              "# The scenario is the original (included) with the tuned apply trajectories below."]
     for s in result.shifts:
         status = "feasible" if s.feasible else f"INFEASIBLE (binding: {s.binding})"
-        restarts = f" ({s.restarts} restart{'s' * (s.restarts > 1)})" if s.restarts else ""
         lines.append(f"# shift {s.plan.name} ({s.plan.oncoming} on, {s.plan.offgoing} off): {status}, "
-                     f"{s.evaluations} evaluations{restarts}, score {s.start_score:.4g} -> {s.best_score:.4g}")
+                     f"{s.evaluations} evaluations, score {s.start_score:.4g} -> {s.best_score:.4g}")
         if result.constraints.no_worse_than and s.constraints is not None:
             c = s.constraints
             hole = "free" if c.max_hole_pct is None else f"<= {c.max_hole_pct:.1f} %"

@@ -63,12 +63,9 @@ def add_optimize_command(sub) -> None:
     s.add_argument("--seed", type=int, default=0, help="seed of the optimizer (default 0): the same seed, the same result")
     s.add_argument("--evaluations", type=int, default=1600, metavar="N",
                    help="simulations per shift at most, all stages (clutches, engine torque) and the start included "
-                        "(default 1600; a restart, see --restarts, adds as many)")
+                        "(default 1600)")
     s.add_argument("--population", type=int, default=12, metavar="N",
                    help="candidates per generation of the CMA-ES, evaluated together (default 12)")
-    s.add_argument("--restarts", type=int, default=1, metavar="N",
-                   help="search a shift again, up to N times, when no candidate met the constraints: afresh, with "
-                        "twice the population, another seed and --evaluations more simulations (default 1)")
     s.add_argument("-o", "--output", required=True, metavar="TUNED.toml", help="the tuned scenario file")
     s.add_argument("--history", metavar="FILE.csv",
                    help="every evaluation: shift, parameters, metrics, score (default: OUTPUT with .history.csv)")
@@ -93,8 +90,6 @@ def _options(args):
     for name, value in (("--evaluations", args.evaluations), ("--population", args.population)):
         if value < 2:
             raise ValueError(f"{name}: error: give a whole number >= 2, not {value}")
-    if not 0 <= args.restarts <= 5:
-        raise ValueError(f"--restarts: error: give a whole number from 0 to 5, not {args.restarts}")
     if args.no_worse_than is not None:  # a missing reference is said before anything runs
         from transgen.sim.scenario import scenario_path
 
@@ -138,7 +133,7 @@ def cmd_optimize(args) -> int:
     start = time.perf_counter()
     try:
         result = optimize(args.scenario, args.shift, objective, constraints, executor, args.seed, args.evaluations,
-                          args.population, progress, overrides, args.engine_torque, args.restarts)
+                          args.population, progress, overrides, args.engine_torque)
     except (ScenarioError, ValueError) as exc:
         if width[0]:
             print(file=sys.stderr)
@@ -173,7 +168,6 @@ def cmd_optimize(args) -> int:
         for s in result.shifts:
             print(f"  {s.plan.name:<6} {s.evaluations} evaluations in {s.wall_time:.1f} s "
                   f"({s.evaluations / max(s.wall_time, 1e-9):.1f}/s, {s.evaluation_cpu_time:.1f} s CPU): score {s.start_score:.4g} -> {s.best_score:.4g}"
-                  + (f", {s.restarts} restart{'s' * (s.restarts > 1)}" if s.restarts else "")
                   + ("" if s.feasible else f"  INFEASIBLE, binding: {s.binding}"))
             if result.engine_torque:
                 print(f"         engine torque: "
@@ -236,7 +230,7 @@ def _summary(args, result, executor, elapsed, before, after, written) -> dict:
             "evaluations": s.evaluations, "wall_time": s.wall_time, "cpu_time": s.cpu_time,
             "evaluation_cpu_time": s.evaluation_cpu_time, "score_before": s.start_score, "score_after": s.best_score,
             "fit_residual": s.plan.fit_residual,
-            "constraints": asdict(s.constraints) if s.constraints is not None else None, "restarts": s.restarts,
+            "constraints": asdict(s.constraints) if s.constraints is not None else None,
             "template_before": asdict(s.start_template), "template_after": asdict(s.best_template),
             "metrics_before": {k: v for k, v in s.start_metrics.items() if k != "message"},
             "metrics_after": {k: v for k, v in s.best_metrics.items() if k != "message"},
