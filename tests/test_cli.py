@@ -123,6 +123,9 @@ def test_fuzz_cli_exits_0_or_2_never_crashes(text, tmp_path, capsys):
     for command in (["check"], ["ratios", "--gears-only"]):
         code = main(command[:1] + [str(path)] + command[1:])
         captured = capsys.readouterr()
+        if command[0] == "ratios" and code == 1:  # documented: a published ratio not reproduced (table printed)
+            assert "not reproduced" in captured.out and "Traceback" not in captured.err
+            continue
         assert code in (0, 2)
         if code == 2:
             assert "error:" in captured.err and "Traceback" not in captured.err
