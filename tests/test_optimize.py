@@ -200,6 +200,8 @@ def test_infeasible_constraints_name_the_binding_one(tmp_path, capsys):
     (["--seed", "-1"], "--seed: error"),
     (["--max-energy", "0"], "--max-energy: error"),
     (["--no-worse-than", "no_such_scenario"], "no such scenario file"),
+    (["--no-worse-than", "zf3hp22_manual_first_coast"], "--no-worse-than zf3hp22_manual_first_coast: error: its run "
+                                                        "has no shift 1-2 to compare with"),
 ])
 def test_cli_errors_exit_2(argv, message, tmp_path, capsys):
     out = tmp_path / "tuned.toml"

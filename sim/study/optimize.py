@@ -546,7 +546,11 @@ def reference_limits(reference, overrides: Mapping, plans: Sequence[ShiftPlan]) 
     result = scenario.run()
     if not result.success:
         raise ScenarioError(f"--no-worse-than {reference}: error: its run fails, nothing to compare with: {result.message}")
-    _, ref_plans = plan_calibration(key, files, result, scenario)
+    try:
+        _, ref_plans = plan_calibration(key, files, result, scenario)
+    except ScenarioError as exc:
+        said = str(exc) if ": error: " in str(exc) else f"error: {exc}"
+        raise ScenarioError(f"--no-worse-than {reference}: {said}") from None
     qualities = shift_report(result, scenario.shifts or None)
     by_name: dict[str, list] = {}
     for p in ref_plans:
