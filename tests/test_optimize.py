@@ -17,7 +17,7 @@ from transgen.sim.report import shift_report
 from transgen.sim.schedule import ShiftTemplate
 from transgen.sim.signals import Table
 from transgen.sim.study.optimize import (TORQUE_PARAMETERS, Constraints, Objective, fit_template, optimize,
-                                         parse_objective, plan_calibration, score)
+                                         parse_objective, plan_calibration, score, trade_off)
 
 SMALL = {"max_evaluations": 10, "population": 9}  # the start and one generation of nine candidates
 
@@ -130,6 +130,17 @@ def test_no_worse_than_limits_each_shift_by_the_reference_calibration(tmp_path, 
     assert "limits (no worse than simple2_upshift): torque hole <=" in out.read_text()
 
 
+def test_trade_off_keeps_the_feasible_candidates_no_other_beats_on_both():
+    rows = [{"hole": 20.0, "energy": 5.0, "feasible": True}, {"hole": 10.0, "energy": 9.0, "feasible": True},
+            {"hole": 15.0, "energy": 9.5, "feasible": True},  # beaten on both by 10 % / 9 kJ
+            {"hole": 5.0, "energy": 1.0, "feasible": False},  # infeasible: not a choice
+            {"hole": 10.0, "energy": 9.0, "feasible": True},  # the same point again
+            {"hole": 30.0, "energy": 5.0, "feasible": True},  # as cool as 20 % / 5, deeper
+            {"hole": None, "energy": 2.0, "feasible": True}, {"hole": 25.0, "energy": 4.0, "feasible": True}]
+    assert [(r["hole"], r["energy"]) for r in trade_off(rows)] == [(10.0, 9.0), (20.0, 5.0), (25.0, 4.0)]
+    assert trade_off([r for r in rows if not r["feasible"]]) == []
+
+
 def test_the_default_objective_leaves_out_a_term_the_scenario_cannot_measure():
     """Jerk without a vehicle (None in the candidate and the start) is no term at all (not a
     constant added to every score); with a vehicle it counts, relative to the start's jerk."""
@@ -172,6 +183,7 @@ def test_cli_writes_a_scenario_that_simulate_runs(tmp_path, capsys):
     text = capsys.readouterr().out
     assert code == 0, text
     assert "evaluations/s" in text and "before" in text and "after" in text
+    assert "The trade between torque hole and clutch energy" in text
     head = out.read_text()
     assert head.startswith("# Shift calibration by 'transgen optimize'") and "# objective:" in head
     assert "# constraints:" in head and "[elements.C2]" in head

@@ -729,6 +729,14 @@ class OptimizeResult:
     def feasible(self) -> bool:
         return all(s.feasible for s in self.shifts)
 
+    def shift_history(self) -> list[list[dict]]:
+        """The history's rows of each tuned shift (in the order of :attr:`shifts`)."""
+        parts, start = [], 0
+        for s in self.shifts:
+            parts.append(self.history[start:start + s.evaluations])
+            start += s.evaluations
+        return parts
+
 
 @dataclass(frozen=True)
 class OptimizeProgress:
@@ -1006,6 +1014,21 @@ def _select(plans: list[ShiftPlan], names: Sequence[str] | None, path) -> list[S
             raise ValueError(f"--shift {name}: error: no such shift in {path} (shifts: {known})")
         out += [p for p in found if p not in out]
     return sorted(out, key=lambda p: p.number)
+
+
+def trade_off(rows: Sequence[Mapping], metrics: Sequence[str] = ("hole", "energy")) -> list[dict]:
+    """The feasible candidates among ``rows`` (one shift's history rows) that no other feasible one
+    beats on every one of ``metrics`` (lower is better; the shift window's numbers), without
+    repeats, sorted by the first metric: the trade between them that the objective's weights
+    choose a point of. A point of it is reached again with the constraints (``--max-hole``,
+    ``--max-energy``)."""
+    points = sorted({tuple(float(r[m]) for m in metrics): r for r in rows
+                     if r.get("feasible") and all(r.get(m) is not None for m in metrics)}.items())
+    front: list[dict] = []
+    for values, row in points:  # in order of the first metric: kept where nothing before beats it on the rest
+        if not any(all(float(f[m]) <= v for m, v in zip(metrics[1:], values[1:])) for f in front):
+            front.append(row)
+    return front
 
 
 def _row(plan, generation, index, x, names, metrics, s, terms, violations) -> dict:

@@ -111,7 +111,7 @@ def cmd_optimize(args) -> int:
     from transgen.sim.report import shift_report
     from transgen.sim.scenario import load_scenario, parse_scenario
 
-    from .optimize import comparison_rows, intervention_text, optimize, tuned_scenario_text
+    from .optimize import comparison_rows, intervention_text, optimize, trade_off, tuned_scenario_text
 
     try:
         objective, constraints, executor = _options(args)
@@ -173,6 +173,16 @@ def cmd_optimize(args) -> int:
                 print(f"         engine torque: "
                       f"{intervention_text(s.best_template, result.calibration.request is not None)}")
         if args.report:
+            print("\nThe trade between torque hole and clutch energy of each shift (the feasible candidates no other "
+                  "beats on both, the shift window's numbers; then the objective's choice):")
+            for s, rows in zip(result.shifts, result.shift_history()):
+                front = trade_off(rows)
+                shown = front if len(front) <= 8 else [front[round(i * (len(front) - 1) / 7)] for i in range(8)]
+                m = s.best_metrics
+                choice = (f"; chosen {m['hole']:.1f} % {m['energy'] / 1e3:.2f} kJ"
+                          if s.feasible and m.get("hole") is not None else "")
+                print(f"  {s.plan.name:<6} " + (", ".join(f"{r['hole']:.1f} % {r['energy'] / 1e3:.2f} kJ" for r in shown)
+                                               or "no feasible candidate") + choice)
             print("\nShift report of the whole run, before -> after:")
             for row in comparison_rows(before, after):
                 print("  " + row)
@@ -222,8 +232,10 @@ def _quality(q) -> dict:
 def _summary(args, result, executor, elapsed, before, after, written) -> dict:
     from dataclasses import asdict
 
+    from .optimize import trade_off
+
     shifts = []
-    for s in result.shifts:
+    for s, rows in zip(result.shifts, result.shift_history()):
         shifts.append({
             "name": s.plan.name, "number": s.plan.number, "oncoming": s.plan.oncoming, "offgoing": s.plan.offgoing,
             "t_start": s.plan.t_start, "feasible": s.feasible, "binding": s.binding, "violations": s.violations,
@@ -234,6 +246,8 @@ def _summary(args, result, executor, elapsed, before, after, written) -> dict:
             "template_before": asdict(s.start_template), "template_after": asdict(s.best_template),
             "metrics_before": {k: v for k, v in s.start_metrics.items() if k != "message"},
             "metrics_after": {k: v for k, v in s.best_metrics.items() if k != "message"},
+            "trade_off": [{k: r.get(k) for k in ("evaluation", "hole", "energy", "jerk", "duration", "score")}
+                          for r in trade_off(rows)],
         })
     evaluations = sum(s.evaluations for s in result.shifts)
     return {"scenario": args.scenario, "output": str(args.output), "calibration": result.calibration.kind,
@@ -249,7 +263,7 @@ def optimize_units() -> dict[str, str]:
     """Units of the numeric fields of ``transgen optimize --json``."""
     return {"t_start": "s", "wall_time": "s", "cpu_time": "s", "evaluation_cpu_time": "s", "evaluations": "1",
             "evaluations_per_second": "1/s", "score_before": "1", "score_after": "1", "fit_residual": "1",
-            "number": "1", "seed": "1", "energy": "J", "energy_total": "J", "duration": "s", "shift_duration": "s",
+            "number": "1", "seed": "1", "evaluation": "1", "score": "1", "energy": "J", "energy_total": "J", "duration": "s", "shift_duration": "s",
             "hole": "%", "torque_hole_pct": "%", "hole_torque": "N*m", "flare": "rpm", "flare_max_rpm": "rpm",
             "bindup_torque": "N*m", "offgoing_torque": "N*m", "jerk": "m/s^3", "jerk_max": "m/s^3", "locks": "1",
             "max_flare_rpm": "rpm", "max_hole_pct": "%", "max_duration": "s", "max_energy": "J", "fill_time": "s", "fill_level": "1",
