@@ -177,7 +177,7 @@ def cmd_optimize(args) -> int:
                   "beats on both, the shift window's numbers; then the objective's choice):")
             for s, rows in zip(result.shifts, result.shift_history()):
                 front = trade_off(rows)
-                shown = front if len(front) <= 8 else [front[round(i * (len(front) - 1) / 7)] for i in range(8)]
+                shown = front if len(front) <= 16 else [front[round(i * (len(front) - 1) / 15)] for i in range(16)]
                 m = s.best_metrics
                 choice = (f"; chosen {m['hole']:.1f} % {m['energy'] / 1e3:.2f} kJ"
                           if s.feasible and m.get("hole") is not None else "")
