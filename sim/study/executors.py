@@ -264,7 +264,7 @@ def _stop_profiler(dask_worker) -> None:
 
 
 _STOPPING: list = []  # the manager threads of the pools stopped and not yet found ended (see _stop)
-_STOPPING_HOOK: list = []  # the exit hook registered (see _wait_at_exit)
+_EXIT_HOOK = False  # the exit hook registered (see _wait_at_exit)
 
 
 def _stop(pool) -> None:
@@ -285,11 +285,12 @@ def _wait_at_exit() -> None:
     sweep; once the threads have ended it finds the pipes closed and writes nothing. threading's
     exit hooks run last registered first, and concurrent.futures registered its hook when it was
     imported, before any pool of ours stopped."""
+    global _EXIT_HOOK
     import threading
 
     register = getattr(threading, "_register_atexit", None)  # CPython's, as concurrent.futures uses it
-    if not _STOPPING_HOOK and register is not None:
-        _STOPPING_HOOK.append(register)
+    if not _EXIT_HOOK and register is not None:
+        _EXIT_HOOK = True
         register(_stopped, 5.0)
 
 
