@@ -32,14 +32,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .equations import complete_locked, diagnose_singular
-from .graph import bond_graph
+from .graph import TRANSFORMER_KINDS, bond_graph, transformer_ports
 from .kinematics import analyze, floating_links, numeric_rank
 from .model import Mechanism
 
 if TYPE_CHECKING:
     from .graph import Graph
 
-__all__ = ["GearCheck", "gear_check", "idle_members", "is_gear", "idle_text", "idle_pins"]
+__all__ = ["GearCheck", "gear_check", "holds_only_idle", "idle_members", "is_gear", "idle_text", "idle_pins"]
 
 
 @dataclass(frozen=True)
@@ -57,6 +57,10 @@ class GearCheck:
     ratio: float | None
     idle: tuple[str, ...] = ()
     problem: str = ""
+    hubs: tuple[str, ...] = ()
+    """The idle members no gearset touches: bare hubs between open elements (a hub between
+    elements in series, the hub of clutches only open elements touch), as opposed to members of a
+    gearset that floats as a whole."""
 
     @property
     def is_gear(self) -> bool:
@@ -87,7 +91,22 @@ def gear_check(mech: Mechanism, engaged, graph: Graph | None = None) -> GearChec
     if combo.kind != "gear":
         return GearCheck(engaged, combo.kind, combo.dof, combo.ratio)
     problem = diagnose_singular(g, complete_locked(g, engaged))
-    return GearCheck(engaged, combo.kind, combo.dof, combo.ratio, combo.floating, problem)
+    geared = {link for node, data in g.nodes(data=True) if data["kind"] in TRANSFORMER_KINDS
+              for link, _, _ in transformer_ports(g, node)}
+    hubs = tuple(x for x in combo.floating if x not in geared)
+    return GearCheck(engaged, combo.kind, combo.dof, combo.ratio, combo.floating, problem, hubs)
+
+
+def holds_only_idle(full: GearCheck, without: GearCheck) -> bool:
+    """Whether an element of the gear ``full`` is superfluous: ``without`` (the same elements but
+    that one) is still a gear and the element only repeats another's constraint (no new motion)
+    or only holds idle hubs (every link it would free is a bare hub, :attr:`GearCheck.hubs`). A
+    gearset that would float as a whole is not an idle hub: holding it is a designer's choice
+    (the 722.6 keeps K1 in 3rd), so that element counts as needed."""
+    if without.kind != "gear" or not full.is_gear:
+        return False
+    freed = set(without.idle) - set(full.idle)
+    return freed <= set(without.hubs)
 
 
 def idle_members(mech: Mechanism, engaged, graph: Graph | None = None) -> tuple[str, ...]:
