@@ -231,3 +231,23 @@ def test_the_monitor_flags_an_idle_hub_running_away():
     ok = dict(block, w_H=np.array([1.0, -2.0, -4.0]))  # pulled toward S: within the bound
     InvariantMonitor(_Tr(), 1e-7, 1e-3).check(np.array([0.0, 0.5, 1.0]), ok, frozenset(), "M1")
     assert dataclasses.is_dataclass(gear_check(load_mechanism("idle_hub3"), ()))
+
+
+def test_the_readme_series_example_has_its_idle_hub():
+    """README, 'Elements in series and idle members': the worked Simpson example with its band B2
+    replaced by a brake on F1's outer race H."""
+    import re
+    from pathlib import Path
+
+    readme = (Path(__file__).resolve().parent.parent / "README.md").read_text(encoding="utf-8")
+    simpson = re.search(r"^```\n(# Simpson.*?)^```", readme, flags=re.S | re.M).group(1)
+    series = re.search(r"^```\n(# B2 holds the hub H.*?)^```", readme, flags=re.S | re.M).group(1)
+    lines = [x for x in simpson.splitlines() if not x.startswith(("brake  B2", "gear 2 ="))]
+    extra = [x for x in series.splitlines() if not x.startswith("#")]
+    links = [x for x in extra if x.startswith("link")]
+    text = "\n".join(lines[:2] + links + lines[2:] + [x for x in extra if x not in links]) + "\n"
+    mech = parse_mechanism(text, "README.md")
+    assert gear_check(mech, mech.gear("1").engaged).idle == ("H",)
+    assert gear_check(mech, mech.gear("R").engaged).idle == ("H",)
+    two = gear_check(mech, mech.gear("2").engaged)
+    assert two.idle == () and two.ratio == pytest.approx(1 + 35 / 73)
