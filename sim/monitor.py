@@ -40,6 +40,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from transgen.errors import SimulationError
+from transgen.idle import idle_hubs
+from transgen.model import HOUSING
 
 __all__ = ["INVARIANTS", "InvariantViolation", "InvariantMonitor"]
 
@@ -76,6 +78,7 @@ class InvariantMonitor:
         self.tally = {name: _Tally() for name in INVARIANTS}
         self.segments = 0
         self.energy_scale = 0.0
+        self._hubs: dict[frozenset, tuple] = {}  # lock set -> its idle hubs and their neighbours
 
     def check(self, ts: np.ndarray, block: dict[str, np.ndarray], locked: frozenset, mode: str) -> None:
         """Check one segment's samples ``block`` (signal name -> array over ``ts``), ``locked``: the
@@ -131,14 +134,17 @@ class InvariantMonitor:
 
     # ------------------------------------------------------------------ checks
     def _idle(self, ts, block, locked, mode, slip_tol):
-        """The ``idle_speed`` bound on the idle hubs of the segment's mode (a transmission without
-        :meth:`~transgen.sim.transmission.Transmission.idle_hubs` has none)."""
-        hubs = getattr(self.tr, "idle_hubs", None)
-        for hub, others in (hubs(locked) if hubs is not None else ()):
+        """The ``idle_speed`` bound on the idle hubs of the segment's mode (:func:`transgen.idle.idle_hubs`,
+        per lock set once; a transmission without a mechanism, as in unit tests, has none)."""
+        if locked not in self._hubs:
+            mech = getattr(self.tr, "mech", None)
+            names = tuple(e.name for i, e in enumerate(self.tr.elements) if i in locked)
+            self._hubs[locked] = idle_hubs(mech, names, self.tr.graph) if mech is not None else ()
+        for hub, others in self._hubs[locked]:
             w = block[f"w_{hub}"]
             reach = np.full(len(ts), abs(float(w[0])))
             for other in others:
-                if other is not None:
+                if other != HOUSING:
                     reach = np.maximum(reach, np.abs(block[f"w_{other}"]))
             bound = np.maximum.accumulate(reach)
             self._verdict("idle_speed", np.abs(w) - bound, np.full(len(ts), slip_tol), ts, hub, mode,

@@ -52,7 +52,6 @@ import numpy as np
 from transgen.equations import locking_groups
 from transgen.errors import ModeError, SimulationError
 from transgen.graph import bond_graph, link_nodes
-from transgen.idle import gear_check
 from transgen.kinematics import constraint_matrix, numeric_rank
 from transgen.model import HOUSING, Mechanism
 from transgen.modes import Mode, mode_model, mode_models
@@ -274,7 +273,6 @@ class Transmission:
         self.input_index = {name: i for i, name in enumerate(self.inputs)}
         self.element_input = np.array([self.input_index[f"t_{e.name}"] for e in self.elements], dtype=int)
         self._modes: dict[frozenset, ModeData] = {}
-        self._idle_hubs: dict[frozenset, tuple] = {}
         # what the gearing alone decides, shared by the transmissions of one mechanism in a process
         # (a sweep's runs, a benchmark's repeats): the modes computed on demand (or why a lock set
         # is no mode) and :meth:`_without_implied`'s answers
@@ -344,25 +342,6 @@ class Transmission:
                 raise ModeError(data)
             self._modes[key] = data
         return self._modes[key]
-
-    def idle_hubs(self, locked) -> tuple[tuple[str, tuple[str | None, ...]], ...]:
-        """The idle hubs of the mode with the element indices ``locked`` when it is a gear
-        (:func:`transgen.idle.gear_check`: idle members no gearset touches), each with the links on
-        the other side of the elements that touch it (``None``: the housing); for the invariant
-        monitor's ``idle_speed``. Cached per lock set."""
-        key = frozenset(locked)
-        cache = self._idle_hubs
-        if key not in cache:
-            names = tuple(self.elements[i].name for i in sorted(key))
-            check = gear_check(self.mech, names, self.graph)
-            out = []
-            for hub in (check.hubs if check.is_gear else ()):
-                k = self.link_index[hub]
-                ends = [e.link2 if e.link1 == k else e.link1 for e in self.elements if k in (e.link1, e.link2)]
-                others = tuple(None if x is None else self.links[x] for x in ends)
-                out.append((hub, others))
-            cache[key] = tuple(out)
-        return cache[key]
 
     def mode_name(self, locked) -> str:
         data = self._modes.get(frozenset(locked))

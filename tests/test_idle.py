@@ -8,8 +8,6 @@ the same gears with the same idle members.
 """
 from __future__ import annotations
 
-import dataclasses
-
 import networkx as nx
 import numpy as np
 import pytest
@@ -213,24 +211,25 @@ def test_the_simulator_runs_an_idle_gear_and_bounds_the_hub(tmp_path):
 
 
 def test_the_monitor_flags_an_idle_hub_running_away():
+    from transgen.idle import idle_hubs
     from transgen.sim.monitor import InvariantMonitor, InvariantViolation
+    from transgen.sim.transmission import Transmission
 
-    class _Tr:
-        elements = []
-
-        def idle_hubs(self, locked):
-            return (("H", (None, "S")),)
-
-    monitor = InvariantMonitor(_Tr(), 1e-7, 1e-3)
-    n = 3
-    block = {"w_S": np.array([-5.0, -5.0, -5.0]), "w_H": np.array([1.0, 3.0, 6.0]), "E_in": np.zeros(n),
-             "E_dissipated": np.zeros(n), "E_load": np.zeros(n), "E_stored": np.ones(n)}
+    mech = load_mechanism("idle_hub3")
+    assert idle_hubs(mech, mech.gear("1").engaged) == (("H", ("IN", "S", "Rf")),)
+    tr = Transmission(mech)
+    first = frozenset(tr.element_index[x] for x in mech.gear("1").engaged)
+    n, zero = 3, np.zeros(3)
+    block = {f"w_{k}": np.full(n, 10.0) for k in tr.links}
+    block.update({"E_in": zero, "E_dissipated": zero, "E_load": zero, "E_stored": np.ones(n)})
+    for e in tr.elements:
+        block.update({f"slip_{e.name}": zero, f"t_{e.name}": zero, f"apply_{e.name}": zero})
+    block["w_H"] = np.array([1.0, 5.0, 12.0])  # faster than its start (1) and IN, S, Rf (10)
     with pytest.raises(InvariantViolation) as info:
-        monitor.check(np.array([0.0, 0.5, 1.0]), block, frozenset(), "M1")
+        InvariantMonitor(tr, 1e-7, 1e-3).check(np.array([0.0, 0.5, 1.0]), block, first, "M1")
     assert (info.value.invariant, info.value.element, info.value.t) == ("idle_speed", "H", 1.0)
-    ok = dict(block, w_H=np.array([1.0, -2.0, -4.0]))  # pulled toward S: within the bound
-    InvariantMonitor(_Tr(), 1e-7, 1e-3).check(np.array([0.0, 0.5, 1.0]), ok, frozenset(), "M1")
-    assert dataclasses.is_dataclass(gear_check(load_mechanism("idle_hub3"), ()))
+    block["w_H"] = np.array([1.0, 5.0, 9.0])  # pulled toward its neighbours: within the bound
+    InvariantMonitor(tr, 1e-7, 1e-3).check(np.array([0.0, 0.5, 1.0]), block, first, "M1")
 
 
 def test_the_readme_series_example_has_its_idle_hub():

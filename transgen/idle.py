@@ -39,7 +39,8 @@ from .model import Mechanism
 if TYPE_CHECKING:
     from .graph import Graph
 
-__all__ = ["GearCheck", "gear_check", "holds_only_idle", "idle_members", "is_gear", "idle_text", "idle_pins"]
+__all__ = ["GearCheck", "gear_check", "holds_only_idle", "idle_hubs", "idle_members", "is_gear", "idle_text",
+           "idle_pins"]
 
 
 @dataclass(frozen=True)
@@ -107,6 +108,19 @@ def holds_only_idle(full: GearCheck, without: GearCheck) -> bool:
         return False
     freed = set(without.idle) - set(full.idle)
     return freed <= set(without.hubs)
+
+
+def idle_hubs(mech: Mechanism, engaged, graph: Graph | None = None) -> tuple[tuple[str, tuple[str, ...]], ...]:
+    """The idle hubs of the gear ``engaged`` (``()`` when it is no usable gear), each with the
+    links on the other side of the elements that touch it (``"housing"`` for a brake): the
+    speeds an open element's torque pulls the hub toward (the simulator's ``idle_speed``
+    invariant, :mod:`transgen.sim.monitor`)."""
+    check = gear_check(mech, engaged, graph)
+    out = []
+    for hub in (check.hubs if check.is_gear else ()):
+        others = tuple(e.link2 if e.link1 == hub else e.link1 for e in mech.elements if hub in (e.link1, e.link2))
+        out.append((hub, others))
+    return tuple(out)
 
 
 def idle_members(mech: Mechanism, engaged, graph: Graph | None = None) -> tuple[str, ...]:
