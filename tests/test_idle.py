@@ -125,6 +125,20 @@ def test_scenario_new_warns_about_a_gear_it_cannot_use():
     assert any(w.startswith("gear 1 cannot be used") and "massless" in w for w in launch.warnings)
 
 
+def test_scenario_new_says_so_on_stderr_and_in_json(tmp_path, capsys):
+    import json
+
+    from transgen.cli import main
+
+    path = tmp_path / "massless_hub.mech"
+    path.write_text(load_mechanism("a340e_like").text.replace("link H   J=0.004", "link H   J=0"))
+    assert main(["scenario", "new", str(path), "--json"]) == 0
+    out = capsys.readouterr()
+    assert "warning: gear 1 cannot be used and is left out" in out.err
+    doc = json.loads(out.out)
+    assert doc["order"] == ["2", "3", "4"] and any("gear 1 cannot be used" in w for w in doc["warnings"])
+
+
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_synthesize_teeth_matches_the_idle_gears(name):
     from transgen.synthesis.teeth import AssemblyRules, ratio_targets, synthesize_teeth
