@@ -3,8 +3,9 @@
 :func:`derive_launch` reads what a gearbox's ``.mech`` file fixes and chooses the rest from a
 vehicle class (:data:`VEHICLES`), the way one starts with a new gearbox:
 
-* the forward gears: declared gears with one degree of freedom and a positive input/output speed
-  ratio (computed from the kinematics), sorted by ratio, largest first; the shift sequence takes
+* the forward gears: declared gears with a fixed positive input/output speed ratio (computed from
+  the kinematics; a gear with idle members is a gear: :mod:`transgen.idle`), sorted by ratio,
+  largest first; a declared gear that cannot be used is left out with a warning; the shift sequence takes
   each next gear that a single or double swap reaches (:func:`~transgen.sim.schedule.gear_swap`)
   and names the gears it cannot schedule;
 * the static element torques per unit input torque in each gear (``k``), from the D matrix of
@@ -42,7 +43,7 @@ import numpy as np
 
 from transgen.errors import ScenarioError
 from transgen.graph import build_graph, link_nodes
-from transgen.kinematics import analyze
+from transgen.idle import gear_check
 from transgen.model import Mechanism
 from transgen.modes import Mode, mode_model
 
@@ -140,6 +141,7 @@ class ForwardGear:
     engaged: tuple[str, ...]
     torque_factors: dict
     inertia: float = 0.0  # referred to the output [kg*m^2]
+    idle: tuple[str, ...] = ()  # idle members (links): :mod:`transgen.idle`
 
 
 @dataclass(frozen=True)
@@ -210,7 +212,8 @@ class Launch:
             "mechanism": self.mechanism.name,
             "vehicle": self.vehicle.name,
             "forward_gears": [{"name": g.name, "ratio": g.ratio, "engaged": list(g.engaged),
-                               "torque_factors": dict(g.torque_factors), "output_inertia": g.inertia}
+                               "torque_factors": dict(g.torque_factors), "output_inertia": g.inertia,
+                               "idle": list(g.idle)}
                               for g in self.gears],
             "order": list(self.order),
             "shifts": [{"from": s.source, "to": s.target, "kind": s.kind, "oncoming": list(s.oncoming),
@@ -258,7 +261,9 @@ def static_element_torques(mech: Mechanism, engaged: tuple[str, ...], graph=None
         raise ValueError("the output torque does not act on the gear's motion")
     s = -g_in[row] / g_out[row]
     torques = eq.G_clutches[:, i_in] + s * eq.G_clutches[:, i_out]
-    return {e: float(t) for e, t in zip(model.locked, torques)}
+    # one row per locked constraint: elements in parallel share their group's torque (each member
+    # in its own direction; the friction members carry it first, so each must be able to hold it)
+    return {e: float(sign * t) for grp, t in zip(model.groups, torques) for e, sign in zip(grp.members, grp.signs)}
 
 
 def output_inertia(mech: Mechanism, engaged: tuple[str, ...], graph=None) -> float:
@@ -296,14 +301,23 @@ def _engine_torque_max(vehicle: VehicleClass, scale: float) -> float:
     return max(engine(s * RPM, vehicle.throttle_signal) for s in vehicle.speed_rpm)
 
 
-def _forward_gears(mech: Mechanism) -> list[ForwardGear]:
+def _forward_gears(mech: Mechanism) -> tuple[list[ForwardGear], list[tuple[str, str]]]:
+    """The declared forward gears (not alternative), largest ratio first, and ``(gear, reason)``
+    for each declared gear that cannot be used. Whether a combination is a gear is the one rule
+    of :mod:`transgen.idle`: a gear whose extra degrees of freedom are idle members (a hub between
+    elements in series, a hub only open elements touch) is a gear like any other."""
     g = build_graph(mech)
-    out = []
+    out, unusable = [], []
     for gear in mech.gears:
         if gear.kind != "gear" or gear.alternative:  # a manual low or extra ratio: not in the launch
             continue
-        combo = analyze(mech, gear.engaged, g)
-        if combo.dof != 1 or combo.ratio is None or not combo.ratio > 0:
+        check = gear_check(mech, gear.engaged, g)
+        if check.kind == "gear" and check.ratio is not None and check.ratio < 0:
+            continue  # a reverse gear: not in a launch
+        if not check.is_gear:
+            why = (check.problem if check.kind == "gear" else
+                   f"it does not fix the input/output ratio ({check.dof} degrees of freedom, {check.kind})")
+            unusable.append((gear.name, why))
             continue
         try:
             factors = static_element_torques(mech, gear.engaged, g)
@@ -311,8 +325,8 @@ def _forward_gears(mech: Mechanism) -> list[ForwardGear]:
         except ValueError as exc:
             raise ScenarioError(f"{mech.source}:{gear.span.line}:{gear.span.column}: error: gear {gear.name} "
                                 f"cannot be modelled: {exc}") from None
-        out.append(ForwardGear(gear.name, float(combo.ratio), tuple(gear.engaged), factors, inertia))
-    return sorted(out, key=lambda x: -x.ratio)
+        out.append(ForwardGear(gear.name, float(check.ratio), tuple(gear.engaged), factors, inertia, check.idle))
+    return sorted(out, key=lambda x: -x.ratio), unusable
 
 
 def _sequence(mech: Mechanism, gears: list[ForwardGear]):
@@ -439,15 +453,17 @@ def derive_launch(mech: Mechanism, vehicle: str = "car") -> Launch:
         raise ValueError(f"unknown vehicle class {vehicle!r} (known: {', '.join(VEHICLES)})")
     vc = VEHICLES[vehicle]
     where = f"{mech.source}:{mech.gears[0].span.line}:{mech.gears[0].span.column}" if mech.gears else f"{mech.source}:1:1"
-    gears = _forward_gears(mech)
+    gears, unusable = _forward_gears(mech)
     if len(gears) < 2:
         raise ScenarioError(f"{where}: error: a launch scenario needs a gear table with at least two forward gears "
-                            f"(one degree of freedom, positive ratio); found {len(gears)}")
+                            f"(a fixed positive ratio; idle members allowed); found {len(gears)}"
+                            + "".join(f"; gear {g} cannot be used: {why}" for g, why in unusable))
     order, shifts, skipped = _sequence(mech, gears)
     if len(order) < 2:
         raise ScenarioError(f"{where}: error: no forward gear can be shifted to from gear {order[0]}: "
                             + "; ".join(why for _, why in skipped))
-    warnings = [f"gear {g} is not schedulable and is left out: {why}" for g, why in skipped]
+    warnings = [f"gear {g} cannot be used and is left out: {why}" for g, why in unusable]
+    warnings += [f"gear {g} is not schedulable and is left out: {why}" for g, why in skipped]
     scale = _torque_scale(mech, vc, gears, shifts)
     t_in = _input_torque_max(vc, scale)
     sizing = _sizing(mech, gears, _input_torque_max(vc, 1.0))
@@ -570,7 +586,8 @@ def launch_scenario(mech: Mechanism, vehicle: str = "car", mechanism_ref: str | 
         "",
         "[initial]",
         f"gear = {_string(first.name)}",
-        f"speeds = {{ {mech.output} = 0.0 }}      # vehicle at rest, gear {first.name} engaged",
+        f"speeds = {{ {', '.join(f'{x} = 0.0' for x in (mech.output,) + first.idle)} }}      # vehicle at rest, gear "
+        f"{first.name} engaged" + (f" (idle member {', '.join(first.idle)} at rest too)" if first.idle else ""),
         "",
         "[input]                 # engine (torque map) driving the gearbox input through a torque converter",
         'type = "engine_converter"',

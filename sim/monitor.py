@@ -15,7 +15,13 @@ After each integration segment the simulator samples it (:class:`~.integration.R
     a locked friction element holds ``|t| <= T_static * apply``, a locked one-way clutch only in
     its locking direction (``free * t <= 0``);
 ``energy_balance``
-    over the segment, work in = change of stored energy + dissipated + work to the load.
+    over the segment, work in = change of stored energy + dissipated + work to the load;
+``idle_speed``
+    an idle hub of a gear (:mod:`transgen.idle`: a link no gearset touches, between open
+    elements, e.g. the hub between a brake and a one-way clutch in series) turns only by its
+    inertia and the torques of those open elements, which pull it toward the speeds of the links
+    on their other sides: its speed never exceeds the larger of its speed at the segment's start
+    and the largest of those speeds so far (``|w_hub| <= max(|w_hub(t0)|, max |w_other|)``).
 
 The slip tolerance is the mode decision's (``SolverOptions.slip_tol`` relative to the largest link
 speed); torques get a relative tolerance of 1e-6 of the element's capacity or of the largest
@@ -34,10 +40,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from transgen.errors import SimulationError
+from transgen.idle import idle_hubs
+from transgen.model import HOUSING
 
 __all__ = ["INVARIANTS", "InvariantViolation", "InvariantMonitor"]
 
-INVARIANTS = ("finite", "oneway_free_sign", "dissipation", "holding_limit", "energy_balance")
+INVARIANTS = ("finite", "oneway_free_sign", "dissipation", "holding_limit", "energy_balance", "idle_speed")
 _TORQUE_RTOL = 1e-6
 
 
@@ -70,6 +78,7 @@ class InvariantMonitor:
         self.tally = {name: _Tally() for name in INVARIANTS}
         self.segments = 0
         self.energy_scale = 0.0
+        self._hubs: dict[frozenset, tuple] = {}  # lock set -> its idle hubs and their neighbours
 
     def check(self, ts: np.ndarray, block: dict[str, np.ndarray], locked: frozenset, mode: str) -> None:
         """Check one segment's samples ``block`` (signal name -> array over ``ts``), ``locked``: the
@@ -106,6 +115,7 @@ class InvariantMonitor:
                 power = torque * slip
                 self._verdict("dissipation", -power, slip_tol * np.abs(torque) + 1e-12, ts, e.name, mode,
                               lambda k: f"the slipping element creates energy (t*slip = {power[k]:.6g} W)")
+        self._idle(ts, block, locked, mode, slip_tol)
         # the dissipated energy, integrated with the dynamics, never decreases (this sees a friction
         # torque of the wrong sign in the right-hand side even where the samples are recomputed)
         e_diss = block["E_dissipated"]
@@ -123,6 +133,24 @@ class InvariantMonitor:
                 "invariants": {k: {"checks": v.samples, "worst": v.worst} for k, v in self.tally.items()}}
 
     # ------------------------------------------------------------------ checks
+    def _idle(self, ts, block, locked, mode, slip_tol):
+        """The ``idle_speed`` bound on the idle hubs of the segment's mode (:func:`transgen.idle.idle_hubs`,
+        per lock set once; a transmission without a mechanism, as in unit tests, has none)."""
+        if locked not in self._hubs:
+            mech = getattr(self.tr, "mech", None)
+            names = tuple(e.name for i, e in enumerate(self.tr.elements) if i in locked)
+            self._hubs[locked] = idle_hubs(mech, names, self.tr.graph) if mech is not None else ()
+        for hub, others in self._hubs[locked]:
+            w = block[f"w_{hub}"]
+            reach = np.full(len(ts), abs(float(w[0])))
+            for other in others:
+                if other != HOUSING:
+                    reach = np.maximum(reach, np.abs(block[f"w_{other}"]))
+            bound = np.maximum.accumulate(reach)
+            self._verdict("idle_speed", np.abs(w) - bound, np.full(len(ts), slip_tol), ts, hub, mode,
+                          lambda k: f"the idle hub turns faster ({w[k]:.6g} rad/s) than its start and the links "
+                                    f"its open elements join it to allow ({bound[k]:.6g} rad/s)")
+
     def _finite(self, ts, block, mode):
         tally = self.tally["finite"]
         arrays = list(block.values())

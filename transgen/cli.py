@@ -171,6 +171,7 @@ def cmd_lever(args) -> int:
 
 def cmd_modes(args) -> int:
     from .describe import MODES_UNITS, modes_report
+    from .idle import idle_text
 
     mech = load_checked(args.file)
     report = modes_report(mech, "all" if args.all else "auto")
@@ -180,7 +181,8 @@ def cmd_modes(args) -> int:
     print(f"{mech.name}: {len(report['modes'])} modes ({report['selection']})")
     print(f"  {'mode':<5} {'locked':<18} {'DOF':>3}  {'kind':<8} label / problem")
     for m in report["modes"]:
-        notes = [m["label"]] * bool(m["label"]) + [f"{'+'.join(grp)} in parallel" for grp in m["parallel"]]
+        notes = ([m["label"]] * bool(m["label"]) + [f"{'+'.join(grp)} in parallel" for grp in m["parallel"]]
+                 + [idle_text(m["dof"], m["idle"])] * bool(m["idle"]))
         extra = "; ".join(notes) + (f"  !! {m['problem']}" if m["problem"] else "")
         print(f"  {m['name']:<5} {' '.join(m['locked']) or '(none)':<18} {m['dof']:>3}  {m['kind']:<8} {extra}")
     for note in report["notes"]:

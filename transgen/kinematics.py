@@ -49,6 +49,7 @@ __all__ = [
     "gear_table",
     "check_gears",
     "link_speeds",
+    "floating_links",
     "published_findings",
 ]
 
@@ -116,6 +117,16 @@ def numeric_rank(a: np.ndarray, scale: float | None = None) -> int:
     return int(np.sum(s > RANK_RTOL * ref)) if s.size and ref > 0 else 0
 
 
+def floating_links(a: np.ndarray, i_in: int, tol: float = 1e-9) -> tuple[int, ...]:
+    """Indices of the links (columns of the constraint matrix ``a``) whose speed the input speed
+    (column ``i_in``) does not fix: the links that still move with the input held. In a gear
+    (ratio determined) these are its idle members (:mod:`transgen.idle`); the one kinematic rule
+    that :func:`analyze`, :func:`link_speeds` and the tooth synthesis share."""
+    n = a.shape[1]
+    held = null_space(np.vstack([a, np.eye(n)[i_in]]), n)
+    return tuple(k for k in range(n) if np.linalg.norm(held[k]) > tol)
+
+
 def null_space(a: np.ndarray, n: int, scale: float | None = None) -> np.ndarray:
     """Orthonormal basis (columns) of the null space of ``a`` with ``n`` columns (``scale`` as in
     :func:`numeric_rank`)."""
@@ -132,7 +143,8 @@ class Combination:
     """Kinematic facts of one combination of engaged shift elements.
 
     ``ratio`` is input speed / output speed (negative: reverse) where determined, else ``None``.
-    ``floating`` names links whose speed is not fixed by the input speed (in a gear) .
+    ``floating`` names links whose speed is not fixed by the input speed (in a gear): its idle
+    members (:func:`floating_links`; :mod:`transgen.idle` decides whether such a gear can be used).
     ``detail`` explains ``other`` (e.g. "output held").
     """
 
@@ -160,9 +172,8 @@ def analyze(mech: Mechanism, engaged=(), graph: Graph | None = None) -> Combinat
     in_moves, out_moves = np.linalg.norm(v_in) > tol, np.linalg.norm(v_out) > tol
     if in_moves and out_moves and numeric_rank(np.vstack([v_in, v_out])) == 1:
         ratio = float(np.dot(v_in, v_out) / np.dot(v_out, v_out))
-        # links not fixed by the input speed: null space with the input held
-        held = null_space(np.vstack([a, np.eye(len(links))[i_in]]), len(links))
-        floating = tuple(name for name, row in zip(links, held) if np.linalg.norm(row) > tol)
+        # links not fixed by the input speed (the idle members of :mod:`transgen.idle`)
+        floating = tuple(links[k] for k in floating_links(a, i_in, tol))
         return Combination(engaged, dof, ratio, "gear", floating)
     if in_moves and out_moves:
         return Combination(engaged, dof, None, "neutral")
@@ -398,5 +409,5 @@ def link_speeds(mech: Mechanism, engaged=(), graph: Graph | None = None) -> dict
     rhs[-1] = 1.0
     w = np.linalg.lstsq(m, rhs, rcond=None)[0]
     w += np.linalg.lstsq(m, rhs - m @ w, rcond=None)[0]
-    held = null_space(m, len(links))
-    return {name: (None if np.linalg.norm(held[k]) > tol else float(w[k])) for k, name in enumerate(links)}
+    free = set(floating_links(a, i_in, tol))
+    return {name: (None if k in free else float(w[k])) for k, name in enumerate(links)}

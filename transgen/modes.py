@@ -4,12 +4,15 @@
 A *mode* is a set of locked shift elements; every other element slips (or is open) and its
 torque is an input. :func:`select_modes` chooses which modes to model:
 
-* ``"default"``: the declared forward gears, then the one-element-less modes a single-swap shift
-  between consecutive forward gears passes through (the speed phase), then the neutrals
+* ``"default"``: the declared forward gears, then every mode a shift between consecutive forward
+  gears can pass through (:func:`shift_modes`: the speed phase — for a single swap the
+  one-element-less mode — and, with one-way clutches, groups in parallel and elements in series,
+  the modes where one of them has locked or released by itself), then the neutrals
   (declared with ``neutral``, or else the elements shared by the first gear and a reverse gear,
-  with any number of degrees of freedom: :func:`default_neutral`),
-  then the reverse gears, then the alternative gears (``gear L = ... alternative``: no speed
-  phase) — for the HT-740 exactly the thesis' seven modes M1-M7;
+  with any number of degrees of freedom: :func:`default_neutral`) and the modes between it and
+  first and reverse gear, then the reverse gears, then the alternative gears (``gear L = ...
+  alternative``: no speed phase) — for the HT-740 exactly the thesis' seven modes M1-M7. Gears
+  with idle members (:mod:`transgen.idle`) are gears here like any other;
 * ``"declared"``: the ``mode`` statements of the file (the default when there are any);
 * ``"all"``: every combination of locked elements (also the default of a mechanism without a
   gear table, such as a benchmark chain of clutches).
@@ -42,6 +45,7 @@ from .equations import (LockingGroup, ModeEquations, assemble, complete_locked, 
                         solve)
 from .errors import ModeError
 from .graph import bond_graph
+from .idle import gear_check
 from .kinematics import analyze, engaged_combinations, numeric_rank
 from .model import Mechanism
 
@@ -95,6 +99,9 @@ class ModeModel:
     problem: str = ""
     symbolic_equations: ModeEquations | None = field(default=None, repr=False)
     groups: tuple[LockingGroup, ...] = field(default=(), repr=False)
+    idle: tuple[str, ...] = ()
+    """Idle members (links) of a gear mode (:mod:`transgen.idle`): the ``dof - 1`` extra degrees
+    of freedom that carry no torque."""
 
     @property
     def name(self) -> str:
@@ -108,13 +115,6 @@ class ModeModel:
     def parallel(self) -> tuple[LockingGroup, ...]:
         """The locked groups of elements in parallel (two or more members, one constraint)."""
         return tuple(grp for grp in self.groups if len(grp.members) > 1)
-
-
-def _one_swap_common(a: tuple[str, ...], b: tuple[str, ...]) -> tuple[str, ...] | None:
-    common = [e for e in a if e in b]
-    if len(common) == len(a) - 1 == len(b) - 1:
-        return tuple(common)
-    return None
 
 
 def select_modes(mech: Mechanism, which: str = "auto") -> list[Mode]:
@@ -144,9 +144,7 @@ def select_modes(mech: Mechanism, which: str = "auto") -> list[Mode]:
             (reverse if ratio is not None and ratio < 0 else forward).append(gear)
     chosen: list[tuple[str, tuple[str, ...]]] = [(f"gear {gear.name}", gear.engaged) for gear in forward]
     for a, b in zip(forward, forward[1:]):
-        common = _one_swap_common(a.engaged, b.engaged)
-        if common is not None:
-            chosen.append((f"speed phase {a.name}-{b.name}", common))
+        chosen += [(label, locked) for label, locked in shift_modes(mech, a.name, a.engaged, b.name, b.engaged, g)]
     neutrals = [(f"neutral {n.name}", n.engaged) for n in mech.neutrals]
     if not neutrals and forward:
         for r in reverse:
@@ -155,6 +153,10 @@ def select_modes(mech: Mechanism, which: str = "auto") -> list[Mode]:
                 neutrals.append((f"neutral {forward[0].name}-{r.name}", common))
                 break  # one neutral: with the first reverse gear that gives one
     chosen += neutrals
+    if neutrals:  # engaging first and reverse from the neutral: the modes in between
+        name, locked = (mech.neutrals[0].name if mech.neutrals else "N"), neutrals[0][1]
+        for gear in forward[:1] + reverse:
+            chosen += shift_modes(mech, name, locked, gear.name, gear.engaged, g, label="engagement")
     chosen += [(f"reverse {gear.name}", gear.engaged) for gear in reverse]
     chosen += [(f"alternative gear {gear.name}", gear.engaged) for gear in alternative]
     labels: dict[frozenset, list[str]] = {}
@@ -167,6 +169,51 @@ def select_modes(mech: Mechanism, which: str = "auto") -> list[Mode]:
             order.append(tuple(locked))
         labels[key].append(label)
     return [Mode(f"M{i + 1}", locked, _join_labels(labels[frozenset(locked)])) for i, locked in enumerate(order)]
+
+
+MAX_SHIFT_SPAN = 8
+"""Most elements a shift may change (locked on one side only, one-way clutches included) for
+:func:`shift_modes` to list every set in between (2^8 sets); beyond, only the speed phase."""
+
+
+def shift_modes(mech: Mechanism, source: str, a, target: str, b, graph: Graph | None = None,
+                label: str = "shift") -> list[tuple[str, tuple[str, ...]]]:
+    """``(label, locked)`` of every mode a shift from the locked set ``a`` (gear ``source``) to
+    ``b`` (gear ``target``) can pass through besides ``a`` and ``b``: the elements both keep plus
+    any subset of those that change (each friction element applies or releases, each one-way
+    clutch locks or overruns by itself, the friction member of a group in parallel releases while
+    its one-way member holds), completed with the one-way clutches beside locked elements
+    (:func:`~transgen.equations.complete_locked`), and kept when it is a gear (idle members
+    allowed: :mod:`transgen.idle`) or a neutral (the input and output turn freely: a speed phase)
+    whose equations solve. Labelled ``speed phase S-T`` (a neutral, e.g. the classical
+    one-element-less mode of a single swap) or ``shift S-T`` (a gear met on the way: a one-way
+    clutch locked beside the gear, a brake holding an idle hub); ``label="engagement"`` for the
+    shifts out of a neutral. Fewest locked first. Beyond :data:`MAX_SHIFT_SPAN` changing elements
+    only the speed phase of the elements both keep."""
+    g = bond_graph(mech) if graph is None else graph
+    a, b = complete_locked(g, a), complete_locked(g, b)
+    names = list(mech.element_names)
+    keep = tuple(e for e in names if e in a and e in b)
+    change = [e for e in names if (e in a) != (e in b)]
+    subsets = ([()] if len(change) > MAX_SHIFT_SPAN else
+               [c for r in range(len(change) + 1) for c in itertools.combinations(change, r)])
+    ends = {frozenset(a), frozenset(b)}
+    out, seen = [], set()
+    for extra in subsets:
+        locked = tuple(sorted(complete_locked(g, keep + extra), key=names.index))
+        key = frozenset(locked)
+        if key in ends or key in seen:
+            continue
+        seen.add(key)
+        check = gear_check(mech, locked, g)
+        if check.kind == "neutral" and not diagnose_singular(g, locked):
+            kind = "speed phase" if label == "shift" else label
+        elif check.is_gear:
+            kind = label
+        else:
+            continue
+        out.append((f"{kind} {source}-{target}", locked))
+    return out
 
 
 def default_neutral(mech: Mechanism, first, reverse, graph: Graph | None = None) -> tuple[str, ...] | None:
@@ -226,20 +273,20 @@ def mode_model(mech: Mechanism, mode: Mode, graph: Graph | None = None,
     ``equations=None`` and says why in ``problem``. ``symbolic`` (True, ``"all"`` or
     ``"inertias"``) also solves the symbolic equations (:func:`transgen.equations.assemble`)."""
     g = bond_graph(mech) if graph is None else graph
-    combo = analyze(mech, mode.locked, g)
+    combo = gear_check(mech, mode.locked, g)
     groups = locked_constraints(g, mode.locked)
     problem = diagnose_singular(g, mode.locked)
     if problem:
-        return ModeModel(mode, combo.kind, combo.dof, combo.dof, None, problem, groups=groups)
+        return ModeModel(mode, combo.kind, combo.dof, combo.dof, None, problem, groups=groups, idle=combo.idle)
     try:
         eq = solve(assemble(g, mode.locked), g)
     except ModeError as exc:  # singular for a reason the diagnosis did not name
-        return ModeModel(mode, combo.kind, combo.dof, combo.dof, None, str(exc), groups=groups)
+        return ModeModel(mode, combo.kind, combo.dof, combo.dof, None, str(exc), groups=groups, idle=combo.idle)
     dof = numeric_rank(eq.G_accel)
     problem = "" if dof == combo.dof else (
         f"{combo.dof - dof} degree(s) of freedom receive no input torque (rank(G_accel) = {dof} < {combo.dof})")
     symbolic_eq = solve(assemble(g, mode.locked, symbolic=symbolic), g) if symbolic else None
-    return ModeModel(mode, combo.kind, dof, combo.dof, eq, problem, symbolic_eq, groups)
+    return ModeModel(mode, combo.kind, dof, combo.dof, eq, problem, symbolic_eq, groups, combo.idle)
 
 
 @one_blas_thread()

@@ -58,6 +58,9 @@ class ModeStateSpace:
     locked_groups: tuple[tuple[str, ...], ...] = ()
     """The locked elements behind each row of ``D`` (several for elements in parallel, whose
     row is the group's torque in its first member's direction)."""
+    idle: tuple[str, ...] = ()
+    """Idle members of a gear mode (:mod:`transgen.idle`): links that move with the input held;
+    their motions are states besides the gear's (e.g. ``states = (IN, H)``)."""
 
     @property
     def A(self) -> np.ndarray:
@@ -162,7 +165,7 @@ class StateSpaceSet:
                  "states": list(m.states), "inputs": list(m.inputs), "outputs": list(m.outputs),
                  **{k: mat(getattr(m, k)) for k in MATRICES},
                  "speed_outputs": list(m.speed_outputs), "torque_outputs": list(m.torque_outputs),
-                 "locked_groups": [list(grp) for grp in m.locked_groups]}
+                 "locked_groups": [list(grp) for grp in m.locked_groups], "idle": list(m.idle)}
                 for m in self.modes
             ],
             "skipped": [m.to_dict() for m in self.skipped],
@@ -222,7 +225,7 @@ def _mode_state_space(model: ModeModel, links: list[str], coords, symbolic: bool
     D = eq.G_clutches
     return ModeStateSpace(model.name, model.locked, model.mode.label, model.kind, model.dof, states, eq.u,
                           B, C, D, tuple(links), tuple(f"t_{grp.label}" for grp in eq.groups),
-                          tuple(grp.members for grp in eq.groups))
+                          tuple(grp.members for grp in eq.groups), model.idle)
 
 
 def state_space(mech: Mechanism, coordinates=None, which: str = "auto", symbolic: bool | str = False,

@@ -22,10 +22,10 @@ if TYPE_CHECKING:
 
 import numpy as np
 
-from .equations import assemble, complete_locked, diagnose_singular, locked_constraints
+from .equations import assemble, complete_locked, locked_constraints
 from .errors import Diagnostic
 from .graph import bond_graph
-from .kinematics import analyze
+from .idle import gear_check
 from .model import Mechanism
 
 __all__ = ["drive_torques", "check_oneways"]
@@ -38,16 +38,15 @@ def drive_torques(mech: Mechanism, engaged, graph: Graph | None = None) -> dict[
     [N*m per N*m], keyed by the group label (``"OWC"``, ``"BLR+OWC"``: elements in parallel share
     one torque, in the first member's direction), from ``link1`` to ``link2``.
 
-    ``None`` when the gear does not determine the input/output ratio with one degree of freedom
-    or its locked torques are not unique (``transgen check`` and ``modes`` say why).
+    ``None`` when the combination is not a usable gear (:func:`transgen.idle.gear_check`: no
+    determined ratio, or locked torques that are not unique; ``transgen check`` and ``modes`` say
+    why). A gear with idle members is a gear: nothing acts on its idle members under drive.
     """
     g = bond_graph(mech) if graph is None else graph
-    combo = analyze(mech, engaged, g)
-    if combo.kind != "gear" or combo.dof != 1 or combo.ratio is None:
+    combo = gear_check(mech, engaged, g)
+    if not combo.is_gear or combo.ratio is None:
         return None
     locked = complete_locked(g, engaged)
-    if diagnose_singular(g, locked):
-        return None
     eq = assemble(g, locked)
     E, F, nl = np.asarray(eq.E, float), np.asarray(eq.F, float), eq.n_links
     rows = [i for i in range(E.shape[0]) if np.any(E[i, nl:] != 0) or np.any(F[i] != 0)]

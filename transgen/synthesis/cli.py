@@ -102,7 +102,7 @@ def cmd_table(args) -> int:
         print_document("transgen.synthesis_table/1", result.to_dict(), result.UNITS)
         return 0 if result.tables else 1
     print(f"{mech.name}: {result.forward_candidates} forward and {result.reverse_candidates} reverse combinations "
-          f"with one DOF; {result.searched} "
+          f"that are gears (idle members allowed); {result.searched} "
           f"sequences of {forward} forward gears scored")
     print(f"score = {SCORE_FORMULA}")
     for note in result.notes:

@@ -9,7 +9,8 @@ gear engaged, the constraint matrix of the links is affine in ``k``::
 
     A(k) = A0 + sum_p k_p * A_p
 
-and the input/output ratio follows from ``A(k) w = 0`` with the input speed set to 1. This
+and the input/output ratio follows from ``A(k) w = 0`` with the input speed set to 1 (in a gear
+with idle members, :mod:`transgen.idle`, their speeds pinned to zero: they do not move the ratio). This
 module builds ``A0`` and ``A_p`` once per gear from :func:`transgen.kinematics.constraints`
 (the same constraints as every other analysis) and evaluates the ratio for many ``k`` at once
 (numpy, batched) or exactly for rational ``k`` (:class:`fractions.Fraction`).
@@ -22,6 +23,7 @@ from fractions import Fraction
 import numpy as np
 
 from ..graph import bond_graph, link_nodes
+from ..idle import idle_pins
 from ..kinematics import _values, constraints
 from ..model import Mechanism
 
@@ -140,6 +142,14 @@ def gear_kinematics(mech: Mechanism, engaged, name: str, unknown: tuple[str, ...
     i_in, i_out = index[mech.input], index[mech.output]
     k = k_low + rng.random(len(unknown)) * (k_high - k_low)
     a = a0 + np.tensordot(k, ak, axes=1)
+    # a gear with idle members (transgen.idle): their speeds, pinned to zero, leave the ratio as it
+    # is and the system one degree of freedom (the idle links at the generic point: structural)
+    pins = idle_pins(a, i_in, i_out)
+    if pins:
+        extra = np.eye(len(links))[list(pins)]
+        a0 = np.vstack([a0, extra])
+        ak = np.concatenate([ak, np.zeros((len(unknown), len(pins), len(links)))], axis=1)
+        a = np.vstack([a, extra])
     # independent rows at a generic point, greedily
     chosen: list[int] = []
     for r in range(a.shape[0]):

@@ -1,9 +1,10 @@
 """Shift-table synthesis: a gear table for a mechanism that has gearsets and shift elements.
 
-1. **Candidates**: every combination of engaged elements (:func:`transgen.kinematics.combinations`)
-   with one degree of freedom and a determined ratio (so no tie-up), in which every engaged
-   element is needed (dropping any one frees a degree of freedom: an element that only repeats
-   another's constraint is left out). Positive ratios are forward candidates, negative ones
+1. **Candidates**: every combination of engaged elements that is a gear (a determined ratio, so
+   no tie-up; a gear with idle members, :mod:`transgen.idle`, is one: an A340E's 1st leaves the
+   hub between B2 and F1 idle), in which every engaged element is needed: an element that only
+   repeats another's constraint, or only holds an idle hub (a link no gearset touches:
+   :func:`transgen.idle.holds_only_idle`), is left out. Positive ratios are forward candidates, negative ones
    reverse candidates. A combination with a one-way clutch counts only where the clutch holds
    in drive: the quasi-static torque balance (input torque positive, inertias neglected) must
    load it against its free direction, else it would overrun and the gear would not exist.
@@ -50,6 +51,7 @@ from ..errors import TransgenError
 import numpy as np
 
 from ..graph import TRANSFORMER_KINDS, bond_graph, coefficient, element_nodes, link_nodes, transformer_ports
+from ..idle import gear_check, holds_only_idle
 from ..kinematics import _values, analyze
 from ..model import Mechanism
 
@@ -170,22 +172,35 @@ SCORE_FORMULA = ("ln(spread) - 2*sum out(step) - 1*sum max(0, ln(step[i+1]/step[
 
 
 def gear_candidates(mech: Mechanism) -> list[Candidate]:
-    """Every combination of engaged elements with one degree of freedom, a determined ratio and
-    no superfluous element (see the module docstring)."""
+    """Every combination of engaged elements that is a gear (a determined, finite ratio; idle
+    members allowed: :mod:`transgen.idle`) with no superfluous element (see the module
+    docstring): no element only repeats another's constraint or only holds an idle hub
+    (:func:`transgen.idle.holds_only_idle`)."""
     g = bond_graph(mech)
     names = element_nodes(g)
     free = analyze(mech, (), g).dof
     out = []
     if free < 1:
         return []  # locked without any element engaged
-    for combo in itertools.combinations(names, free - 1):  # each engaged element removes one DOF
-        c = analyze(mech, combo, g)
-        if c.kind == "gear" and c.dof == 1 and c.ratio is not None and math.isfinite(c.ratio):
-            if _oneways_hold(mech, combo, g) is not False:
-                oneways = frozenset(e for e in combo if g.nodes[e]["kind"] == "oneway")
-                where = tuple((e, (g.nodes[e]["link1"], g.nodes[e]["link2"])) for e in combo)
-                dogs = frozenset(e for e in combo if g.nodes[e]["kind"] == "dog")
-                out.append(Candidate(frozenset(combo), c.ratio, oneways, frozenset(p for _, p in where), where, dogs))
+    checks: dict[tuple[str, ...], object] = {}
+
+    def check(combo):
+        if combo not in checks:
+            checks[combo] = gear_check(mech, combo, g)
+        return checks[combo]
+
+    # each engaged element removes one DOF: a gear engages at most free - 1 (fewer with idle members)
+    for combo in (c for r in range(1, free) for c in itertools.combinations(names, r)):
+        c = check(combo)
+        if not (c.is_gear and c.ratio is not None and math.isfinite(c.ratio)):
+            continue
+        if any(holds_only_idle(c, check(tuple(x for x in combo if x != e))) for e in combo):
+            continue  # an element that only repeats another's constraint or holds an idle hub
+        if _oneways_hold(mech, combo, g) is not False:
+            oneways = frozenset(e for e in combo if g.nodes[e]["kind"] == "oneway")
+            where = tuple((e, (g.nodes[e]["link1"], g.nodes[e]["link2"])) for e in combo)
+            dogs = frozenset(e for e in combo if g.nodes[e]["kind"] == "dog")
+            out.append(Candidate(frozenset(combo), c.ratio, oneways, frozenset(p for _, p in where), where, dogs))
     return out
 
 
@@ -295,7 +310,7 @@ def synthesize_table(mech: Mechanism, forward: int, reverse: int = 1, top: int =
     distinct = len({round(c.ratio, 9) for c in fwd})
     if distinct < forward:
         raise TableInputError(f"{mech.source}: only {distinct} distinct forward ratios among the {len(fwd)} "
-                              f"combinations with one degree of freedom; {forward} forward gears asked for")
+                              f"combinations that are gears; {forward} forward gears asked for")
     if len(rev) < reverse:
         raise TableInputError(f"{mech.source}: only {len(rev)} reverse combinations; {reverse} reverse gears asked for")
     limit = 4 if allow_double else 2

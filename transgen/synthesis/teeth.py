@@ -147,8 +147,9 @@ def ratio_targets(mech: Mechanism, ratios: dict[str, str] | None = None,
                   tolerance: float | None = None) -> tuple[RatioTarget, ...]:
     """The targets: ``ratios`` (gear -> ratio text) or else the gear lines' ``ratio=``.
 
-    The tolerance of each is half a unit of its last written digit, or ``tolerance`` for all
-    (published ratios are sometimes truncated rather than rounded: widen it then).
+    The tolerance of each is half a unit of its last written digit (the gear line's ``tol=`` where
+    it gives one), or ``tolerance`` for all (published ratios are sometimes truncated rather than
+    rounded: widen it then).
     """
     gears = {g.name: g for g in mech.gears if g.kind == "gear"}
     if ratios is None:
@@ -164,7 +165,9 @@ def ratio_targets(mech: Mechanism, ratios: dict[str, str] | None = None,
                                       f"not declare (gears: {known})")
         if not math.isfinite(float(text)) or float(text) == 0:
             raise SynthesisInputError(f"target ratio of gear {name} must be a finite, nonzero number, not {text}")
-        tol = Fraction(_half_unit(text)).limit_denominator(10**12) if tolerance is None else Fraction(tolerance)
+        own = gears[name].tolerance if gears[name].ratio == text else None  # the gear line's tol=
+        tol = (Fraction(tolerance) if tolerance is not None else Fraction(own) if own is not None
+               else Fraction(_half_unit(text)).limit_denominator(10**12))
         targets.append(RatioTarget(name, text, tol))
     if tolerance is not None and not (math.isfinite(tolerance) and tolerance > 0):
         raise SynthesisInputError(f"--tolerance must be a positive number, not {tolerance}")
@@ -327,8 +330,9 @@ def _problem(mech: Mechanism, targets, rules: AssemblyRules, rng) -> _Problem:
         gk = gear_kinematics(mech, mech.gear(t.gear).engaged, t.gear, tuple(unknown), k_low, k_high, rng)
         if len(gk.rows) != len(mech.links) - 1:
             raise SynthesisInputError(f"{mech.source}:{mech.gear(t.gear).span.line}:{mech.gear(t.gear).span.column}: "
-                                      f"error: gear {t.gear} ({' '.join(gk.engaged)}) does not leave one degree of "
-                                      f"freedom, so it has no ratio to match")
+                                      f"error: gear {t.gear} ({' '.join(gk.engaged)}) does not fix the input/output "
+                                      f"ratio (idle members aside, more than one degree of freedom is left), so it "
+                                      f"has no ratio to match")
         gears.append(gk)
     target = np.array([float(t.value) for t in targets])
     tol = np.array([float(t.tolerance) for t in targets])
