@@ -53,6 +53,14 @@ def add_commands(sub) -> None:
     n.add_argument("file", metavar="FILE", help=".mech file or bundled mechanism name")
     n.add_argument("--vehicle", choices=("car", "truck"), default="car",
                    help="vehicle class: car (1700 kg, 340 N*m) or truck (M915 class, 36 t; default car)")
+    n.add_argument("--maneuver", choices=("launch", "kickdown", "coastdown", "tipin", "tipout", "cycle"), default="launch",
+                   help="launch (from rest through the gears, the default); kickdown (full throttle from a cruise: "
+                        "power-on downshifts); coastdown (throttle off and brakes: power-off downshifts); tipin / tipout "
+                        "(a throttle step up without a shift / to zero: a power-off upshift); cycle (a driver follows "
+                        "a standard speed trace, --cycle)")
+    n.add_argument("--cycle", default=None, metavar="NAME",
+                   help="speed trace of --maneuver cycle: wltc_class3b (default) or ftp75, or a CSV file "
+                        "(time_s,speed_kmh)")
     n.add_argument("-o", "--output", metavar="FILE", help="write the scenario here (default: standard output)")
     n.add_argument("--json", action="store_true",
                    help="print what was derived as JSON (with -o; without -o the JSON replaces the TOML)")
@@ -317,7 +325,19 @@ def cmd_scenario_new(args) -> int:
         ref = Path(os.path.relpath(Path(args.file).resolve(), where)).as_posix()
     else:
         ref = Path(args.file).stem
-    text = launch_scenario(mech, args.vehicle, ref, launch)
+    from transgen.errors import ScenarioError
+
+    if args.cycle is not None and args.maneuver != "cycle":
+        raise ScenarioError("--cycle: error: --cycle goes with --maneuver cycle")
+    if args.maneuver == "launch":
+        text = launch_scenario(mech, args.vehicle, ref, launch)
+    else:
+        from .maneuver import maneuver_scenario
+
+        try:
+            text = maneuver_scenario(mech, args.vehicle, args.maneuver, ref, launch, args.cycle)
+        except ValueError as exc:
+            raise ScenarioError(f"{mech.source}:1:1: error: {exc}") from None
     for w in launch.warnings:
         print(f"warning: {w}", file=sys.stderr)
     if args.output:
@@ -327,8 +347,7 @@ def cmd_scenario_new(args) -> int:
         summary["written"] = [args.output] if args.output else []
         print(dumps(summary))
     elif args.output:
-        print(f"wrote {args.output}: {mech.name}, {args.vehicle}, gears {' '.join(launch.order)}, "
-              f"t_end {launch.t_end:g} s")
+        print(f"wrote {args.output}: {mech.name}, {args.vehicle}, {args.maneuver}, gears {' '.join(launch.order)}")
     else:
         sys.stdout.write(text)
     return 0

@@ -66,7 +66,7 @@ class SimState:
 
 #: fields of a controller that belong to its configuration, not its state
 _CONFIGURATION = ("template", "templates", "order", "throttle_points", "upshift", "downshift", "throttle", "output",
-                  "gears", "min_interval")
+                  "gears", "min_interval", "slips", "speed_first")
 
 
 def controller_state(controller) -> dict:

@@ -233,7 +233,7 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None, st
                 kind, i = f.info
                 if len(te) and kind == "control":
                     controller, what = i
-                    description = controller.fire(what, t_end, {e.name: e for e in tr.elements})
+                    description = controller.fire(what, t_end, {e.name: e for e in tr.elements}, w)
                     if description:
                         events.append(Event(t_end, "command", (), tr.mode_name(locked), tr.mode_name(locked), description))
                 if len(te) and kind == "torque":
