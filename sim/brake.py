@@ -2,11 +2,11 @@
 
 :class:`BrakedDriveline` is the :class:`~.components.Driveline` (driveshaft spring-damper, the
 vehicle and its road load) with a wheel brake torque ``brake(t)`` [N*m, the sum over the wheels,
->= 0] on the vehicle side: referred to the driveshaft it is ``brake / final_drive``, and like the
-rolling resistance it opposes the motion and fades in below 0.1 m/s
-(``tanh(v / 0.1 m/s)``), so that a braked vehicle can stand without the torque reversing at
-zero speed (a creeping converter holds it at a few cm/s where ``brake`` exceeds the creep
-torque). The brakes act at the wheels, after the driveshaft: the shaft torque ``T_out`` the
+>= 0] on the vehicle side: referred to the driveshaft it is ``brake / final_drive``; it opposes
+the motion and fades in below :data:`BRAKE_FADE_SPEED` (``tanh(v / 0.02 m/s)``, as the rolling
+resistance does below 0.1 m/s), so that a braked vehicle can stand without the torque reversing
+at zero speed (a creeping converter moves it at about a centimetre per second where ``brake``
+exceeds the creep torque well). The brakes act at the wheels, after the driveshaft: the shaft torque ``T_out`` the
 gearbox sees is the vehicle's, not the brakes'.
 
 Energy: the brake power ``brake_torque * omega_v`` leaves the system with the road load (the
@@ -28,8 +28,8 @@ from .signals import Constant, Signal
 
 __all__ = ["BrakedDriveline", "braked_driveline_rates", "brake_fade", "BRAKE_FADE_SPEED"]
 
-BRAKE_FADE_SPEED = 0.1
-"""Vehicle speed [m/s] below which the brake torque fades to zero (as the rolling resistance)."""
+BRAKE_FADE_SPEED = 0.02
+"""Vehicle speed [m/s] below which the brake torque fades to zero."""
 
 
 @compilable

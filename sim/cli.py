@@ -198,9 +198,12 @@ def cmd_simulate(args) -> int:
             written += [str(p) for p in plot_all(result, qualities, Path(args.plot), formats=formats)]
         if compare and args.plot:
             written += _comparison_plots(scenario, result, other_s, other, Path(args.plot), formats)
+    cycle = _cycle_report(scenario, result)
     if args.json:
         summary = result.summary()
         summary["report"] = report_dict(result, qualities)
+        if cycle is not None:
+            summary["cycle"] = cycle.to_dict()
         if "omega_tc" in result.signals:
             from .engine.turbo_report import turbo_report
 
@@ -222,6 +225,11 @@ def cmd_simulate(args) -> int:
         for e in result.events:
             if e.kind != "start":
                 print(f"  t = {e.t:8.4f} s  {e.kind:<7} {' '.join(e.elements):<8} {e.source} -> {e.target} {e.detail}")
+        if cycle is not None:
+            from .cycle_report import cycle_text
+
+            print()
+            print(cycle_text(cycle))
         if args.report:
             print()
             print(report_text(result, qualities))
@@ -235,6 +243,18 @@ def cmd_simulate(args) -> int:
         for w in written:
             print(f"  wrote {w}")
     return 0 if result.success else 1
+
+
+def _cycle_report(scenario, result):
+    """The drive-cycle report of a run whose scenario has a driver (:mod:`.driver`), else None."""
+    from .driver import Driver
+
+    driver = next((c for c in scenario.powertrain.controllers if isinstance(c, Driver)), None)
+    if driver is None or not len(result.time):
+        return None
+    from .cycle_report import cycle_report
+
+    return cycle_report(result, driver.trace)
 
 
 def _with_model(scenario, model: str | None):

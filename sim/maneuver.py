@@ -35,7 +35,9 @@ throttle (its ``torque_factors`` times the full-throttle turbine torque at the c
 that it slips as the engine torque rises and the rest of the torque accelerates the input, and
 releases to zero over :data:`FLARE_TIME` (the speed phase ends at synchronism before); the oncoming
 element fills at :data:`SYNC_FILL` (it drags little against the flare) and is applied at
-synchronism over ``final_time``. Units SI; the file in rpm where the scenario format wants it.
+synchronism over ``final_time``. Power-off downshifts (torque phase first) get templates of
+their own (``[auto_shift.templates]``) whose oncoming level gives the torque that raises the
+input to the new gear's speed in :data:`COAST_SYNC_TIME` (:func:`_coast_templates`). Units SI; the file in rpm where the scenario format wants it.
 """
 from __future__ import annotations
 
@@ -64,6 +66,10 @@ FLARE_HOLD = 0.8
 in a power-on downshift: the rest accelerates the input (the flare)."""
 SYNC_FILL = 0.02
 """Apply level [-] of the oncoming element while a power-on downshift flares to synchronism."""
+COAST_SYNC_TIME = 0.5
+"""Target time [s] of a power-off downshift's inertia phase (the templates' sizing)."""
+COAST_MIN_LEVEL = 0.02
+"""Lowest inertia-phase level [-] of a power-off downshift's oncoming element (it fills at half of it)."""
 MAX_CRUISE_THROTTLE = 0.8
 """Highest road-load throttle [-] a cruise may need (above it the class cannot cruise there)."""
 
@@ -203,6 +209,34 @@ def _downshift_templates(launch: Launch, mech: Mechanism, w_out: float) -> dict:
     return out
 
 
+def _coast_templates(launch: Launch, mech: Mechanism) -> dict:
+    """Power-off downshift templates (torque phase first) sized from the inertia to synchronise:
+    at the throttle-0 downshift line the input (the engine and the gearbox's input side,
+    ``J_engine + inertia / ratio^2`` of the target gear) must rise by ``w_out (r_low - r_high)`` in
+    :data:`COAST_SYNC_TIME`; the oncoming element's inertia-phase level gives that torque through
+    its static share (``torque_factors`` of the target gear), over its dynamic capacity."""
+    from .schedule import gear_swap
+
+    table = {g.name: g.engaged for g in launch.gears}
+    oneway = frozenset(e.name for e in mech.elements if e.kind == "oneway")
+    base = launch.template
+    out = {}
+    for k, (a, b) in enumerate(zip(launch.order, launch.order[1:])):
+        low, high = launch.gear(a), launch.gear(b)
+        on, _ = gear_swap(table, b, a, oneway)
+        w_out = _line(launch.downshift_rpm, k, 0.0)
+        inertia = launch.vehicle.J_engine + low.inertia / low.ratio ** 2
+        torque = inertia * w_out * (low.ratio - high.ratio) / COAST_SYNC_TIME
+        level = max([abs(low.torque_factors.get(e, 0.0)) * torque / mech.element(e).dynamic
+                     for e in on if mech.element(e).dynamic > 0] + [0.0])
+        level = min(max(level, COAST_MIN_LEVEL), base.ramp_end)
+        out[f"{b}-{a}"] = ShiftTemplate(fill_time=base.fill_time, fill_level=round(min(base.fill_level, 0.5 * level), 4),
+                                        ramp_time=0.2, ramp_end=round(level, 4), hold_time=COAST_SYNC_TIME + 0.3,
+                                        final_time=0.3, offgoing_delay=base.offgoing_delay,
+                                        offgoing_level=base.offgoing_level, offgoing_ramp=base.offgoing_ramp)
+    return out
+
+
 def derive_maneuver(mech: Mechanism, launch: Launch, kind: str) -> Maneuver:
     """The maneuver ``kind`` (one of :data:`MANEUVERS` but ``launch`` and ``cycle``) for the
     vehicle and gearbox of ``launch``; ``ValueError`` when the class cannot cruise where it needs."""
@@ -299,16 +333,17 @@ def _template_line(name: str, template: ShiftTemplate) -> str:
     return f'"{name}" = {{ ' + ", ".join(f"{k} = {_num(v)}" for k, v in template.as_data().items()) + " }"
 
 
-def add_templates(text: str, templates: dict) -> str:
+def add_templates(text: str, templates: dict, table: str = "speed_first_templates") -> str:
     """``text`` with the per-shift ``templates`` ("SOURCE-TARGET" -> template) in
-    ``[auto_shift.speed_first_templates]`` (those the text already has for a shift are kept)."""
+    ``[auto_shift.TABLE]`` (those the text already has for a shift are kept; the table, when the
+    text has it, must be its last)."""
     import tomllib
 
-    given = tomllib.loads(text).get("auto_shift", {}).get("speed_first_templates", {})
+    given = tomllib.loads(text).get("auto_shift", {}).get(table, {})
     rows = [_template_line(k, v) for k, v in templates.items() if k not in given]
     if not rows:
         return text
-    header = "[auto_shift.speed_first_templates]"
+    header = f"[auto_shift.{table}]"
     if header in text.split("\n"):
         return text.rstrip("\n") + "\n" + "\n".join(rows) + "\n"
     return text.rstrip("\n") + "\n\n" + "\n".join([header] + rows) + "\n"
@@ -360,4 +395,5 @@ def maneuver_scenario(mech: Mechanism, vehicle: str = "car", kind: str = "kickdo
     text = text.rstrip("\n") + ("\n# power-on downshifts (speed phase first): the offgoing element drops to the level at which its"
                                "\n# static capacity holds the full-throttle torque and releases over the flare; the oncoming"
                                "\n# one fills and is applied at synchronism\n")
+    text = add_templates(text, _coast_templates(lc, mech), "templates")
     return add_templates(text, m.templates)

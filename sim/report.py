@@ -191,6 +191,7 @@ def report_text(result: Result, qualities: list[ShiftQuality] | None = None) -> 
 def simulate_units(turbo: bool = False) -> dict[str, str]:
     """Units of the numeric fields of ``transgen simulate --json`` (the summary, the report and,
     for a turbocharged run, the turbocharger figures)."""
+    from .cycle_report import CYCLE_UNITS
     from .downshift_quality import DOWNSHIFT_UNITS
     from .shift_quality import SHIFT_UNITS
 
@@ -198,7 +199,7 @@ def simulate_units(turbo: bool = False) -> dict[str, str]:
              "dissipated": "J", "work_to_load": "J", "residual": "J", "relative_residual": "1", "tolerance": "J",
              "tolerance_relative": "1", "wall_time": "s", "rhs_evaluations": "1", "input_evaluations": "1", "events": "1", "segments": "1",
              "onset_fraction": "1", "ratio_tol": "1", "bindup_fraction": "1", "flare_fraction": "1", "ramp_tol": "1",
-             "overlap_fraction": "1", "energy_tol": "1"} | SHIFT_UNITS | DOWNSHIFT_UNITS
+             "overlap_fraction": "1", "energy_tol": "1"} | CYCLE_UNITS | SHIFT_UNITS | DOWNSHIFT_UNITS
     if turbo:
         from .engine.turbo_report import TURBO_UNITS
 

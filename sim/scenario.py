@@ -372,6 +372,10 @@ def _build(data: dict, source: Source, path: Path, overrides=None, access: FileA
 
             requests.append((ControllerRequest(controllers[-1]),
                              keys + (("template",) if template.torque_intervention else ("templates", intervening[0]))))
+    if "driver" in data:  # a drive cycle's driver: it commands the throttle and the brakes
+        from .driver import attach_driver
+
+        attach_driver(r, data, components, controllers, mech, tr, float(options.t_start))
     if "torque_request" in r.table(data, ("input",), S.INPUT_KEYS):
         requests.insert(0, (_request_signal(r, data, options), ("input", "torque_request")))
     if requests:
@@ -601,10 +605,11 @@ def _components(r: Reader, data: dict, mech: Mechanism, tr: Transmission) -> lis
                   r.number(dl, keys, "rolling_resistance", 0.0, minimum=0.0), r.number(dl, keys, "cd_a", 0.0, minimum=0.0),
                   r.number(dl, keys, "air_density", 1.2, positive=True), grade)
         try:
-            if "brake" in dl:  # wheel brakes (transgen.sim.brake): a torque [N*m] >= 0
+            if "brake" in dl or "driver" in data:  # wheel brakes (transgen.sim.brake): a torque [N*m] >= 0
                 from .brake import BrakedDriveline
 
-                comps.append(BrakedDriveline(li[mech.output], *params, brake=r.signal(dl["brake"], keys + ("brake",))))
+                comps.append(BrakedDriveline(li[mech.output], *params,
+                                             brake=r.signal(dl.get("brake", 0.0), keys + ("brake",))))
             else:
                 comps.append(Driveline(li[mech.output], *params))
         except ValueError as exc:

@@ -15,7 +15,8 @@ __all__ = ["TOP_KEYS", "SIMULATION_KEYS", "COMPLIANT_KEYS", "ELEMENT_KEYS", "FRI
            "LOAD_KEYS", "CONVERTER_KEYS", "DRIVELINE_KEYS", "SIGNAL_KEYS", "SIGNAL", "LEAF", "ANY", "key_tree"]
 
 TOP_KEYS = frozenset({"mechanism", "include", "title", "description", "simulation", "compliant", "initial", "input",
-                      "load", "driveline", "elements", "shifts", "auto_shift", "output", "report", "converter"})
+                      "load", "driveline", "elements", "shifts", "auto_shift", "output", "report", "converter",
+                      "driver"})
 SIMULATION_KEYS = frozenset({"t_start", "t_end", "model", "method", "rtol", "atol", "max_step", "output_dt", "slip_tol",
                              "energy_tol", "coordinates", "modes"})
 COMPLIANT_KEYS = frozenset({"stiffness", "damping"})
@@ -60,6 +61,7 @@ def key_tree(elements=None, links=None) -> dict:
     :data:`SIGNAL`; a one-entry list ``[subtree]`` is an array of tables (keys are indices).
     ``elements`` and ``links`` are the mechanism's shift-element and link names (None: any
     name, the key :data:`ANY`)."""
+    from .driver import DRIVER_KEYS
     from .powertrain import ENGINE_KEYS, GAS_KEYS, GOVERNOR_KEYS, PORT_KEYS, SHAFT_KEYS, SOLVER_KEYS
     from .schedule import ShiftTemplate
 
@@ -84,5 +86,6 @@ def key_tree(elements=None, links=None) -> dict:
                  input=table(INPUT_KEYS, governor=_leaves(GOVERNOR_KEYS), engine=_leaves(ENGINE_KEYS),
                              shaft=_leaves(SHAFT_KEYS), ports=_leaves(PORT_KEYS), air=_leaves(GAS_KEYS),
                              exhaust=_leaves(GAS_KEYS), turbo_solver=_leaves(SOLVER_KEYS)),
-                 load=[table(LOAD_KEYS, torque=LEAF)], converter=_leaves(CONVERTER_KEYS), driveline=table(DRIVELINE_KEYS))
+                 load=[table(LOAD_KEYS, torque=LEAF)], converter=_leaves(CONVERTER_KEYS), driveline=table(DRIVELINE_KEYS),
+                 driver=_leaves(DRIVER_KEYS))
     return tree

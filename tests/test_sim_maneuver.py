@@ -88,8 +88,8 @@ def test_braked_driveline_opposes_motion_fades_at_rest_and_compiles_alike():
     numbers = (8000.0, 150.0, 10.0, 1700.0, 0.0, 0.0, 1.2, 0.0, 0.33, 3.0)
     _, _, free, _, p_free = braked_driveline_rates(0.0, 30.0, 30.0, 0.0, *numbers)
     _, _, braked, _, p_braked = braked_driveline_rates(0.0, 30.0, 30.0, 900.0, *numbers)
-    assert braked - free == pytest.approx(-900.0 / 3.0 / 10.0 * math.tanh(30.0 * 0.11 / 0.1))
-    assert p_braked - p_free == pytest.approx(900.0 / 3.0 * math.tanh(33.0) * 30.0)
+    assert braked - free == pytest.approx(-900.0 / 3.0 / 10.0 * math.tanh(30.0 * 0.11 / 0.02))
+    assert p_braked - p_free == pytest.approx(900.0 / 3.0 * math.tanh(165.0) * 30.0)
     _, _, rest, _, _ = braked_driveline_rates(0.0, 0.0, 0.0, 900.0, *numbers)
     assert rest == 0.0                                   # no torque at rest: a stopped vehicle stays
     assert braked_driveline_rates(0.0, 30.0, 30.0, -5.0, *numbers) == braked_driveline_rates(0.0, 30.0, 30.0, 0.0,
