@@ -356,6 +356,8 @@ def cmd_scenario_new(args) -> int:
 
         try:
             text = maneuver_scenario(mech, args.vehicle, args.maneuver, ref, launch, args.cycle)
+        except ScenarioError:
+            raise
         except ValueError as exc:
             raise ScenarioError(f"{mech.source}:1:1: error: {exc}") from None
     for w in launch.warnings:
@@ -364,6 +366,7 @@ def cmd_scenario_new(args) -> int:
         write_text(args.output, text)
     if args.json:
         summary = launch.to_dict()
+        summary["maneuver"] = _maneuver_summary(mech, launch, args.maneuver, args.cycle)
         summary["written"] = [args.output] if args.output else []
         print(dumps(summary))
     elif args.output:
@@ -371,6 +374,24 @@ def cmd_scenario_new(args) -> int:
     else:
         sys.stdout.write(text)
     return 0
+
+
+def _maneuver_summary(mech, launch, kind: str, cycle: str | None) -> dict:
+    """What ``scenario new --json`` says of the maneuver: its kind and, for a maneuver from a
+    cruise, the cruise (gear, speed [m/s], throttle), the throttle and brake [N*m] after the step,
+    ``t_end`` [s] and the shifts expected."""
+    out = {"kind": kind}
+    if kind == "cycle":
+        from .cycles import DEFAULT_CYCLE
+
+        out["cycle"] = cycle or DEFAULT_CYCLE
+    elif kind != "launch":
+        from .maneuver import derive_maneuver
+
+        m = derive_maneuver(mech, launch, kind)
+        out.update({"gear": m.gear, "speed": m.speed, "throttle": m.throttle, "throttle_after": m.throttle_after,
+                    "brake": m.brake, "t_end": m.t_end, "expected_shifts": list(m.expected)})
+    return out
 
 
 def cmd_scenario_keys(args) -> int:

@@ -1,5 +1,5 @@
-"""Standard drive cycles: the speed traces shipped as data, the WLTP tolerance rule and the
-``scenario new --maneuver cycle`` text.
+"""Standard drive cycles: the speed traces shipped as data and the WLTP tolerance rule (the
+``scenario new --maneuver cycle`` text is :func:`~.maneuver.cycle_scenario`'s).
 
 Bundled traces (``sim/data/cycles/*.csv``, ``time_s,speed_kmh`` at 1 Hz, each with a header
 naming its regulation and where the numbers were extracted from):
@@ -25,7 +25,7 @@ import numpy as np
 from transgen.errors import ScenarioError
 
 __all__ = ["SpeedTrace", "load_trace", "bundled_cycles", "tracking", "Tracking", "TOLERANCE_KMH",
-           "TOLERANCE_S", "CYCLE_DIR", "MAX_TRACE_POINTS", "cycle_scenario"]
+           "TOLERANCE_S", "CYCLE_DIR", "MAX_TRACE_POINTS", "DEFAULT_CYCLE", "band"]
 
 CYCLE_DIR = Path(__file__).parent / "data" / "cycles"
 TOLERANCE_KMH = 2.0
@@ -183,37 +183,3 @@ def tracking(trace: SpeedTrace, t: np.ndarray, v: np.ndarray) -> Tracking:
                     float(t[k]) if len(out) and bad[k] else None,
                     float(np.sqrt(np.mean(err ** 2))) if len(t) else 0.0,
                     float(np.max(np.abs(err))) if len(t) else 0.0)
-
-
-def cycle_scenario(mech, launch, text: str, cycle: str | None) -> str:
-    """The drive-cycle scenario (TOML text) from the launch scenario ``text``: from rest in first
-    gear, the driver (:mod:`.driver`) following the trace ``cycle`` (default ``wltc_class3b``) on
-    throttle and wheel brakes, the automatic schedule with its speed-phase-first templates."""
-    from .launch import _num
-    from .maneuver import _coast_templates, _downshift_templates, add_templates, set_key
-
-    name = cycle or DEFAULT_CYCLE
-    trace = load_trace(name, Path.cwd())
-    ref = name if name in bundled_cycles() else str(Path(name).resolve())
-    vc = launch.vehicle
-    header = [f"# Drive cycle {trace.name} for {mech.name}: {vc.description}.",
-              "# Written by 'transgen scenario new --maneuver cycle': the driver model (transgen.sim.driver: a",
-              "# PI speed controller with feed-forward, on throttle and wheel brakes) follows the speed trace from",
-              f"# rest; the automatic schedule shifts. Trace: {trace.source[:300]}",
-              "# The launch derivation below gives the gears, capacities, final drive and shift lines.", "#"]
-    text = "\n".join(header) + "\n" + text
-    text = set_key(text, "", "title", f'title = "{mech.name}: drive cycle {trace.name} of a {vc.name}"')
-    text = set_key(text, "simulation", "t_end", f"t_end = {_num(trace.times[-1])}              # s: the whole trace")
-    text = set_key(text, "simulation", "output_dt", "output_dt = 0.1")
-    text = set_key(text, "simulation", "rtol", "rtol = 1e-6             # a cycle: energy residual ~1e-5 of the work in")
-    text = set_key(text, "simulation", "atol", "atol = 1e-6")
-    lines = text.split("\n")
-    lines = [x for x in lines if not x.startswith("throttle_signal =")]  # the driver commands the throttle
-    text = "\n".join(lines)
-    w_mid = 0.5 * (launch.upshift_rpm[-1][0] + launch.downshift_rpm[-1][1]) * 2 * math.pi / 60
-    text = add_templates(text, _coast_templates(launch, mech), "templates")
-    text = add_templates(text, _downshift_templates(launch, mech, w_mid))
-    text = text.rstrip("\n") + "\n\n[driver]                # speed-tracking driver (transgen.sim.driver)\n" \
-                               f'trace = "{ref}"\n' \
-                               "# it commands [input] throttle, [auto_shift] throttle and the wheel brakes\n"
-    return text

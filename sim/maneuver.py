@@ -17,8 +17,9 @@ template, vehicle class) and changes what the maneuver needs:
                down the throttle-0 lines to low speed;
 ``tipin``      the same cruise; the throttle rises to the highest level that does not cross a
                downshift line (no shift: the driveline's response to the torque step);
-``tipout``     cruising in a middle gear; the throttle goes to 0 and the throttle-0 upshift line
-               lies below the speed: a power-off upshift (speed phase first);
+``tipout``     cruising in a middle gear at a speed between its upshift line at throttle 0 and
+               at 0.9 x :data:`~.schedule.POWER_ON_THROTTLE`; the throttle goes to 0 and crosses
+               the line below the power-on throttle: a power-off upshift (speed phase first);
 ``cycle``      a drive cycle (:mod:`.cycles`): the driver model of :mod:`.driver` follows a
                standard speed trace, from rest in first gear.
 
@@ -35,21 +36,24 @@ throttle (its ``torque_factors`` times the full-throttle turbine torque at the c
 that it slips as the engine torque rises and the rest of the torque accelerates the input, and
 releases to zero over :data:`FLARE_TIME` (the speed phase ends at synchronism before); the oncoming
 element fills at :data:`SYNC_FILL` (it drags little against the flare) and is applied at
-synchronism over ``final_time``. Power-off downshifts (torque phase first) get templates of
+synchronism over ``final_time``; a power-off upshift (speed phase first too) the same, its
+offgoing element dropping to 0.05 (it carries the small coast torque). Power-off downshifts (torque phase first) get templates of
 their own (``[auto_shift.templates]``) whose oncoming level gives the torque that raises the
 input to the new gear's speed in :data:`COAST_SYNC_TIME` (:func:`_coast_templates`). Units SI; the file in rpm where the scenario format wants it.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from pathlib import Path
 
 from transgen.model import Mechanism
 
 from .launch import RPM, Launch, _converter_match, _num, _road_force, derive_launch, launch_scenario
-from .schedule import ShiftTemplate
+from .schedule import POWER_ON_THROTTLE, ShiftTemplate
 
 __all__ = ["MANEUVERS", "ManeuverClass", "MANEUVER_CLASSES", "Maneuver", "derive_maneuver", "maneuver_scenario",
+           "cycle_scenario", "set_key", "add_templates",
            "cruise_throttle", "T_STEP", "PEDAL_TIME", "FLARE_TIME", "SYNC_FILL"]
 
 MANEUVERS = ("launch", "kickdown", "coastdown", "tipin", "tipout", "cycle")
@@ -206,6 +210,8 @@ def _downshift_templates(launch: Launch, mech: Mechanism, w_out: float) -> dict:
         out[f"{b}-{a}"] = ShiftTemplate(fill_time=base.fill_time, fill_level=SYNC_FILL, ramp_time=0.4,
                                         ramp_end=base.ramp_end, hold_time=0.4, final_time=0.15, offgoing_delay=0.0,
                                         offgoing_level=round(min(level, 1.0), 3), offgoing_ramp=FLARE_TIME)
+        # a power-off upshift a -> b: the offgoing element carries the small coast torque
+        out[f"{a}-{b}"] = replace(out[f"{b}-{a}"], offgoing_level=0.05)
     return out
 
 
@@ -256,7 +262,8 @@ def derive_maneuver(mech: Mechanism, launch: Launch, kind: str) -> Maneuver:
                 break
     else:  # tipout: a gear held at the cruise throttle whose throttle-0 upshift line lies below
         for k in range(n - 2, -1, -1):
-            extra = (lambda thr, k=k: _line(launch.upshift_rpm, k, 0.0), never[1])
+            extra = (lambda thr, k=k: _line(launch.upshift_rpm, k, 0.0),  # crossed below the power-on throttle
+                     lambda thr, k=k: _line(launch.upshift_rpm, k, 0.9 * POWER_ON_THROTTLE))
             cruise = _cruise(launch, k, *_held_band(launch, k, extra))
             if cruise is not None:
                 found = (k, *cruise)
@@ -358,8 +365,6 @@ def maneuver_scenario(mech: Mechanism, vehicle: str = "car", kind: str = "kickdo
         return launch_scenario(mech, vehicle, mechanism_ref, lc)
     text = launch_scenario(mech, vehicle, mechanism_ref, lc)
     if kind == "cycle":
-        from .cycles import cycle_scenario
-
         return cycle_scenario(mech, lc, text, cycle)
     m = derive_maneuver(mech, lc, kind)
     vc = lc.vehicle
@@ -397,3 +402,36 @@ def maneuver_scenario(mech: Mechanism, vehicle: str = "car", kind: str = "kickdo
                                "\n# one fills and is applied at synchronism\n")
     text = add_templates(text, _coast_templates(lc, mech), "templates")
     return add_templates(text, m.templates)
+
+
+def cycle_scenario(mech, launch, text: str, cycle: str | None) -> str:
+    """The drive-cycle scenario (TOML text) from the launch scenario ``text``: from rest in first
+    gear, the driver (:mod:`.driver`) following the trace ``cycle`` (default ``wltc_class3b``) on
+    throttle and wheel brakes, the automatic schedule with its speed-phase-first templates."""
+    from .cycles import DEFAULT_CYCLE, bundled_cycles, load_trace
+
+    name = cycle or DEFAULT_CYCLE
+    trace = load_trace(name, Path.cwd())
+    ref = name if name in bundled_cycles() else str(Path(name).resolve())
+    vc = launch.vehicle
+    header = [f"# Drive cycle {trace.name} for {mech.name}: {vc.description}.",
+              "# Written by 'transgen scenario new --maneuver cycle': the driver model (transgen.sim.driver: a",
+              "# PI speed controller with feed-forward, on throttle and wheel brakes) follows the speed trace from",
+              f"# rest; the automatic schedule shifts. Trace: {trace.source[:300]}",
+              "# The launch derivation below gives the gears, capacities, final drive and shift lines.", "#"]
+    text = "\n".join(header) + "\n" + text
+    text = set_key(text, "", "title", f'title = "{mech.name}: drive cycle {trace.name} of a {vc.name}"')
+    text = set_key(text, "simulation", "t_end", f"t_end = {_num(trace.times[-1])}              # s: the whole trace")
+    text = set_key(text, "simulation", "output_dt", "output_dt = 0.1")
+    text = set_key(text, "simulation", "rtol", "rtol = 1e-6             # a cycle: energy residual ~1e-5 of the work in")
+    text = set_key(text, "simulation", "atol", "atol = 1e-6")
+    lines = text.split("\n")
+    lines = [x for x in lines if not x.startswith("throttle_signal =")]  # the driver commands the throttle
+    text = "\n".join(lines)
+    w_mid = 0.5 * (launch.upshift_rpm[-1][0] + launch.downshift_rpm[-1][1]) * RPM
+    text = add_templates(text, _coast_templates(launch, mech), "templates")
+    text = add_templates(text, _downshift_templates(launch, mech, w_mid))
+    text = text.rstrip("\n") + "\n\n[driver]                # speed-tracking driver (transgen.sim.driver)\n" \
+                               f'trace = "{ref}"\n' \
+                               "# it commands [input] throttle, [auto_shift] throttle and the wheel brakes\n"
+    return text

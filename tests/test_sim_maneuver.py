@@ -105,7 +105,7 @@ def test_scenario_brake_key_and_cli_maneuvers(tmp_path, capsys):
     assert main(["scenario", "new", "ht740", "--vehicle", "truck", "--maneuver", "coastdown", "-o", str(out)]) == 0
     data = tomllib.loads(out.read_text())
     assert data["driveline"]["brake"]["type"] == "ramp"
-    assert set(data["auto_shift"]["speed_first_templates"]) == {"2-1", "3-2", "4-3"}
+    assert set(data["auto_shift"]["speed_first_templates"]) == {"2-1", "3-2", "4-3", "1-2", "2-3", "3-4"}
     assert data["initial"]["driveshaft"] == "settled" and data["initial"]["gear"] == "4"
     assert main(["scenario", "new", "ht740", "--maneuver", "kickdown", "--cycle", "ftp75"]) == 2
     assert "--cycle goes with --maneuver cycle" in capsys.readouterr().err
