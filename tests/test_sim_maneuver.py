@@ -130,3 +130,16 @@ def test_sync_band_is_a_fraction_of_the_slip_at_the_command():
     assert elements[name].apply_at(1.5) == pytest.approx(shift.speed_first.get("4-3", shift.template).fill_level)
     assert shift.fire("sync", 1.6, elements).startswith("synchronism: apply")
     assert elements[name].apply_at(1.6 + shift.template.final_time) == 1.0 and not shift.pending
+
+
+def test_tipout_upshifts_power_off_speed_phase_first_and_tipin_does_not_shift(tmp_path):
+    mech, launch, m, result, report = _run("zf8hp70", "car", "tipout", tmp_path)
+    commands = [e.detail for e in result.events if e.kind == "command"]
+    assert commands[0].startswith(f"upshift {m.expected[0]} ") and commands[0].endswith("; power-off)")
+    assert commands[1].startswith("synchronism: apply")
+    (q,) = report
+    assert q.direction == "upshift" and q.completed   # (the lift-off reverses the torque: no bindup test)
+    assert q.flare_max_rpm < 150.0
+    _, _, m, result, report = _run("zf8hp70", "car", "tipin", tmp_path)
+    assert m.throttle < m.throttle_after < 1.0 and report == []
+    assert not [e for e in result.events if e.kind == "command"]
