@@ -53,6 +53,14 @@ def add_commands(sub) -> None:
     n.add_argument("file", metavar="FILE", help=".mech file or bundled mechanism name")
     n.add_argument("--vehicle", choices=("car", "truck"), default="car",
                    help="vehicle class: car (1700 kg, 340 N*m) or truck (M915 class, 36 t; default car)")
+    n.add_argument("--maneuver", choices=("launch", "kickdown", "coastdown", "tipin", "tipout", "cycle"), default="launch",
+                   help="launch (from rest through the gears, the default); kickdown (full throttle from a cruise: "
+                        "power-on downshifts); coastdown (throttle off and brakes: power-off downshifts); tipin / tipout "
+                        "(a throttle step up without a shift / to zero: a power-off upshift); cycle (a driver follows "
+                        "a standard speed trace, --cycle)")
+    n.add_argument("--cycle", default=None, metavar="NAME",
+                   help="speed trace of --maneuver cycle: wltc_class3b (default) or ftp75, or a CSV file "
+                        "(time_s,speed_kmh)")
     n.add_argument("-o", "--output", metavar="FILE", help="write the scenario here (default: standard output)")
     n.add_argument("--json", action="store_true",
                    help="print what was derived as JSON (with -o; without -o the JSON replaces the TOML)")
@@ -190,9 +198,12 @@ def cmd_simulate(args) -> int:
             written += [str(p) for p in plot_all(result, qualities, Path(args.plot), formats=formats)]
         if compare and args.plot:
             written += _comparison_plots(scenario, result, other_s, other, Path(args.plot), formats)
+    cycle = _cycle_report(scenario, result)
     if args.json:
         summary = result.summary()
         summary["report"] = report_dict(result, qualities)
+        if cycle is not None:
+            summary["cycle"] = cycle.to_dict()
         if "omega_tc" in result.signals:
             from .engine.turbo_report import turbo_report
 
@@ -214,6 +225,11 @@ def cmd_simulate(args) -> int:
         for e in result.events:
             if e.kind != "start":
                 print(f"  t = {e.t:8.4f} s  {e.kind:<7} {' '.join(e.elements):<8} {e.source} -> {e.target} {e.detail}")
+        if cycle is not None:
+            from .cycle_report import cycle_text
+
+            print()
+            print(cycle_text(cycle))
         if args.report:
             print()
             print(report_text(result, qualities))
@@ -227,6 +243,18 @@ def cmd_simulate(args) -> int:
         for w in written:
             print(f"  wrote {w}")
     return 0 if result.success else 1
+
+
+def _cycle_report(scenario, result):
+    """The drive-cycle report of a run whose scenario has a driver (:mod:`.driver`), else None."""
+    from .driver import Driver
+
+    driver = next((c for c in scenario.powertrain.controllers if isinstance(c, Driver)), None)
+    if driver is None or not len(result.time):
+        return None
+    from .cycle_report import cycle_report
+
+    return cycle_report(result, driver.trace)
 
 
 def _with_model(scenario, model: str | None):
@@ -317,21 +345,53 @@ def cmd_scenario_new(args) -> int:
         ref = Path(os.path.relpath(Path(args.file).resolve(), where)).as_posix()
     else:
         ref = Path(args.file).stem
-    text = launch_scenario(mech, args.vehicle, ref, launch)
+    from transgen.errors import ScenarioError
+
+    if args.cycle is not None and args.maneuver != "cycle":
+        raise ScenarioError("--cycle: error: --cycle goes with --maneuver cycle")
+    if args.maneuver == "launch":
+        text = launch_scenario(mech, args.vehicle, ref, launch)
+    else:
+        from .maneuver import maneuver_scenario
+
+        try:
+            text = maneuver_scenario(mech, args.vehicle, args.maneuver, ref, launch, args.cycle)
+        except ScenarioError:
+            raise
+        except ValueError as exc:
+            raise ScenarioError(f"{mech.source}:1:1: error: {exc}") from None
     for w in launch.warnings:
         print(f"warning: {w}", file=sys.stderr)
     if args.output:
         write_text(args.output, text)
     if args.json:
         summary = launch.to_dict()
+        summary["maneuver"] = _maneuver_summary(mech, launch, args.maneuver, args.cycle)
         summary["written"] = [args.output] if args.output else []
         print(dumps(summary))
     elif args.output:
-        print(f"wrote {args.output}: {mech.name}, {args.vehicle}, gears {' '.join(launch.order)}, "
-              f"t_end {launch.t_end:g} s")
+        print(f"wrote {args.output}: {mech.name}, {args.vehicle}, {args.maneuver}, gears {' '.join(launch.order)}")
     else:
         sys.stdout.write(text)
     return 0
+
+
+def _maneuver_summary(mech, launch, kind: str, cycle: str | None) -> dict:
+    """What ``scenario new --json`` says of the maneuver: its kind and, for a maneuver from a
+    cruise, the cruise (gear, speed [m/s], throttle), the throttle and brake [N*m] after the step,
+    ``t_end`` [s] and the shifts expected."""
+    out = {"kind": kind}
+    if kind == "cycle":
+        from .cycles import DEFAULT_CYCLE
+
+        out["cycle"] = cycle or DEFAULT_CYCLE
+    elif kind != "launch":
+        from .maneuver import derive_maneuver
+
+        m = derive_maneuver(mech, launch, kind)
+        out.update({"gear": m.gear, "speed": m.speed, "throttle": m.throttle, "throttle_after": m.throttle_after,
+                    "brake": m.brake, "t_end": m.t_end, "expected_shifts": list(m.expected)})
+    return out
 
 
 def cmd_scenario_keys(args) -> int:

@@ -439,7 +439,7 @@ class Driveline(Component):
         """d(road torque)/d(omega_v) [N*m*s/rad] (the grade term is constant)."""
         g = self.wheel_radius / self.final_drive
         v = omega_v * g
-        rolling = self.rolling * self.mass * GRAVITY * math.cos(self.grade) / 0.1 / np.cosh(v / 0.1) ** 2
+        rolling = self.rolling * self.mass * GRAVITY * math.cos(self.grade) / 0.1 * (1.0 - np.tanh(v / 0.1) ** 2)
         return (rolling + self.air_density * self.cd_a * np.abs(v)) * g * g
 
     def sample_rates(self, ts, X, W, A):

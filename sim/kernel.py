@@ -44,6 +44,7 @@ The integers and numbers of each component kind, as its ``kernel_form()`` gives 
 ``driveline``         (output link), (stiffness, damping, J_v, mass, rolling, grade, air density,
                       cd_a, wheel radius, final drive)
 ``converter``         (pump link, turbine link, n_drive, n_coast), the converter's tables
+``braked_driveline``  as ``driveline``; signal: the wheel brake torque (:mod:`.brake`)
 
 Size: about 530 lines, over the project's 500: the kernel and the description it reads are one
 concept, kept together so that the layout written and the layout read cannot drift apart.
@@ -54,6 +55,7 @@ import math
 
 import numpy as np
 
+from .brake import braked_driveline_rates
 from .components import (driveline_rates, engine_converter_rates, governed_throttle, link_load_torque, requested_torque,
                          converter_loss, own_kernel_form)
 from .engine.torque_converter import converter_torques
@@ -69,7 +71,7 @@ SIGNAL_KINDS = {"constant": 1, "step": 2, "ramp": 3, "table": 4, "sine": 5, "pul
                 "spliced": 9}
 _SUM, _SPLICED, _EXTERNAL = 8, 9, 10
 COMPONENT_KINDS = {"input_torque": 1, "engine_on_link": 2, "engine_converter": 3, "link_load": 4, "driveline": 5,
-                   "converter": 6}
+                   "converter": 6, "braked_driveline": 7}
 _RECORD = 8
 _SQRT_EPS = math.sqrt(np.finfo(float).eps)
 
@@ -224,6 +226,15 @@ def _evaluate(t, y, P, F, S, G, ext, u, out):
             u[P[coff]] += -pump
             u[P[coff + 1]] += turbine
             diss += converter_loss(pump, turbine, wp, wt)
+        elif kind == 7:  # driveline and vehicle with wheel brakes
+            shaft, d_theta, d_omega, loss, power = braked_driveline_rates(
+                y[pos], y[pos + 1], w[P[ioff]], signal_value(t, P[soff], P[soff + 1], P, F, ext), F[foff], F[foff + 1],
+                F[foff + 2], F[foff + 3], F[foff + 4], F[foff + 5], F[foff + 6], F[foff + 7], F[foff + 8], F[foff + 9])
+            u[P[coff]] += shaft
+            out[pos] = d_theta
+            out[pos + 1] = d_omega
+            diss += loss
+            p_load += power
     # the slipping elements (Transmission.slipping_set): (element, input column), signed capacity
     dof_pc = S[10]
     for k in range(S[4]):

@@ -68,7 +68,7 @@ LAUNCH_UNITS = {"ratio": "1", "torque_factors": "1", "output_inertia": "kg*m^2",
                 "final_drive": "1", "fill_time": "s", "fill_level": "1", "ramp_time": "s", "ramp_end": "1",
                 "hold_time": "s", "final_time": "s", "offgoing_delay": "s", "offgoing_level": "1", "offgoing_ramp": "s",
                 "upshift_rpm": "rpm", "downshift_rpm": "rpm", "min_interval": "s", "estimated_shift_times": "s",
-                "t_end": "s"}
+                "t_end": "s", "speed": "m/s", "throttle": "1", "throttle_after": "1", "brake": "N*m"}
 """Units of the numeric fields of ``transgen scenario new --json`` (shift lines: output speed, rev/min)."""
 MAX_LAUNCH_TIME = 300.0
 """Longest launch [s] the estimate allows before it calls the top gear unreachable."""

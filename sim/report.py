@@ -55,7 +55,7 @@ def _f(x, fmt=".3f", unit=""):
     return f"{x:{fmt}}{(' ' + unit) if unit else ''}"
 
 
-def _shift_text(q: ShiftQuality) -> str:
+def _shift_text(q: ShiftQuality, downshift: dict | None = None) -> str:
     lines = [f"Shift {q.name}{' (' + q.direction + ')' if q.direction else ''}: oncoming {q.oncoming}, "
              f"offgoing {q.offgoing}, command at {q.t_start:.3f} s"
              + ("" if q.completed else "  (NOT COMPLETED)"),
@@ -95,6 +95,10 @@ def _shift_text(q: ShiftQuality) -> str:
                            if q.forced_unlock else
                            f"no (reversed overlap {q.forced_duration * 1e3:.1f} ms)")),
     ]
+    if downshift is not None:
+        from .downshift_quality import downshift_text
+
+        kv.append(("synchronism", downshift_text(downshift, q)))
     if q.torque_request_min is not None:
         parts = ([f"up to x{q.torque_request_max:.3f} for {q.torque_increase_duration:.3f} s"]
                  if q.torque_request_max > 1.0 else [])
@@ -160,7 +164,9 @@ def report_text(result: Result, qualities: list[ShiftQuality] | None = None) -> 
             f"run {'completed' if result.success else 'FAILED'}: {result.message}",
             f"time {float(result.time[0]):.3f} .. {float(result.time[-1]):.3f} s, {len(result.time)} samples"
             if len(result.time) else "no samples", ""]
-    body = [_shift_text(q) + "\n" for q in qualities] or ["no shifts found\n"]
+    from .downshift_quality import downshift_figures
+
+    body = [_shift_text(q, downshift_figures(result, q)) + "\n" for q in qualities] or ["no shifts found\n"]
     eb = energy_balance(result)
     bal = ["Energy balance [J]"]
     for k in ("work_in", "stored_change", "dissipated", "work_to_load", "residual"):
@@ -185,18 +191,32 @@ def report_text(result: Result, qualities: list[ShiftQuality] | None = None) -> 
 def simulate_units(turbo: bool = False) -> dict[str, str]:
     """Units of the numeric fields of ``transgen simulate --json`` (the summary, the report and,
     for a turbocharged run, the turbocharger figures)."""
+    from .cycle_report import CYCLE_UNITS
+    from .downshift_quality import DOWNSHIFT_UNITS
     from .shift_quality import SHIFT_UNITS
 
     units = {"t": "s", "t0": "s", "t1": "s", "t_start": "s", "t_end": "s", "work_in": "J", "stored_change": "J",
              "dissipated": "J", "work_to_load": "J", "residual": "J", "relative_residual": "1", "tolerance": "J",
              "tolerance_relative": "1", "wall_time": "s", "rhs_evaluations": "1", "input_evaluations": "1", "events": "1", "segments": "1",
              "onset_fraction": "1", "ratio_tol": "1", "bindup_fraction": "1", "flare_fraction": "1", "ramp_tol": "1",
-             "overlap_fraction": "1", "energy_tol": "1"} | SHIFT_UNITS
+             "overlap_fraction": "1", "energy_tol": "1"} | CYCLE_UNITS | SHIFT_UNITS | DOWNSHIFT_UNITS
     if turbo:
         from .engine.turbo_report import TURBO_UNITS
 
         units |= TURBO_UNITS
     return units
+
+
+def _shift_dict(result: Result, q: ShiftQuality) -> dict:
+    """A shift's JSON: its :class:`ShiftQuality` and, for a downshift, ``downshift``
+    (:mod:`.downshift_quality`)."""
+    from .downshift_quality import downshift_figures
+
+    out = q.to_dict()
+    figures = downshift_figures(result, q)
+    if figures is not None:
+        out["downshift"] = figures
+    return out
 
 
 def report_dict(result: Result, qualities: list[ShiftQuality] | None = None) -> dict:
@@ -215,7 +235,7 @@ def report_dict(result: Result, qualities: list[ShiftQuality] | None = None) -> 
                        "bindup_fraction": BINDUP_FRACTION, "flare_fraction": FLARE_FRACTION,
                        "ramp_tol": RAMP_TOL, "overlap_fraction": OVERLAP_FRACTION, "overlap_min_s": OVERLAP_MIN,
                        "energy_tol": ENERGY_TOL, "post_window_s": POST_WINDOW, "settle_fraction": SETTLE_FRACTION},
-        "shifts": [q.to_dict() for q in qualities],
+        "shifts": [_shift_dict(result, q) for q in qualities],
         "energy_balance": energy_balance(result),
         "stats": dict(result.stats or {}),
         "modes": [{"name": m.name, "t0": m.t0, "t1": m.t1, "locked": list(m.locked)} for m in result.modes],

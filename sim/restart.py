@@ -66,7 +66,10 @@ class SimState:
 
 #: fields of a controller that belong to its configuration, not its state
 _CONFIGURATION = ("template", "templates", "order", "throttle_points", "upshift", "downshift", "throttle", "output",
-                  "gears", "min_interval")
+                  "gears", "min_interval", "slips", "speed_first",
+                  # a drive cycle's driver (transgen.sim.driver)
+                  "trace", "input", "engine", "idle", "final_drive", "wheel_radius", "mass", "road_force", "schedule",
+                  "ratios", "dt", "kp", "ki", "preview", "brake_max", "hold_brake", "converter", "t_start")
 
 
 def controller_state(controller) -> dict:

@@ -348,20 +348,22 @@ def _build(data: dict, source: Source, path: Path, overrides=None, access: FileA
         throttle = r.signal(auto_t.get("throttle_signal", 1.0), keys + ("throttle_signal",))
         template = _template(r, data, keys + ("template",))
         shifts_of_order = {f"{a}-{b}" for a, b in zip(order, order[1:])} | {f"{b}-{a}" for a, b in zip(order, order[1:])}
-        templates = {}
-        for name in r.table(data, keys + ("templates",), None):
-            if name not in shifts_of_order:
-                close = difflib.get_close_matches(name, sorted(shifts_of_order), n=1)
-                raise r.error(keys + ("templates", name), f"templates: {shown(name)} is no shift of the order (\"SOURCE-TARGET\" "
-                              f"of neighbouring gears" + (f"; did you mean '{close[0]}'?)" if close else ")"))
-            where = keys + ("templates", name)
-            given = r.table(data, where, set(ShiftTemplate.__dataclass_fields__))  # over the schedule's template
-            templates[name] = replace(template, **{k: r.number(given, where, k, minimum=0.0) for k in given})
+        templates, speed_first = {}, {}
+        for table_key, out in (("templates", templates), ("speed_first_templates", speed_first)):
+            for name in r.table(data, keys + (table_key,), None):
+                if name not in shifts_of_order:
+                    close = difflib.get_close_matches(name, sorted(shifts_of_order), n=1)
+                    raise r.error(keys + (table_key, name), f"{table_key}: {shown(name)} is no shift of the order "
+                                  f"(\"SOURCE-TARGET\" of neighbouring gears" + (f"; did you mean '{close[0]}'?)" if close else ")"))
+                where = keys + (table_key, name)
+                given = r.table(data, where, set(ShiftTemplate.__dataclass_fields__))  # over the schedule's template
+                out[name] = replace(template, **{k: r.number(given, where, k, minimum=0.0) for k in given})
         min_interval = r.number(auto_t, keys, "min_interval", 2.0, minimum=0.0)
         try:
             controllers.append(AutoShift(order, thr, up, down, throttle, tr.link_index[mech.output], gears,
                                          template, min_interval, gear=init_gear if "gear" in init_t else order[0],
-                                         templates=templates))
+                                         templates=templates, speed_first=speed_first,
+                                         slips={e.name: tuple(float(c) for c in tr.P[i]) for i, e in enumerate(tr.elements)}))
         except ValueError as exc:
             raise r.error(keys, str(exc)) from None
         intervening = [name for name, tm in templates.items() if tm.torque_intervention]
@@ -370,6 +372,10 @@ def _build(data: dict, source: Source, path: Path, overrides=None, access: FileA
 
             requests.append((ControllerRequest(controllers[-1]),
                              keys + (("template",) if template.torque_intervention else ("templates", intervening[0]))))
+    if "driver" in data:  # a drive cycle's driver: it commands the throttle and the brakes
+        from .driver import attach_driver
+
+        attach_driver(r, data, components, controllers, mech, tr, float(options.t_start))
     if "torque_request" in r.table(data, ("input",), S.INPUT_KEYS):
         requests.insert(0, (_request_signal(r, data, options), ("input", "torque_request")))
     if requests:
@@ -599,7 +605,13 @@ def _components(r: Reader, data: dict, mech: Mechanism, tr: Transmission) -> lis
                   r.number(dl, keys, "rolling_resistance", 0.0, minimum=0.0), r.number(dl, keys, "cd_a", 0.0, minimum=0.0),
                   r.number(dl, keys, "air_density", 1.2, positive=True), grade)
         try:
-            comps.append(Driveline(li[mech.output], *params))
+            if "brake" in dl or "driver" in data:  # wheel brakes (transgen.sim.brake): a torque [N*m] >= 0
+                from .brake import BrakedDriveline
+
+                comps.append(BrakedDriveline(li[mech.output], *params,
+                                             brake=r.signal(dl.get("brake", 0.0), keys + ("brake",))))
+            else:
+                comps.append(Driveline(li[mech.output], *params))
         except ValueError as exc:
             raise r.error(keys, str(exc)) from None
     elif "output_torque" in dl:

@@ -15,7 +15,8 @@ __all__ = ["TOP_KEYS", "SIMULATION_KEYS", "COMPLIANT_KEYS", "ELEMENT_KEYS", "FRI
            "LOAD_KEYS", "CONVERTER_KEYS", "DRIVELINE_KEYS", "SIGNAL_KEYS", "SIGNAL", "LEAF", "ANY", "key_tree"]
 
 TOP_KEYS = frozenset({"mechanism", "include", "title", "description", "simulation", "compliant", "initial", "input",
-                      "load", "driveline", "elements", "shifts", "auto_shift", "output", "report", "converter"})
+                      "load", "driveline", "elements", "shifts", "auto_shift", "output", "report", "converter",
+                      "driver"})
 SIMULATION_KEYS = frozenset({"t_start", "t_end", "model", "method", "rtol", "atol", "max_step", "output_dt", "slip_tol",
                              "energy_tol", "coordinates", "modes"})
 COMPLIANT_KEYS = frozenset({"stiffness", "damping"})
@@ -25,7 +26,7 @@ INITIAL_KEYS = frozenset({"gear", "locked", "speeds", "speeds_rpm", "driveshaft"
 SHIFTS_KEYS = frozenset({"template", "events"})
 EVENT_KEYS = frozenset({"t", "from", "to", "template"})
 AUTO_SHIFT_KEYS = frozenset({"order", "throttle", "upshift_rpm", "downshift_rpm", "template", "templates",
-                             "min_interval", "throttle_signal"})
+                             "min_interval", "throttle_signal", "speed_first_templates"})
 OUTPUT_KEYS = frozenset({"signals", "dt"})
 INPUT_KEYS = frozenset({"type", "torque", "speed_rpm", "throttle", "torque_table", "throttle_signal", "converter",
                         "J_engine", "engine_speed_rpm", "idle_rpm", "engine", "turbo", "fuel_signal", "governor",
@@ -34,7 +35,8 @@ INPUT_KEYS = frozenset({"type", "torque", "speed_rpm", "throttle", "torque_table
 LOAD_KEYS = frozenset({"torque", "signal", "c0", "c1", "c2"})
 CONVERTER_KEYS = frozenset({"pump", "turbine", "pump_torque", "turbine_torque", "file"})
 DRIVELINE_KEYS = frozenset({"output_inertia", "stiffness", "damping", "final_drive", "wheel_radius", "vehicle_mass",
-                            "rolling_resistance", "cd_a", "air_density", "grade", "grade_percent", "output_torque"})
+                            "rolling_resistance", "cd_a", "air_density", "grade", "grade_percent", "output_torque",
+                            "brake"})
 
 SIGNAL_KEYS = {"constant": {"value"}, "step": {"t", "before", "after"}, "ramp": {"t0", "t1", "v0", "v1"},
                "table": {"t", "value"}, "sine": {"offset", "amplitude", "frequency", "phase"},
@@ -59,10 +61,12 @@ def key_tree(elements=None, links=None) -> dict:
     :data:`SIGNAL`; a one-entry list ``[subtree]`` is an array of tables (keys are indices).
     ``elements`` and ``links`` are the mechanism's shift-element and link names (None: any
     name, the key :data:`ANY`)."""
+    from .driver import DRIVER_KEYS
     from .powertrain import ENGINE_KEYS, GAS_KEYS, GOVERNOR_KEYS, PORT_KEYS, SHAFT_KEYS, SOLVER_KEYS
     from .schedule import ShiftTemplate
 
-    signals = {"torque", "throttle_signal", "fuel_signal", "output_torque", "signal", "apply", "torque_request"}
+    signals = {"torque", "throttle_signal", "fuel_signal", "output_torque", "signal", "apply", "torque_request",
+               "brake"}
     template = _leaves(ShiftTemplate.__dataclass_fields__)
 
     def names(names, sub) -> dict:
@@ -77,9 +81,11 @@ def key_tree(elements=None, links=None) -> dict:
                  elements=names(elements, element),
                  initial=table(INITIAL_KEYS, speeds=names(links, LEAF), speeds_rpm=names(links, LEAF)),
                  shifts=table(SHIFTS_KEYS, template=template, events=[table(EVENT_KEYS, template=template)]),
-                 auto_shift=table(AUTO_SHIFT_KEYS, template=template, templates={ANY: template}), output=_leaves(OUTPUT_KEYS),
+                 auto_shift=table(AUTO_SHIFT_KEYS, template=template, templates={ANY: template},
+                                  speed_first_templates={ANY: template}), output=_leaves(OUTPUT_KEYS),
                  input=table(INPUT_KEYS, governor=_leaves(GOVERNOR_KEYS), engine=_leaves(ENGINE_KEYS),
                              shaft=_leaves(SHAFT_KEYS), ports=_leaves(PORT_KEYS), air=_leaves(GAS_KEYS),
                              exhaust=_leaves(GAS_KEYS), turbo_solver=_leaves(SOLVER_KEYS)),
-                 load=[table(LOAD_KEYS, torque=LEAF)], converter=_leaves(CONVERTER_KEYS), driveline=table(DRIVELINE_KEYS))
+                 load=[table(LOAD_KEYS, torque=LEAF)], converter=_leaves(CONVERTER_KEYS), driveline=table(DRIVELINE_KEYS),
+                 driver=_leaves(DRIVER_KEYS))
     return tree

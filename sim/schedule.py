@@ -23,6 +23,25 @@ shift events into apply :class:`~transgen.sim.signals.Table` signals; :class:`Au
 controller that commands shifts when the output speed crosses throttle-dependent upshift or
 downshift lines (with hysteresis: the downshift line lies below the upshift line).
 
+Power on and off, and which phase comes first. A shift is *power-on* when the throttle is at least
+:data:`POWER_ON_THROTTLE` at its command, else *power-off* (the vehicle drives the engine). In a
+power-on upshift and a power-off downshift the oncoming element slips the way that lets it take the
+torque over: the torque phase comes first, and the template above runs as it stands. In a
+power-on downshift (a kickdown) and a power-off upshift the oncoming element slips against the
+speed change the shift needs (its torque would brake the input's flare: a tie-up), so the
+speed phase comes first: the offgoing element releases by its template (the input flares to the
+new gear's synchronous speed, driven by the engine or, power-off, pulled down by its drag), the
+oncoming element only fills (held at ``fill_level``), and when its slip has fallen to
+:data:`SYNC_FRACTION` of its slip at the command (at least :data:`SYNC_MIN`: near
+synchronism) it is applied, from its level to full over ``final_time`` (and what is left of the
+offgoing element's apply is released in :data:`SYNC_RELEASE`), and locks at or just past
+synchronism. If synchronism is not reached by the end of the template's inertia phase
+(``fill_time + ramp_time + hold_time`` after the command) it is applied then. This needs the
+element slips (:attr:`AutoShift.slips`, the rows of the transmission's slip matrix); without them
+every shift follows its template. A speed-phase-first shift takes its template from
+:attr:`AutoShift.speed_first` (``[auto_shift.speed_first_templates]``) where given, else the
+shift's own.
+
 Engine torque intervention (the TCU's torque request to the engine; optional, none by default). The
 template gives a torque-request *factor* [-] that multiplies the engine's driving torque, 1 meaning
 no intervention, built from two trapezoids anchored at the template's own phases:
@@ -58,7 +77,23 @@ from .interp import interp_like_numpy
 from .signals import Signal, Spliced, Table
 
 __all__ = ["ShiftTemplate", "ShiftEvent", "shift_trajectories", "gear_elements", "gear_swap", "AutoShift",
-           "TORQUE_FIELDS", "torque_request_signal", "request_table", "ControllerRequest"]
+           "TORQUE_FIELDS", "torque_request_signal", "request_table", "ControllerRequest", "POWER_ON_THROTTLE",
+           "SYNC_FRACTION", "SYNC_MIN", "speed_phase_first"]
+
+POWER_ON_THROTTLE = 0.1
+"""Throttle [0-1] at and above which a shift is power-on (module docstring)."""
+SYNC_FRACTION = 0.1
+"""Fraction of the oncoming element's slip at the command at which a speed-phase-first shift applies it."""
+SYNC_MIN = 1.0
+"""Smallest slip [rad/s] at which a speed-phase-first shift applies its oncoming element."""
+SYNC_RELEASE = 0.02
+"""Time [s] in which a speed-phase-first shift releases what is left of its offgoing element at synchronism."""
+
+
+def speed_phase_first(direction: str, throttle: float) -> bool:
+    """Whether a shift (``direction`` 'up'/'down') at ``throttle`` [0-1] has its speed phase first:
+    a power-on downshift or a power-off upshift (module docstring)."""
+    return (direction == "down") == (throttle >= POWER_ON_THROTTLE)
 
 #: the template's engine torque intervention parameters (factors [-] and times [s]); their defaults
 #: leave the engine alone
@@ -271,6 +306,9 @@ class AutoShift:
     history: list = field(default_factory=list)
     templates: dict = field(default_factory=dict)  # "SOURCE-TARGET" -> the template of that shift
     torque_request: Signal = field(default_factory=lambda: Table((0.0,), (1.0,)))  # engine torque-request factor
+    slips: dict = field(default_factory=dict)  # element -> coefficients of its slip over the link speeds
+    speed_first: dict = field(default_factory=dict)  # "SOURCE-TARGET" -> template of a speed-phase-first shift
+    pending: dict = field(default_factory=dict)  # a speed-phase-first shift waiting for synchronism
 
     def __post_init__(self):
         for up, down in zip(self.upshift, self.downshift):
@@ -298,11 +336,37 @@ class AutoShift:
         if k > 0:
             funcs.append((lambda t, w, k=k: max(w[self.output] - self._line(self.downshift, k - 1, t), self._wait(t)),
                           "down"))
+        if self.pending:
+            funcs.append((self._sync_margin, "sync"))
         return funcs
 
-    def fire(self, kind: str, t: float, elements: dict) -> str | None:
-        """Command the shift ``kind`` ('up'/'down') at ``t``; returns a description or None when
-        blocked by ``min_interval``. ``elements``: name -> ElementConfig (apply replaced)."""
+    def _slip(self, name: str, w) -> float:
+        return float(sum(c * x for c, x in zip(self.slips[name], w)))
+
+    def _sync_margin(self, t: float, w) -> float:
+        """Falls through zero when the waiting oncoming element nears synchronism or its deadline passes."""
+        p = self.pending
+        return min(max(abs(self._slip(n, w)) for n in p["elements"]) - p["band"], p["deadline"] - t)
+
+    def _synchronise(self, t: float, elements: dict) -> str:
+        """Apply the oncoming element(s) of the waiting shift: from their level to full over its ramp."""
+        p, self.pending = self.pending, {}
+        for names, level, ramp in ((p["elements"], 1.0, max(p["ramp"], 1e-6)), (p["offgoing"], 0.0, SYNC_RELEASE)):
+            for name in names:
+                e = elements[name]
+                now = e.apply.value(t)
+                if level > 0 or now > 0:
+                    e.apply = Spliced(t, e.apply, _merge([(t, now), (t + ramp, level)]))
+        return (f"synchronism: apply {' '.join(p['elements'])}" + (f", release {' '.join(p['offgoing'])}"
+                                                                   if p["offgoing"] else "") + f" ({p['shift']})")
+
+    def fire(self, kind: str, t: float, elements: dict, w=None) -> str | None:
+        """Command the shift ``kind`` ('up'/'down') at ``t``, or ('sync') apply a waiting oncoming
+        element; returns a description or None when blocked by ``min_interval``. ``elements``:
+        name -> ElementConfig (apply replaced); ``w``: the link speeds [rad/s] at ``t`` (a
+        speed-phase-first shift needs them, module docstring)."""
+        if kind == "sync":
+            return self._synchronise(t, elements) if self.pending else None
         if self._wait(t) > 1e-9 * max(1.0, abs(t)):
             return None
         k = self.order.index(self.gear)
@@ -310,7 +374,20 @@ class AutoShift:
         oneway = frozenset(name for name, e in elements.items() if e.kind == "oneway")
         on, off = gear_swap(self.gears, self.gear, target, oneway)
         template = self.templates.get(f"{self.gear}-{target}", self.template)
-        for names, pts in ((on, template.oncoming(t)), (off, template.offgoing(t))):
+        oncoming = template.oncoming(t)
+        if self.pending:  # a shift still waiting for synchronism: its oncoming element is applied now
+            self._synchronise(t, elements)
+        power = "on" if float(self.throttle.value(t)) >= POWER_ON_THROTTLE else "off"
+        if (on and w is not None and all(n in self.slips for n in on)
+                and speed_phase_first(kind, float(self.throttle.value(t)))):
+            template = self.speed_first.get(f"{self.gear}-{target}", template)
+            oncoming = template.oncoming(t)[:3]  # the fill alone, held until synchronism
+            slip = max(abs(self._slip(n, w)) for n in on)
+            self.pending = {"elements": on, "offgoing": off, "band": max(SYNC_FRACTION * slip, SYNC_MIN),
+                            "ramp": template.final_time,
+                            "deadline": t + template.fill_time + template.ramp_time + template.hold_time,
+                            "shift": f"{self.gear}-{target}"}
+        for names, pts in ((on, oncoming), (off, template.offgoing(t))):
             for name in names:
                 e = elements[name]
                 e.apply = Spliced(t, e.apply, _merge([(t, e.apply.value(t))] + pts[1:]))
@@ -319,6 +396,6 @@ class AutoShift:
             self.torque_request = Spliced(t, self.torque_request, _merge([(t, 1.0)] + profile))
         self.history.append((t, self.gear, target))
         description = (f"{kind}shift {self.gear}-{target} (on {' '.join(on) or 'none: one-way clutch locks'}, "
-                       f"off {' '.join(off) or 'none: one-way clutch overruns'})")
+                       f"off {' '.join(off) or 'none: one-way clutch overruns'}; power-{power})")
         self.gear, self.last_shift = target, t
         return description

@@ -78,6 +78,7 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None, st
             events.append(Event(t, "start", tuple(tr.elements[i].name for i in sorted(locked)), "",
                                 tr.mode_name(locked), "from a saved state"))
     own_applies = {e.name: e.apply for e in tr.elements}  # what the controllers command differs
+    quiet = False
     compiled = compiled_powertrain(pt)
 
     def slip_tol(w):
@@ -91,8 +92,9 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None, st
         u_ext, *_ = model.external(t_sig, y_ext, w, dummy_layout)
         previous = locked
         try:
-            locked, directions = tr.decide(t_sig, w, u_ext, slip_tol(w), forced, previous or frozenset(),
-                                           None if previous is None else directions)
+            if not (quiet and _mode_holds(tr, t_sig, w, locked, slip_tol(w))):
+                locked, directions = tr.decide(t_sig, w, u_ext, slip_tol(w), forced, previous or frozenset(),
+                                               None if previous is None else directions)
             mode = tr.mode(locked)
         except (SimulationError, ModeError) as exc:
             success, message = False, f"{exc} (mode {tr.mode_name(previous) if previous is not None else 'none'})"
@@ -226,6 +228,10 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None, st
         comp_states = [y_end[sl] for sl in layout.slices]
         energy = y_end[layout.energy]
         forced = {}
+        # a segment ended by a sampling controller alone (a driver, whose commands continue from
+        # their values) changed nothing at its end: the mode goes on (see _mode_holds)
+        quiet = sol.status == 1 and all(f.info[0] == "control" and getattr(f.info[1][0], "keeps_mode", False)
+                                        for f, te in zip(event_funcs, sol.t_events) if len(te))
         if sol.status == 1:
             n_events += 1
             u_end = inputs(t_end, y_end)
@@ -233,7 +239,7 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None, st
                 kind, i = f.info
                 if len(te) and kind == "control":
                     controller, what = i
-                    description = controller.fire(what, t_end, {e.name: e for e in tr.elements})
+                    description = controller.fire(what, t_end, {e.name: e for e in tr.elements}, w)
                     if description:
                         events.append(Event(t_end, "command", (), tr.mode_name(locked), tr.mode_name(locked), description))
                 if len(te) and kind == "torque":
@@ -254,6 +260,24 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None, st
                             dict(forced), tuple(np.array(x, dtype=float) for x in comp_states), np.array(energy),
                             tuple(controller_state(c) for c in pt.controllers), commanded, SimState.shape_of(pt))
     return result
+
+
+def _mode_holds(tr, t: float, w: np.ndarray, locked, tol: float) -> bool:
+    """Whether the mode ``locked`` goes on at ``t`` without a decision, after a segment that a
+    sampling controller alone ended (a driver: its commands are continuous there, so the speeds,
+    the torques and the holding margins are those the last segment ended with, inside their
+    limits, or a torque event would have ended it): no element outside the mode that could
+    transmit torque is at zero slip (it might lock) and no apply signal has a breakpoint at ``t``."""
+    if locked is None:
+        return False
+    slips = tr.P @ w
+    after = t + 1e-12 * max(1.0, abs(t))
+    for i, e in enumerate(tr.elements):
+        if e.kind != "oneway" and any(t <= b <= after for b in e.apply.breakpoints(t, after)):
+            return False
+        if i not in locked and abs(slips[i]) <= tol and e.applied_after(t):
+            return False
+    return True
 
 
 def _jacobian(model, jacobian, t_stop: float, t_from: float):

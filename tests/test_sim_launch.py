@@ -137,7 +137,7 @@ def test_auto_shift_double_swap_applies_both_oncoming_and_releases_both_offgoing
                       gear="3")
     elements = _elements(mech)
     text = shift.fire("up", 1.0, elements)
-    assert text == "upshift 3-OD (on BAND_large_sun CL_carrier, off CL_large_sun CL_small_sun)"
+    assert text == "upshift 3-OD (on BAND_large_sun CL_carrier, off CL_large_sun CL_small_sun; power-on)"
     t_hold = 1.0 + tmpl.fill_time + tmpl.ramp_time + 0.5 * tmpl.hold_time
     t_done = 1.0 + tmpl.fill_time + tmpl.ramp_time + tmpl.hold_time + tmpl.final_time + 0.1
     for name in ("BAND_large_sun", "CL_carrier"):
@@ -153,7 +153,7 @@ def test_auto_shift_leaves_one_way_clutches_alone_and_refuses_a_triple_swap():
     gears = {g.name: g.engaged for g in mech.gears}
     shift = AutoShift(["1", "2"], [0.0, 1.0], [[100.0, 100.0]], [[50.0, 50.0]], Constant(0.5), 0, gears, gear="1")
     elements = _elements(mech)
-    assert shift.fire("up", 2.0, elements) == "upshift 1-2 (on K1, off none: one-way clutch overruns)"
+    assert shift.fire("up", 2.0, elements) == "upshift 1-2 (on K1, off none: one-way clutch overruns; power-on)"
     with pytest.raises(ValueError, match="shift 1-5 is not schedulable"):
         AutoShift(["1", "5"], [0.0, 1.0], [[100.0, 100.0]], [[50.0, 50.0]], Constant(0.5), 0, gears)
 
