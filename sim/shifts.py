@@ -13,6 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from transgen.names import shift_name as _joined
+
 from .result import Result
 
 __all__ = ["Shift", "infer_shifts", "lock_time", "lock_times", "shift_name", "APPLY_ZERO"]
@@ -109,8 +111,8 @@ def infer_shifts(result: Result, max_early_release: float = 1.0) -> list[Shift]:
     one-way clutch taking over, e.g. a release-to-freewheel downshift), is a shift too, with the
     element that locks as the oncoming one and ``t_start`` at the start of the release.
 
-    The name is ``source->target`` from the modes before the shift and after the oncoming
-    element locks.
+    The name is ``source-target`` (``2-3``) from the modes before the shift and after the oncoming
+    element locks (:func:`shift_name`).
     """
     t = result.time
     t_end = float(t[-1])
@@ -185,10 +187,11 @@ def _mode_at(result: Result, x: float, side: str) -> str | None:
 
 
 def shift_name(result: Result, on: str, t_start: float) -> str:
-    """``source->target``: the mode before ``t_start`` and the mode after ``on`` locks (``"<on> on"``
-    when either is unknown)."""
+    """``source-target`` (:func:`transgen.names.shift_name`: ``2-3``): the modes, named as the
+    result names them (by gear, :class:`transgen.names.ModeNames`), before ``t_start`` and after
+    ``on`` locks (``"<on> on"`` when either is unknown)."""
     t_end = float(result.time[-1]) if len(result.time) else t_start
     t_lock = lock_time(result, on, t_start, t_end, locks=True)
     a = _mode_at(result, t_start, "left")
     b = _mode_at(result, t_lock, "right") if t_lock is not None else None
-    return f"{a}->{b}" if a and b else f"{on} on"
+    return _joined(a, b) if a and b else f"{on} on"
