@@ -445,7 +445,8 @@ def collect(pt: Powertrain, options: SolverOptions, recorder: Recorder, events: 
     if recorder.monitor is not None:
         stats["invariants"] = recorder.monitor.summary()
     meta = {"mechanism": tr.mech.name, "model": options.model, "links": list(tr.links), "elements": e_names,
-            "mode_names": order, "gears": [g.name for g in tr.mech.gears], "coordinates": list(tr.coordinates),
+            "mode_names": order, "gears": [g.name for g in tr.mech.gears], "naming": tr.names.to_dict(),
+            "coordinates": list(tr.coordinates),
             "static_capacity": {e.name: e.static for e in tr.elements if e.kind != "oneway"}}
     return Result(time_arr, arrays, units, spans, events, success, message, energy, stats, meta)
 

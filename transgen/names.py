@@ -52,14 +52,35 @@ def numbered(names: Iterable[str]) -> list[str]:
 
 
 class ModeNames:
-    """The user names of the locked sets of one mechanism (see the module doc for the rule)."""
+    """The user names of the locked sets of one mechanism (see the module doc for the rule):
+    from its ``elements`` (in declaration order), the ``oneway`` clutches among them, the gear
+    table ``gears`` (name -> engaged elements, gears and neutrals in the file's order) and the
+    ``declared`` modes (name -> locked elements). :meth:`of` builds it from a mechanism,
+    :meth:`to_dict` / :meth:`from_dict` carry it in a result's ``meta["naming"]``."""
 
-    def __init__(self, mech: Mechanism):
-        self.order = {name: k for k, name in enumerate(mech.element_names)}
-        self.oneway = frozenset(e.name for e in mech.elements if e.kind == "oneway")
-        self.gears = tuple((g.name, frozenset(g.engaged)) for g in mech.gears)
-        self.declared = {frozenset(d.locked): d.name for d in mech.modes}
+    def __init__(self, elements, oneway=(), gears=None, declared=None):
+        self.order = {name: k for k, name in enumerate(elements)}
+        self.oneway = frozenset(oneway)
+        self.gears = tuple((name, frozenset(eng)) for name, eng in (gears or {}).items())
+        self.declared = {frozenset(locked): name for name, locked in (declared or {}).items()}
         self._taken = {name: key for key, name in self.declared.items()}
+
+    @classmethod
+    def of(cls, mech: Mechanism) -> ModeNames:
+        """The names of the modes of ``mech``."""
+        return cls(mech.element_names, [e.name for e in mech.elements if e.kind == "oneway"],
+                   {g.name: g.engaged for g in mech.gears}, {d.name: d.locked for d in mech.modes})
+
+    def to_dict(self) -> dict:
+        """JSON-ready: ``elements``, ``oneway``, ``gears`` and ``declared`` (name -> elements)."""
+        return {"elements": list(self.order), "oneway": sorted(self.oneway, key=self.order.get),
+                "gears": {name: list(self._sorted(eng)) for name, eng in self.gears},
+                "declared": {name: list(self._sorted(key)) for key, name in self.declared.items()}}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> ModeNames:
+        """The inverse of :meth:`to_dict`."""
+        return cls(data.get("elements", ()), data.get("oneway", ()), data.get("gears"), data.get("declared"))
 
     def _sorted(self, locked: Iterable[str]) -> tuple[str, ...]:
         return tuple(sorted(set(locked), key=lambda e: (self.order.get(e, len(self.order)), e)))
@@ -90,7 +111,7 @@ class ModeNames:
 @lru_cache(maxsize=64)
 def mode_names(mech: Mechanism) -> ModeNames:
     """The :class:`ModeNames` of ``mech`` (remembered for the last few mechanisms)."""
-    return ModeNames(mech)
+    return ModeNames.of(mech)
 
 
 def user_name(mech: Mechanism, locked: Iterable[str]) -> str:

@@ -1041,7 +1041,7 @@ def tuned_scenario_text(result: OptimizeResult, output, before: Sequence | None 
     out_dir = Path(output).resolve().parent
     bundled = original.parent == next(iter(bundled_scenarios().values())).parent
     ref = original.stem if bundled and not (out_dir / original.stem).exists() else os.path.relpath(original, out_dir)
-    lines = [f"# Shift calibration by 'transgen optimize' of {result.path}",
+    lines = [f"# Shift calibration by 'transgen optimize' of {ref}",  # no path of this machine
              f"# objective: {result.objective.text()} (terms relative to the starting calibration of each shift)",
              f"# constraints: {result.constraints.text()}", f"# seed: {result.seed}",
              f"# tuned: {', '.join(result.parameters)}"
