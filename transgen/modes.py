@@ -44,7 +44,7 @@ from .errors import ModeError
 from .graph import bond_graph
 from .kinematics import analyze, engaged_combinations, numeric_rank
 from .model import Mechanism
-from .names import gear_name
+from .names import mode_names
 
 if TYPE_CHECKING:
     from .graph import Graph
@@ -67,7 +67,7 @@ __all__ = [
 @dataclass(frozen=True)
 class Mode:
     """A mode of operation: ``locked`` shift elements; ``label`` says why it is modelled;
-    ``gear``: the gear-table row (gear or neutral) it is, else None (:func:`transgen.names.gear_name`),
+    ``gear``: the gear-table row (gear or neutral) it is, else None (:meth:`transgen.names.ModeNames.gear`),
     so that a mode of any selection (``M10`` of ``"all"``) is known by the gear a user names."""
 
     name: str
@@ -175,12 +175,13 @@ def select_modes(mech: Mechanism, which: str = "auto") -> list[Mode]:
 
 
 def _with_gears(mech: Mechanism, modes: list[Mode]) -> list[Mode]:
-    """``modes`` with the gear each one is (:func:`transgen.names.gear_name`); an unlabelled one
+    """``modes`` with the gear each one is (:meth:`transgen.names.ModeNames.gear`); an unlabelled one
     (of the ``"all"`` selection) labelled by it (``gear 1``, ``neutral N``)."""
     kinds = {gear.name: gear.kind for gear in mech.gears}
+    names = mode_names(mech)
     out = []
     for m in modes:
-        gear = gear_name(mech, m.locked)
+        gear = names.gear(m.locked)
         label = m.label or (f"{kinds[gear]} {gear}" if gear is not None else "")
         out.append(Mode(m.name, m.locked, label, gear))
     return out
