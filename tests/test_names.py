@@ -204,6 +204,13 @@ def test_a_bundled_converter_by_name_is_the_bundled_file(tmp_path, monkeypatch):
     assert bundled_data("../torque_converter_car") is None and bundled_data("no_such_file") is None
 
 
+def test_a_bundled_map_by_name_is_the_bundled_file():
+    from transgen.sim import load_scenario
+
+    scenario = load_scenario("ht740_turbo", {"input.compressor_map": "we_compressor", "input.turbine_map": "we_turbine"})
+    assert scenario.title
+
+
 def test_scenario_copy_of_every_bundled_scenario_holds_no_machine_path(tmp_path):
     from transgen.sim.library import bundled_scenarios
     from transgen.sim.scenario_copy import copy_scenario
