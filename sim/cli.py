@@ -329,22 +329,17 @@ def _comparison_text(scenario, a, qa, name_b, b, qb) -> str:
 
 def cmd_scenario_new(args) -> int:
     """``transgen scenario new``: derive a launch scenario, write it (atomically) or print it."""
-    import os
-
     from transgen.export import write_text
     from transgen.language import load_mechanism
     from transgen.schemas import dumps
 
-    from .launch import derive_launch, launch_scenario
+    from .launch import derive_launch, launch_scenario, mechanism_reference
 
     mech = load_mechanism(args.file)
     launch = derive_launch(mech, args.vehicle)
-    ref = mech.name
-    if Path(args.file).exists():  # a path: relative to where the scenario is written
-        where = Path(args.output).resolve().parent if args.output else Path.cwd()
-        ref = Path(os.path.relpath(Path(args.file).resolve(), where)).as_posix()
-    else:
-        ref = Path(args.file).stem
+    # a bundled mechanism by its name, a user's file relative to where the scenario is written
+    where = Path(args.output).resolve().parent if args.output else Path.cwd()
+    ref = mechanism_reference(args.file, where)
     from transgen.errors import ScenarioError
 
     if args.cycle is not None and args.maneuver != "cycle":

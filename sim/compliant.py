@@ -182,7 +182,7 @@ def _absorb_twist_rate(tr, mode, w: np.ndarray, i: int):
 
 
 def _name(tr, stuck) -> str:
-    return "+".join(e.name for e, s in zip(tr.elements, stuck) if s) or "none"
+    return tr.mode_name(i for i, s in enumerate(stuck) if s)
 
 
 def _sample(pt, seg, ts, ys, k, c):

@@ -428,9 +428,9 @@ def collect(pt: Powertrain, options: SolverOptions, recorder: Recorder, events: 
         name = tr.mode_name(seg.locked)
         locked = tuple(tr.elements[i].name for i in sorted(seg.locked))
         if spans and spans[-1].name == name and abs(spans[-1].t1 - seg.t0) < 1e-12:
-            spans[-1] = ModeSpan(spans[-1].t0, seg.t1, name, locked)
+            spans[-1] = ModeSpan(spans[-1].t0, seg.t1, name, locked, spans[-1].gear)
         else:
-            spans.append(ModeSpan(seg.t0, seg.t1, name, locked))
+            spans.append(ModeSpan(seg.t0, seg.t1, name, locked, tr.names.gear(locked)))
     energy = {}
     if len(time_arr):
         e_in, e_diss, e_load, e_st = (arrays[k] for k in ("E_in", "E_dissipated", "E_load", "E_stored"))
@@ -445,7 +445,8 @@ def collect(pt: Powertrain, options: SolverOptions, recorder: Recorder, events: 
     if recorder.monitor is not None:
         stats["invariants"] = recorder.monitor.summary()
     meta = {"mechanism": tr.mech.name, "model": options.model, "links": list(tr.links), "elements": e_names,
-            "mode_names": order, "coordinates": list(tr.coordinates),
+            "mode_names": order, "gears": [g.name for g in tr.mech.gears], "naming": tr.names.to_dict(),
+            "coordinates": list(tr.coordinates),
             "static_capacity": {e.name: e.static for e in tr.elements if e.kind != "oneway"}}
     return Result(time_arr, arrays, units, spans, events, success, message, energy, stats, meta)
 

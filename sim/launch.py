@@ -53,7 +53,8 @@ from .schedule import ShiftTemplate, gear_swap
 from .engine.torque_converter import DEFAULT_TORQUE_CONVERTER, TorqueConverter
 
 __all__ = ["VehicleClass", "VEHICLES", "ForwardGear", "LaunchShift", "ElementSizing", "Launch",
-           "derive_launch", "launch_scenario", "static_element_torques", "HOLD_FACTOR", "SHIFT_FACTOR"]
+           "derive_launch", "launch_scenario", "mechanism_reference", "static_element_torques", "HOLD_FACTOR",
+           "SHIFT_FACTOR"]
 
 RPM = 2 * math.pi / 60
 HOLD_FACTOR = 1.2
@@ -526,26 +527,35 @@ def _string(s: str) -> str:
     return '"' + s.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
-def _mechanism_ref(mech: Mechanism) -> str:
-    """The bundled name of ``mech``'s file, else its absolute path."""
+def mechanism_reference(source: str | Path, where: str | Path | None = None) -> str:
+    """How a scenario names the mechanism ``source`` (a path or a bundled name, as the user gave
+    it): a bundled mechanism by its bundled name (``ht740``, also when given as the path of the
+    installed file), a user's file by its path relative to the folder ``where`` the scenario is
+    written (as given, without ``where``) - never the absolute path of the install."""
+    import os
+
     from transgen.library import bundled_path
 
-    path = Path(mech.source)
+    path = Path(source)
+    if not path.exists():
+        return path.stem if path.suffix == ".mech" else str(source)
     found = bundled_path(path.name)
-    if found is not None and path.exists() and found.resolve() == path.resolve():
+    if found is not None and found.resolve() == path.resolve():
         return path.stem
-    return str(path.resolve())
+    if where is None:
+        return path.as_posix()
+    return Path(os.path.relpath(path.resolve(), Path(where).resolve())).as_posix()
 
 
 def launch_scenario(mech: Mechanism, vehicle: str = "car", mechanism_ref: str | None = None,
                     launch: Launch | None = None) -> str:
     """A commented launch scenario (TOML text) for ``mech``: from rest in first gear through every
     schedulable forward gear. ``mechanism_ref``: how the file names the mechanism (a path relative
-    to the scenario file, or a bundled name; default ``mech.name``)."""
+    to the scenario file, or a bundled name; default :func:`mechanism_reference` of its source)."""
     lc = launch or derive_launch(mech, vehicle)
     vc = lc.vehicle
     scale = lc.torque_scale
-    ref = mechanism_ref or _mechanism_ref(mech)
+    ref = mechanism_ref or mechanism_reference(mech.source)
     first = lc.gear(lc.order[0])
     lines = [
         f"# Launch scenario for {mech.name}: {vc.description}.",
@@ -604,7 +614,7 @@ def launch_scenario(mech: Mechanism, vehicle: str = "car", mechanism_ref: str | 
     lines.append("]")
     lines.append(f"throttle_signal = {_num(vc.throttle_signal)}   # part throttle, constant")
     if vc.converter:
-        lines.append(f"converter = {_string(str((DATA_DIR / vc.converter).resolve()))}   # transgen's bundled {vc.name} converter")
+        lines.append(f"converter = {_string(Path(vc.converter).stem)}   # transgen's bundled {vc.name} converter, by its name")
     else:
         lines.append("# converter: the bundled heavy-truck three-element converter (transgen/sim/data)")
     lines += [

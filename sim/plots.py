@@ -18,11 +18,14 @@ Matplotlib is imported only inside the functions and only its object API is used
 * :func:`plot_power` - power dissipated per element [kW];
 * :func:`plot_mode` - mode of operation (step plot, mode names and locked elements as ticks);
 * :func:`plot_apply` - apply fractions of the shift elements [-];
+* :func:`plot_drive` - the whole run: vehicle speed [km/h], engine speed [rpm] and the gear
+  (named as the gear table names it) over time;
 * :func:`plot_shift` - one shift zoomed on its own time window (phases shaded, events marked):
   input speed with the old and new gears' synchronous speeds, the torques of the elements that
   take part with their holding-capacity envelopes ``+-T_static*apply``, the output torque, the
   vehicle acceleration (raw and frequency-weighted) and the jerk;
-* :func:`plot_all` - all of the above written to files (one ``shiftN`` figure per shift);
+* :func:`plot_all` - all of the above written to files (one ``shift_<name>`` figure per shift,
+  ``shift_1-2``);
   :func:`compare` - one signal of several runs overlaid.
 """
 from __future__ import annotations
@@ -30,6 +33,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+
+from transgen.names import locked_text
 
 from .result import Result
 
@@ -42,7 +47,10 @@ __all__ = [
     "plot_mode",
     "plot_apply",
     "plot_shift",
+    "plot_drive",
+    "gear_track",
     "shift_window",
+    "shift_files",
     "plot_all",
     "compare",
     "PLOTS",
@@ -265,12 +273,81 @@ def plot_mode(result: Result, qualities=None, ax=None, time_window=None):
         names = [str(int(v)) for v in sorted(set(mode.astype(int)))]
     ticks = list(range(1, len(names) + 1))
     ax.set_yticks(ticks)
-    ax.set_yticklabels([f"{n} [{'+'.join(locked[n]) or 'none'}]" if n in locked else n for n in names])
+    shown = {n: locked_text(v) for n, v in locked.items()}
+    ax.set_yticklabels([f"{n} [{shown[n]}]" if n in shown and shown[n] != n else n for n in names])
     ax.set_ylim(0.5, len(names) + 0.5)
     handles = _shade(ax, qualities, time_window)
     _finish(ax, "mode [locked elements]", _title(result, "Mode of operation"), handles, time_window, result,
             legend=False)
     _legend(ax, handles)
+    return fig
+
+
+def gear_track(result: Result) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """The gear over the run as a step line: (times [s], level, gear names), level ``k`` the
+    ``k``-th gear of the ticks (the run's gears in the gear-table order, ``meta["gears"]``). A
+    span in no gear (a shift's speed phase, a freewheel) lies half-way between the gears before
+    and after it (at the gear before when none follows)."""
+    spans = list(result.modes)
+    order = list((result.meta or {}).get("gears") or [])
+    seen = [m.gear for m in spans if m.gear is not None]
+    ticks = [g for g in order if g in seen] + [g for g in dict.fromkeys(seen) if g not in order]
+    level = {g: float(k) for k, g in enumerate(ticks, start=1)}
+    times, values = [], []
+    for k, m in enumerate(spans):
+        if m.gear is not None:
+            y = level[m.gear]
+        else:
+            before = next((level[x.gear] for x in reversed(spans[:k]) if x.gear is not None), None)
+            after = next((level[x.gear] for x in spans[k + 1:] if x.gear is not None), None)
+            known = [v for v in (before, after) if v is not None]
+            y = sum(known) / len(known) if known else np.nan
+        times += [m.t0, m.t1]
+        values += [y, y]
+    return np.array(times, dtype=float), np.array(values, dtype=float), ticks
+
+
+def plot_drive(result: Result, qualities=None, ax=None, time_window=None):
+    """The whole run as a driver sees it, three panels sharing the time axis: the vehicle speed
+    [km/h] (when the run has a vehicle), the engine speed [rpm] (the engine's, else the input
+    link's) and the gear (:func:`gear_track`, the gear names on the axis); the shift phases
+    shaded. ``ax`` is not used (a figure of its own)."""
+    from matplotlib.figure import Figure
+
+    sig, meta = result.signals, result.meta or {}
+    panels = (["vehicle"] if "vehicle_speed" in sig else []) + ["engine", "gear"]
+    fig = Figure(figsize=(10.0, 2.4 * len(panels) + 0.8), dpi=DPI, layout="constrained")
+    axes = fig.subplots(len(panels), 1, sharex=True, squeeze=False)[:, 0]
+    m = _mask(result, time_window)
+    t = result.time[m]
+    for ax_, panel in zip(axes, panels):
+        if panel == "vehicle":
+            ax_.plot(t, sig["vehicle_speed"][m] * 3.6, color="tab:blue", lw=1.8, label="vehicle speed")
+            ax_.set_ylabel("vehicle speed [km/h]")
+        elif panel == "engine":
+            inp = _input_link(result)
+            name, label = ("omega_engine", "engine") if "omega_engine" in sig else (f"w_{inp}", f"input {inp}")
+            if name in sig:
+                ax_.plot(t, sig[name][m] * RPM_PER_RAD_S, color="tab:red", lw=1.6, label=f"{label} speed")
+            ax_.set_ylabel("engine speed [rpm]")
+        else:
+            tg, level, ticks = gear_track(result)
+            ax_.plot(tg, level, color="tab:purple", lw=2.0, label="gear")
+            ax_.set_yticks(range(1, len(ticks) + 1))
+            ax_.set_yticklabels(ticks)
+            ax_.set_ylim(0.5, max(len(ticks), 1) + 0.5)
+            ax_.set_ylabel("gear")
+        handles = _shade(ax_, qualities, time_window)
+        ax_.grid(True, alpha=0.4)
+        if panel != "gear":
+            lines, _ = ax_.get_legend_handles_labels()
+            ax_.legend(handles=lines + handles, loc="upper left", fontsize="small")
+    axes[-1].set_xlabel("time [s]")
+    if time_window is not None:
+        axes[-1].set_xlim(*time_window)
+    elif len(result.time):
+        axes[-1].set_xlim(float(result.time[0]), float(result.time[-1]))
+    axes[0].set_title(_title(result, "Vehicle speed, engine speed and gear"))
     return fig
 
 
@@ -424,6 +501,7 @@ PLOTS = {
     "power": plot_power,
     "mode": plot_mode,
     "apply": plot_apply,
+    "drive": plot_drive,
 }
 
 
@@ -431,8 +509,9 @@ def plot_all(result: Result, qualities=None, directory=".", formats=("png",), ti
              prefix: str = "") -> list[Path]:
     """Write every plot of :data:`PLOTS` to ``directory`` as ``<prefix><name>.<format>``
     (``speeds.png``, ``slips.png``, ``torques.png``, ``io_torques.png``, ``power.png``,
-    ``mode.png``, ``apply.png``) and, without a ``time_window``, the :func:`plot_shift` figure of
-    each shift of ``qualities`` (``shift1.png``, ``shift2.png``, ...), atomically: each file is
+    ``mode.png``, ``apply.png``, ``drive.png``) and, without a ``time_window``, the :func:`plot_shift`
+    figure of each shift of ``qualities`` named by the shift (:func:`shift_files`: ``shift_1-2.png``,
+    ``shift_2-3.png``, a second 2-3 ``shift_2-3#2.png``), atomically: each file is
     written to a temporary file in the same directory and renamed over the target
     (:func:`transgen.export.atomic_path`). Returns the paths written."""
     from transgen.export import atomic_path
@@ -441,7 +520,7 @@ def plot_all(result: Result, qualities=None, directory=".", formats=("png",), ti
     paths = []
     figures = [(name, func(result, qualities, time_window=time_window)) for name, func in PLOTS.items()]
     if time_window is None:
-        figures += [(f"shift{k}", plot_shift(result, q)) for k, q in enumerate(qualities or (), start=1)]
+        figures += [(name, plot_shift(result, q)) for name, q in zip(shift_files(qualities or ()), qualities or ())]
     for name, fig in figures:
         for fmt in formats:
             path = directory / f"{prefix}{name}.{fmt}"
@@ -449,6 +528,14 @@ def plot_all(result: Result, qualities=None, directory=".", formats=("png",), ti
                 fig.savefig(tmp, format=fmt)
             paths.append(path)
     return paths
+
+
+def shift_files(qualities) -> list[str]:
+    """The file name (without suffix) of each shift's :func:`plot_shift` figure: ``shift_`` and
+    the shift's name, numbered where a name repeats (:func:`transgen.names.numbered`)."""
+    from transgen.names import numbered
+
+    return [f"shift_{name}".replace(" ", "_").replace("/", "_") for name in numbered(q.name for q in qualities)]
 
 
 def compare(results: dict, signal: str, ax=None, time_window=None, qualities=None, scale: float = 1.0,

@@ -375,7 +375,7 @@ def _device(r, inp: dict, keys: tuple, name: str, default: str, kind: type, gas:
     from .engine.turbine import Turbine
 
     key = keys + (name,)
-    path = r.file_path(key, r.text(inp, keys, name)) if name in inp else DATA_DIR / default
+    path = r.data_path(key, r.text(inp, keys, name)) if name in inp else DATA_DIR / default
     try:
         cmap = _map(r.read_text(key, path, "map file"), str(path))
         if not isinstance(cmap, kind):
@@ -438,9 +438,10 @@ def turbodiesel_component(r, inp: dict, keys: tuple, mech, tr) -> TurbodieselSou
 
 def read_converter(r, table: dict, keys: tuple, name: str) -> TorqueConverter:
     """The torque converter of the file named by ``table[name]`` (relative to the file that names
-    it; default the bundled heavy-truck converter), read through the scenario's file access."""
+    it, or a bundled converter by its name, ``torque_converter_car``; default the bundled
+    heavy-truck converter), read through the scenario's file access."""
     ref = r.text(table, keys, name, "") or None
-    path = r.file_path(keys + (name,), ref) if ref else DEFAULT_TORQUE_CONVERTER
+    path = r.data_path(keys + (name,), ref) if ref else DEFAULT_TORQUE_CONVERTER
     try:
         return TorqueConverter.parse(r.read_text(keys + (name,), path, "torque converter"), str(path))
     except (TorqueConverterError, ValueError) as exc:

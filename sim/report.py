@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import math
 
+from transgen.names import locked_text
+
 from .result import Result
 from .shift_quality import (BINDUP_FRACTION, FLARE_FRACTION, ONSET_FRACTION, OVERLAP_FRACTION, OVERLAP_MIN,
                             POST_WINDOW, PRE_WINDOW, RAMP_TOL, RATIO_TOL, RPM_PER_RAD_S, SETTLE_FRACTION, ShiftQuality,
@@ -142,6 +144,12 @@ def _comfort_rows(q: ShiftQuality) -> list[tuple[str, str]]:
     return rows
 
 
+def _mode_text(name: str, locked) -> str:
+    """A mode's name with its locked elements when the name does not say them: ``2 [C1+C4]``."""
+    text = locked_text(locked)
+    return name if name == text else f"{name} [{text}]"
+
+
 def _invariants_text(summary: dict | None) -> list[str]:
     """The invariant monitor's summary (:meth:`~transgen.sim.monitor.InvariantMonitor.summary`):
     which invariants were checked, how often, and the worst margin (1 = at the tolerance)."""
@@ -182,7 +190,7 @@ def report_text(result: Result, qualities: list[ShiftQuality] | None = None) -> 
         if k == "invariants":
             continue
         stats.append(f"  {k:<24}{(f'{v:.4g}' if isinstance(v, float) else str(v)):>16} {units.get(k, '')}".rstrip())
-    modes = [f"{m.name} {m.t0:.3f}-{m.t1:.3f} s" for m in result.modes]
+    modes = [f"{_mode_text(m.name, m.locked)} {m.t0:.3f}-{m.t1:.3f} s" for m in result.modes]
     if modes:
         stats.append(f"  {'modes':<24}" + ", ".join(modes))
     return "\n".join(head + body + bal + stats) + "\n"
@@ -238,5 +246,5 @@ def report_dict(result: Result, qualities: list[ShiftQuality] | None = None) -> 
         "shifts": [_shift_dict(result, q) for q in qualities],
         "energy_balance": energy_balance(result),
         "stats": dict(result.stats or {}),
-        "modes": [{"name": m.name, "t0": m.t0, "t1": m.t1, "locked": list(m.locked)} for m in result.modes],
+        "modes": [m.to_dict() for m in result.modes],
     })

@@ -10,12 +10,19 @@ __all__ = ["ModeSpan", "Event", "Result"]
 
 @dataclass(frozen=True)
 class ModeSpan:
-    """The transmission was in mode ``name`` (locked elements ``locked``) from ``t0`` to ``t1``."""
+    """The transmission was in mode ``name`` (locked elements ``locked``) from ``t0`` to ``t1``;
+    ``gear``: the declared gear (or neutral) it is, else None. The name is the user's
+    (:class:`transgen.names.ModeNames`: the gear, a declared mode's name, or the locked set)."""
 
     t0: float
     t1: float
     name: str
     locked: tuple[str, ...]
+    gear: str | None = None
+
+    def to_dict(self) -> dict:
+        """JSON-ready: ``name``, ``gear``, ``locked``, ``t0``, ``t1`` (s)."""
+        return {"t0": self.t0, "t1": self.t1, "name": self.name, "gear": self.gear, "locked": list(self.locked)}
 
 
 @dataclass(frozen=True)
@@ -64,7 +71,7 @@ class Result:
             "success": self.success,
             "message": self.message,
             "t_end": float(self.time[-1]) if len(self.time) else 0.0,
-            "modes": [{"t0": m.t0, "t1": m.t1, "name": m.name, "locked": list(m.locked)} for m in self.modes],
+            "modes": [m.to_dict() for m in self.modes],
             "events": [{"t": e.t, "kind": e.kind, "elements": list(e.elements), "from": e.source, "to": e.target,
                         "detail": e.detail} for e in self.events],
             "energy": self.energy,

@@ -27,6 +27,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from transgen.names import locked_text
+
 if TYPE_CHECKING:
     from .result import Result
 
@@ -86,8 +88,13 @@ def _csv_text(columns: dict[str, np.ndarray], units: dict[str, str]) -> str:
 def _header(columns, units, result: Result, unique_times: bool) -> dict:
     from transgen import __version__
 
+    mode_names = list(dict.fromkeys(columns["mode"].tolist()))
+    spans = {m.name: m for m in result.modes}
     return {"names": list(columns), "units": [units.get(n, "") for n in columns],
-            "mode_names": list(dict.fromkeys(columns["mode"].tolist())), "unique_times": unique_times,
+            "mode_names": mode_names, "unique_times": unique_times,
+            # what joins the modes to the matrices' (transgen matrices): the gear and the locked set
+            "mode_gears": [(spans[n].gear or "") if n in spans else "" for n in mode_names],
+            "mode_locked": [locked_text(spans[n].locked) if n in spans else "" for n in mode_names],
             "mechanism": result.meta.get("mechanism", ""), "transgen_version": __version__}
 
 
@@ -100,11 +107,13 @@ def write_result(result: Result, path: str | Path, names: list[str] | None = Non
     * ``.mat`` (MATLAB/Octave ``R = load('r.mat')``): one column vector per numeric column, named
       by :func:`transgen.export.matlab_name` (``R.time``, ``R.w_L1``), ``R.mode`` a cell array of
       the mode names, and the cell arrays ``names``, ``units``, ``mode_names`` (the modes in order
-      of appearance), ``mechanism``, ``transgen_version``;
+      of appearance, named by gear: :mod:`transgen.names`), ``mode_gears`` (the gear of each, or
+      empty), ``mode_locked`` (its locked elements, ``C1+C5``), ``mechanism``, ``transgen_version``;
     * ``.npz`` (``numpy.load``): the same, the arrays keyed by the column names, ``mode`` a string
       array;
     * ``.json``: a ``transgen.signals/1`` document: ``names``, ``units`` (name -> unit),
-      ``columns`` (name -> list of values), ``mode_names``, ``unique_times``, ``mechanism``.
+      ``columns`` (name -> list of values), ``mode_names``, ``mode_gears``, ``mode_locked``,
+      ``unique_times``, ``mechanism``.
     """
     from transgen.export import atomic_path, matlab_name, write_json, write_text
 

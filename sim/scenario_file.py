@@ -228,6 +228,16 @@ class Reader:
             return Path(name)
         return self.source.locate(tuple(keys))[0].path.parent / name
 
+    def data_path(self, keys, name: str) -> Path:
+        """:meth:`file_path`, else (no such file) the bundled data file of that bare name
+        (:func:`transgen.sim.library.bundled_data`: ``"torque_converter_car"``)."""
+        path = self.file_path(keys, name)
+        if not self.access.is_file(path):
+            from .library import bundled_data
+
+            return bundled_data(name) or path
+        return path
+
     def read_text(self, keys, path: Path, what: str) -> str:
         """The text of the file ``path`` named at ``keys`` (through :attr:`access`), errors located."""
         try:

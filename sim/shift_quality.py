@@ -616,7 +616,7 @@ def _analyse(result: Result, shift: Shift, inp: str, out: str, link_notes: list[
                                sp_start if sp_start is not None else first, notes)
 
     return ShiftQuality(
-        name=shift.name or shift_name(result, on, ts), oncoming=on, offgoing=off, t_start=ts,
+        name=shift.name or shift_name(result, on, ts, off), oncoming=on, offgoing=off, t_start=ts,
         input_link=inp, output_link=out, completed=completed, direction=direction,
         torque_phase_start=tp_start, torque_phase_end=tp_end, torque_phase_duration=tp_dur,
         inertia_phase_start=sp_start, inertia_phase_end=sp_end, inertia_phase_duration=sp_dur,

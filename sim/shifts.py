@@ -13,6 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from transgen.names import ModeNames
+from transgen.names import shift_name as _joined
+
 from .result import Result
 
 __all__ = ["Shift", "infer_shifts", "lock_time", "lock_times", "shift_name", "APPLY_ZERO"]
@@ -109,8 +112,8 @@ def infer_shifts(result: Result, max_early_release: float = 1.0) -> list[Shift]:
     one-way clutch taking over, e.g. a release-to-freewheel downshift), is a shift too, with the
     element that locks as the oncoming one and ``t_start`` at the start of the release.
 
-    The name is ``source->target`` from the modes before the shift and after the oncoming
-    element locks.
+    The name is ``source-target`` (``2-3``) from the modes before the shift and after the oncoming
+    element locks (:func:`shift_name`).
     """
     t = result.time
     t_end = float(t[-1])
@@ -155,7 +158,7 @@ def infer_shifts(result: Result, max_early_release: float = 1.0) -> list[Shift]:
                     break
         if best is None:
             continue
-        shifts.append(Shift(on, best, t_start, shift_name(result, on, t_start)))
+        shifts.append(Shift(on, best, t_start, shift_name(result, on, t_start, best)))
     # releases handed over to an element that locks by itself (one-way clutch)
     starts = sorted([x for x, _ in rises] + [ts for fl in falls.values() for ts, _ in fl])
     for off, fl in falls.items():
@@ -169,7 +172,7 @@ def infer_shifts(result: Result, max_early_release: float = 1.0) -> list[Shift]:
                 src, tgt = locked.get(ev.source, set()), locked.get(ev.target, set())
                 gained = [x for x in ev.elements if x != off and x in tgt and x not in src]
                 if gained:
-                    shifts.append(Shift(gained[0], off, ts, shift_name(result, gained[0], ts)))
+                    shifts.append(Shift(gained[0], off, ts, shift_name(result, gained[0], ts, off)))
                     break
     shifts.sort(key=lambda s: s.t_start)
     return shifts
@@ -184,11 +187,19 @@ def _mode_at(result: Result, x: float, side: str) -> str | None:
     return None
 
 
-def shift_name(result: Result, on: str, t_start: float) -> str:
-    """``source->target``: the mode before ``t_start`` and the mode after ``on`` locks (``"<on> on"``
-    when either is unknown)."""
+def shift_name(result: Result, on: str, t_start: float, off: str | None = None) -> str:
+    """``source-target`` (:func:`transgen.names.shift_name`: ``2-3``): the modes, named as the
+    result names them (by gear, :class:`transgen.names.ModeNames`), before ``t_start`` and after
+    ``on`` locks. A shift whose ``on`` never locks (a run that ends in it) is named by the mode it
+    was heading for, the one before with ``off`` released and ``on`` locked, where the result
+    carries its mechanism's names (``meta["naming"]``); else ``"<on> on"``."""
     t_end = float(result.time[-1]) if len(result.time) else t_start
     t_lock = lock_time(result, on, t_start, t_end, locks=True)
     a = _mode_at(result, t_start, "left")
     b = _mode_at(result, t_lock, "right") if t_lock is not None else None
-    return f"{a}->{b}" if a and b else f"{on} on"
+    naming = (result.meta or {}).get("naming")
+    if a and b is None and off is not None and naming:
+        before = next((m.locked for m in result.modes if m.name == a), None)
+        if before is not None:
+            b = ModeNames.from_dict(naming).name((set(before) - {off}) | {on})
+    return _joined(a, b) if a and b else f"{on} on"

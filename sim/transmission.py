@@ -55,6 +55,7 @@ from transgen.graph import bond_graph, link_nodes
 from transgen.kinematics import constraint_matrix, numeric_rank
 from transgen.model import HOUSING, Mechanism
 from transgen.modes import Mode, mode_model, mode_models
+from transgen.names import mode_names
 from transgen.statespace import _mode_state_space, state_space
 
 from .interp import interp_like_numpy
@@ -244,6 +245,7 @@ class Transmission:
 
     def __init__(self, mech: Mechanism, elements: dict | None = None, coordinates=None, modes: str = "auto"):
         self.mech = mech
+        self.names = mode_names(mech)  # the user names of its modes (gear, declared mode, locked set)
         self.graph = bond_graph(mech)  # the numeric pipeline's graph: no networkx (import and copy) per run
         self.links = link_nodes(self.graph)
         self.link_index = {name: i for i, name in enumerate(self.links)}
@@ -344,10 +346,9 @@ class Transmission:
         return self._modes[key]
 
     def mode_name(self, locked) -> str:
-        data = self._modes.get(frozenset(locked))
-        if data is not None and data.in_std:
-            return data.name
-        return "+".join(self.elements[i].name for i in sorted(locked)) or "none"
+        """The user name of the mode with the element indices ``locked``: its gear, else its
+        declared mode name, else its locked elements (:class:`transgen.names.ModeNames`)."""
+        return self.names.name(self.elements[i].name for i in locked)
 
     # --------------------------------------------------------- element torques
     def slipping_torques(self, t: float, w: np.ndarray, locked: frozenset, directions: np.ndarray,

@@ -7,6 +7,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -185,7 +186,11 @@ def test_cli_writes_a_scenario_that_simulate_runs(tmp_path, capsys):
     assert "evaluations/s" in text and "before" in text and "after" in text
     assert "The trade between torque hole and clutch energy" in text
     head = out.read_text()
-    assert head.startswith("# Shift calibration by 'transgen optimize'") and "# objective:" in head
+    assert head.startswith("# Shift calibration by 'transgen optimize' of simple2_upshift\n") and "# objective:" in head
+    assert 'include = ["simple2_upshift"]' in head and "# shift 1-2 (C2 on, C1 off)" in head
+    import transgen
+
+    assert str(Path(transgen.__file__).resolve().parent.parent) not in head  # no path of this machine
     assert "# constraints:" in head and "[elements.C2]" in head
     rows = list(csv.DictReader(open(tmp_path / "tuned.history.csv")))
     assert len(rows) == 10 and {"fill_time", "energy", "score", "feasible"} <= set(rows[0])

@@ -56,8 +56,12 @@ def test_mode_column_names_the_modes_as_transgen_modes_does(run, tmp_path):
     assert main(["simulate", NAME, "--quiet", "-o", str(out)]) == 0
     header, rows = _csv(out)
     modes = [r[1] for r in rows]
-    known = {m["name"] for m in modes_report(load_mechanism(scenario.mechanism.source))["modes"]}
-    assert set(modes) <= known and len(set(modes)) == 3          # M1, the shift's slipping mode, M2
+    # named by gear (transgen.names); each joins a mode of `transgen modes` by its locked set and gear
+    known = {frozenset(m["locked"]): m for m in modes_report(load_mechanism(scenario.mechanism.source))["modes"]}
+    assert set(modes) == {"1", "none", "2"}                      # gear 1, the shift's slipping mode, gear 2
+    for span in result.modes:
+        assert known[frozenset(span.locked)]["gear"] == span.gear
+        assert span.name == (span.gear or "+".join(span.locked) or "none")
     for span in result.modes:                                     # inside each span: its name
         inside = [m for t, m in zip(result.time, modes) if span.t0 < t < span.t1]
         assert inside and set(inside) == {span.name}
@@ -78,7 +82,9 @@ def test_every_format_holds_the_same_columns(run, tmp_path):
     mat = scipy.io.loadmat(files["mat"], squeeze_me=True)
     assert list(mat["names"]) == names
     assert [u if isinstance(u, str) else "" for u in mat["units"]] == units    # MATLAB's '' is an empty array
-    assert list(mat["mode_names"]) == ["M1", "M3", "M2"] and list(mat["mode"]) == [r[1] for r in rows]
+    assert list(mat["mode_names"]) == ["1", "none", "2"] and list(mat["mode"]) == [r[1] for r in rows]
+    assert [g if isinstance(g, str) else "" for g in mat["mode_gears"]] == ["1", "", "2"]
+    assert [x if isinstance(x, str) else "" for x in mat["mode_locked"]] == ["C1", "none", "C2"]
     npz = np.load(files["npz"])
     assert list(npz["names"]) == names and list(npz["units"]) == units and list(npz["mode"]) == [r[1] for r in rows]
     doc = json.loads(files["json"].read_text())

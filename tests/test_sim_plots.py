@@ -27,6 +27,7 @@ run_simple2, synthetic = _cases()
 
 FUNCS = [plot_speeds, plot_slips, plot_torques, plot_io_torques, plot_power, plot_mode, plot_apply]
 NAMES = ["speeds", "slips", "torques", "io_torques", "power", "mode", "apply"]
+ALL = NAMES + ["drive"]  # plot_all's whole-run figures (plot_drive: panels of its own)
 
 
 @pytest.fixture(scope="module")
@@ -88,7 +89,7 @@ def test_mode_tick_labels(s2):
     r, qs = s2
     ax = plot_mode(r, qs).axes[0]
     ticks = [t.get_text() for t in ax.get_yticklabels()]
-    assert ticks == ["M1 [C1]", "M3 [none]", "M2 [C2]"]
+    assert ticks == ["1 [C1]", "none", "2 [C2]"]  # the gears by name (transgen.names), the speed phase by its locked set
 
 
 def test_power_in_kw(s2):
@@ -103,15 +104,15 @@ def test_plot_all_writes_files_atomically(s2, tmp_path):
     r, qs = s2
     out = tmp_path / "plots"
     paths = plot_all(r, qs, out, formats=("png", "svg"))
-    assert sorted(p.name for p in paths) == sorted(f"{n}.{f}" for n in NAMES + ["shift1"] for f in ("png", "svg"))
+    assert sorted(p.name for p in paths) == sorted(f"{n}.{f}" for n in ALL + ["shift_1-2"] for f in ("png", "svg"))
     assert sorted(p.name for p in out.iterdir()) == sorted(p.name for p in paths)  # no temp files left
     for p in paths:
         assert p.stat().st_size > 1000
     assert (out / "speeds.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     zoom = plot_all(r, qs, out, time_window=(4.9, 6.0), prefix="zoom_")
-    assert [p.name for p in zoom] == [f"zoom_{n}.png" for n in NAMES]
+    assert [p.name for p in zoom] == [f"zoom_{n}.png" for n in ALL]
     assert not [p for p in out.iterdir() if p.name.startswith(".")]
-    assert set(PLOTS) == set(NAMES)
+    assert set(PLOTS) == set(ALL)
 
 
 def test_plot_all_failure_leaves_no_temp(s2, tmp_path):
@@ -176,4 +177,4 @@ def test_shift_figure_with_vehicle_has_acceleration_and_jerk(tmp_path):
     jerk_line = fig.axes[4].get_lines()[0]
     assert max(abs(jerk_line.get_ydata())) == pytest.approx(q.jerk_max, rel=1e-9)
     paths = plot_all(r, [q], tmp_path)
-    assert (tmp_path / "shift1.png").stat().st_size > 10000 and len(paths) == len(NAMES) + 1
+    assert (tmp_path / "shift_1-2.png").stat().st_size > 10000 and len(paths) == len(ALL) + 1

@@ -105,13 +105,13 @@ def syn():
 
 def test_synthetic_inferred_shift():
     r = synthetic()
-    assert infer_shifts(r) == [Shift("B", "A", 1.0, "M1->M2")]
+    assert infer_shifts(r) == [Shift("B", "A", 1.0, "M1-M2")]
 
 
 def test_synthetic_phases(syn):
     _, q = syn
     assert isinstance(q, ShiftQuality)
-    assert (q.oncoming, q.offgoing, q.name, q.completed, q.direction) == ("B", "A", "M1->M2", True, "upshift")
+    assert (q.oncoming, q.offgoing, q.name, q.completed, q.direction) == ("B", "A", "M1-M2", True, "upshift")
     assert q.torque_phase_start == pytest.approx(1.0, abs=1e-12)
     assert q.torque_phase_end == pytest.approx(1.25, abs=1e-12)
     assert q.torque_phase_duration == pytest.approx(0.25, abs=1e-12)
@@ -208,7 +208,7 @@ def test_synthetic_explicit_shift_and_links():
     assert any("input link not recorded" in n for n in q.notes)
     (q,) = shift_report(r, [Shift("B", "A", 1.0)], input_link="Li", output_link="Lo")
     assert not any("not recorded" in n for n in q.notes)
-    assert q.name == "M1->M2" and q.flare_max == pytest.approx(5.0)
+    assert q.name == "M1-M2" and q.flare_max == pytest.approx(5.0)
     with pytest.raises(KeyError):
         shift_report(r, [Shift("X", "A", 1.0)])
 
@@ -246,7 +246,7 @@ def test_energy_balance_pass_fail():
 def test_report_text_and_dict(syn):
     r, q = syn
     text = report_text(r, [q])
-    for s in ("Shift M1->M2", "torque phase", "inertia (speed) phase", "N*m", "rad/s", "rpm", "bindup",
+    for s in ("Shift M1-M2", "torque phase", "inertia (speed) phase", "N*m", "rad/s", "rpm", "bindup",
               "YES", "flare", "energy [J]", "peak power [W]", "Energy balance", "PASS", "Run statistics"):
         assert s in text, s
     d = report_dict(r, [q])
@@ -254,7 +254,7 @@ def test_report_text_and_dict(syn):
     assert d["shifts"][0]["torque_hole"] == pytest.approx(400.0)
     assert d["shifts"][0]["energy"]["B"] == pytest.approx(8000.0)
     assert d["energy_balance"]["passed"] is True
-    assert report_dict(r)["shifts"][0]["name"] == "M1->M2"  # qualities computed when not given
+    assert report_dict(r)["shifts"][0]["name"] == "M1-M2"  # qualities computed when not given
 
 
 # --------------------------------------------------------------------------- comfort figures
@@ -362,12 +362,13 @@ def test_sweep_rows_carry_the_comfort_scalars():
     row = result_scalars(sc, sc.run())
     for k in ("accel_before", "accel_after", "jerk_max", "jerk_peak_to_peak", "vdv", "torque_overshoot",
               "settling_time", "shift_duration", "lock_counts.C4", "unlock_counts.C5", "peak_power.C4"):
-        assert isinstance(row[f"shift1.{k}"], float | int), k
-    assert row["shift1.vdv_weighting"] == "Wd" and row["shift1.chatter"] is False
-    assert row["shift1.forced_unlock"] is False and row["shift1.forced_unlock_element"] is None
-    assert row["shift1.lock_counts.C4"] == 1 and row["shift1.unlock_counts.C5"] == 1
-    assert [column_unit(f"shift1.{k}") for k in ("jerk_max", "vdv", "accel_after", "lock_counts.C4")] == [
-        "m/s^3", "m/s^1.75", "m/s^2", "1"]
+        assert isinstance(row[f"shift.1-2.{k}"], float | int), k
+    assert row["shift.1-2.vdv_weighting"] == "Wd" and row["shift.1-2.chatter"] is False
+    assert row["shift.1-2.forced_unlock"] is False and row["shift.1-2.forced_unlock_element"] is None
+    assert row["shift.1-2.lock_counts.C4"] == 1 and row["shift.1-2.unlock_counts.C5"] == 1
+    for prefix in ("shift.1-2", "shift1"):  # a table written before shifts were named by gear
+        assert [column_unit(f"{prefix}.{k}") for k in ("jerk_max", "vdv", "accel_after", "lock_counts.C4")] == [
+            "m/s^3", "m/s^1.75", "m/s^2", "1"]
 
 
 # --------------------------------------------------------------------------- simple2 1-2 upshift
@@ -400,7 +401,7 @@ def test_simple2_phases(s2):
     q = qs[0]
     unlock = [e.t for e in r.events if e.kind == "unlock"][0]
     lock = [e.t for e in r.events if e.kind == "lock"][0]
-    assert (q.oncoming, q.offgoing, q.name, q.t_start, q.direction) == ("C2", "C1", "M1->M2", 5.0, "upshift")
+    assert (q.oncoming, q.offgoing, q.name, q.t_start, q.direction) == ("C2", "C1", "1-2", 5.0, "upshift")
     assert q.torque_phase_start == pytest.approx(5.0, abs=1e-9)
     assert q.torque_phase_end == unlock == q.inertia_phase_start
     assert unlock == pytest.approx(5.25, abs=0.01)
@@ -468,7 +469,7 @@ def test_simple2_ramp_and_energy(s2):
 def test_simple2_report_text(s2):
     r, qs = s2
     text = report_text(r, qs)
-    assert "Shift M1->M2 (upshift): oncoming C2, offgoing C1" in text and "PASS" in text
+    assert "Shift 1-2 (upshift): oncoming C2, offgoing C1" in text and "PASS" in text
     json.dumps(report_dict(r, qs), allow_nan=False)
 
 

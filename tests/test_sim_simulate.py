@@ -30,7 +30,8 @@ def _event_times(result, kind=None):
 def test_simple2_mode_sequence_is_fig_3_8(simple2_run):
     r = simple2_run
     assert r.success, r.message
-    assert [m.name for m in r.modes] == ["M1", "M3", "M2"]
+    assert [m.name for m in r.modes] == ["1", "none", "2"]  # thesis M1, M3, M2: named by gear (transgen.names)
+    assert [m.gear for m in r.modes] == ["1", None, "2"]
     assert [(e.kind, e.elements) for e in r.events[1:]] == [("unlock", ("C1",)), ("lock", ("C2",))]
     t_unlock, t_lock = _event_times(r)
     assert 5.0 < t_unlock < t_lock < 6.0

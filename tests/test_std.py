@@ -91,8 +91,8 @@ def test_std_with_explicit_modes_and_to_dict():
     std = state_transition_diagram(mech, modes)
     assert _edges(std) == {("first", "phase", "C5", "unlock"), ("phase", "first", "C5", "lock")}
     d = std.to_dict()
-    assert d["modes"] == [{"name": "first", "locked": ["C1", "C5"], "label": ""},
-                          {"name": "phase", "locked": ["C1"], "label": ""}]
+    assert d["modes"] == [{"name": "first", "gear": "1", "locked": ["C1", "C5"], "label": ""},
+                          {"name": "phase", "gear": None, "locked": ["C1"], "label": ""}]
     assert {(t["from"], t["to"], t["element"], t["event"]) for t in d["transitions"]} == _edges(std)
     assert len(d["leaving"]) == 2 * 5 - 2
     for t in d["leaving"]:

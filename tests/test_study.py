@@ -70,7 +70,9 @@ def test_sampled_design_fixes_single_values_and_refuses_lists():
     with pytest.raises(ValueError, match="a sampled parameter is a range"):
         design_variants({"a.b": [1, 2]}, 4)
     with pytest.raises(ValueError, match="the name of a result column"):
-        design_variants({"shift1.torque_hole": [1]})
+        design_variants({"shift1.torque_hole": [1]})  # an old table's column
+    with pytest.raises(ValueError, match="the name of a result column"):
+        design_variants({"shift.1-2.torque_hole": [1]})
 
 
 def test_linspace_is_inclusive_and_keeps_whole_numbers():
@@ -126,19 +128,19 @@ def test_rows_have_parameters_energy_and_every_shift_scalar(serial):
     from transgen.sim.shift_quality import ShiftQuality
 
     scalars = [f for f, t in ShiftQuality.__annotations__.items() if "dict" not in str(t) and "tuple" not in str(t)]
-    assert all(f"shift1.{f}" in columns for f in scalars), [f for f in scalars if f"shift1.{f}" not in columns]
-    assert "shift1.energy.C4" in columns and "shift1.peak_power.C4" in columns
+    assert all(f"shift.1-2.{f}" in columns for f in scalars), [f for f in scalars if f"shift.1-2.{f}" not in columns]
+    assert "shift.1-2.energy.C4" in columns and "shift.1-2.peak_power.C4" in columns
     assert all(serial["energy.passed"]) and "energy.residual" in columns
-    assert serial.units()["shift1.torque_hole"] == "N*m" and serial.units()["shift1.energy.C4"] == "J"
+    assert serial.units()["shift.1-2.torque_hole"] == "N*m" and serial.units()["shift.1-2.energy.C4"] == "J"
     light, heavy = serial.rows[0], serial.rows[2]
-    assert heavy["shift1.energy_total"] != light["shift1.energy_total"]
+    assert heavy["shift.1-2.energy_total"] != light["shift.1-2.energy_total"]
 
 
 def test_to_pandas(serial):
     pytest.importorskip("pandas")
     frame = serial.to_pandas()
     assert list(frame.columns) == serial.columns and len(frame) == 4
-    assert frame["shift1.torque_hole"].tolist() == serial["shift1.torque_hole"]
+    assert frame["shift.1-2.torque_hole"].tolist() == serial["shift.1-2.torque_hole"]
 
 
 def test_a_failed_run_is_a_row_with_its_message(monkeypatch):
@@ -311,7 +313,7 @@ def test_cli_sweep_resumes_after_a_kill(tmp_path):
     assert done.returncode == 0, done.stderr
     summary = json.loads(done.stdout)
     assert summary["schema"] == "transgen.sweep/1" and summary["transgen_version"]
-    assert summary["runs"] == 6 and summary["failed"] == 0 and summary["units"]["shift1.torque_hole"] == "N*m"
+    assert summary["runs"] == 6 and summary["failed"] == 0 and summary["units"]["shift.1-2.torque_hole"] == "N*m"
     assert summary["resumed"] == len(finished) and summary["design"]["kind"] == "grid"
     numeric = {c for r in summary["rows"] for c, v in r.items() if isinstance(v, (int, float)) and not isinstance(v, bool)}
     assert numeric <= set(summary["units"]), sorted(numeric - set(summary["units"]))
@@ -349,16 +351,16 @@ def test_plots_over_one_parameter_and_heat_maps_over_two(serial, tmp_path):
     os.environ.setdefault("MPLBACKEND", "Agg")
     from transgen.sim.study.plots import plot_heatmap, plot_metric, plot_sweep
 
-    fig = plot_heatmap(serial, "shift1.torque_hole", "driveline.vehicle_mass", "input.throttle_signal")
+    fig = plot_heatmap(serial, "shift.1-2.torque_hole", "driveline.vehicle_mass", "input.throttle_signal")
     image = fig.axes[0].images[0].get_array()
-    assert image.shape == (2, 2) and image[0, 1] == serial.rows[2]["shift1.torque_hole"]
-    fig = plot_metric(serial, "shift1.energy_total", "driveline.vehicle_mass")
+    assert image.shape == (2, 2) and image[0, 1] == serial.rows[2]["shift.1-2.torque_hole"]
+    fig = plot_metric(serial, "shift.1-2.energy_total", "driveline.vehicle_mass")
     assert len(fig.axes[0].lines) == 2  # one line per throttle
     written = plot_sweep(serial, tmp_path / "plots")
-    assert {p.name for p in written} >= {"shift1_torque_hole_map.png", "energy_dissipated_map.png"}
+    assert {p.name for p in written} >= {"shift_1-2_torque_hole_map.png", "energy_dissipated_map.png"}
     assert all(p.stat().st_size > 0 for p in written)
     one = SweepTable([r for r in serial.rows if r["input.throttle_signal"] == 0.6], serial.parameters)
-    assert any(p.name == "shift1_torque_hole_over_driveline_vehicle_mass.png" for p in plot_sweep(one, tmp_path / "one"))
+    assert any(p.name == "shift_1-2_torque_hole_over_driveline_vehicle_mass.png" for p in plot_sweep(one, tmp_path / "one"))
 
 
 def test_readme_sweep_commands_parse_and_name_known_keys():

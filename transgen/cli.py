@@ -179,12 +179,13 @@ def cmd_modes(args) -> int:
         print_document("transgen.modes/1", report, MODES_UNITS)
         return 0
     print(f"{mech.name}: {len(report['modes'])} modes ({report['selection']})")
-    print(f"  {'mode':<5} {'locked':<18} {'DOF':>3}  {'kind':<8} label / problem")
+    print(f"  {'mode':<5} {'gear':<4} {'locked':<18} {'DOF':>3}  {'kind':<8} label / problem")
     for m in report["modes"]:
         notes = ([m["label"]] * bool(m["label"]) + [f"{'+'.join(grp)} in parallel" for grp in m["parallel"]]
                  + [idle_text(m["dof"], m["idle"])] * bool(m["idle"]))
         extra = "; ".join(notes) + (f"  !! {m['problem']}" if m["problem"] else "")
-        print(f"  {m['name']:<5} {' '.join(m['locked']) or '(none)':<18} {m['dof']:>3}  {m['kind']:<8} {extra}")
+        print(f"  {m['name']:<5} {m['gear'] or '-':<4} {' '.join(m['locked']) or '(none)':<18} {m['dof']:>3}  "
+              f"{m['kind']:<8} {extra}")
     for note in report["notes"]:
         print(f"  note: {note}")
     diag = report["diagnosis"]
@@ -274,10 +275,15 @@ def cmd_std(args) -> int:
     if args.json:
         print_document("transgen.std/1", std.to_dict(), {})
     elif not args.output:
+        from .names import user_name
+
+        # each mode with the name a simulation result gives it (its gear, else its locked set)
+        shown = {m.name: m.name if user_name(mech, m.locked) == m.name else f"{m.name} ({user_name(mech, m.locked)})"
+                 for m in std.modes}
         for t in std.internal:
-            print(f"  {t.source} -> {t.target}: {t.event} {t.element}: {t.condition}")
+            print(f"  {shown[t.source]} -> {shown[t.target]}: {t.event} {t.element}: {t.condition}")
         for t in std.external:
-            print(f"  {t.source} -> (not modelled: {' '.join(t.reaches) or 'none'}): {t.event} {t.element}")
+            print(f"  {shown[t.source]} -> (not modelled: {' '.join(t.reaches) or 'none'}): {t.event} {t.element}")
         for m, why in std.unmodellable:
             print(f"  {m.name} ({' '.join(m.locked) or 'none'}) cannot be modelled: {why}")
     return 0

@@ -83,7 +83,7 @@ def modes_report(mech: Mechanism, which: str = "auto") -> dict:
         "mechanism": mech.name,
         "selection": "all combinations" if which == "all" else ("declared" if mech.modes else "default"),
         "modes": [
-            {"name": m.name, "locked": list(m.locked), "dof": m.dof, "kinematic_dof": m.kinematic_dof,
+            {"name": m.name, "gear": m.mode.gear, "locked": list(m.locked), "dof": m.dof, "kinematic_dof": m.kinematic_dof,
              "kind": m.kind, "label": m.mode.label, "problem": m.problem, "idle": list(m.idle),
              "parallel": [list(grp.members) for grp in m.parallel]}
             for m in models

@@ -114,12 +114,12 @@ def write_state_space(ss: StateSpaceSet, path: str | Path, fmt: str | None = Non
     :mod:`transgen.statespace`), with the names of its ``states``, ``inputs`` and ``outputs``:
 
     * ``json``: a ``transgen.matrices/1`` document (:func:`~transgen.statespace.matrices_document`):
-      ``{"mechanism", "coordinates", "inputs", "modes": [{"name", "locked", "dof", "states",
+      ``{"mechanism", "coordinates", "inputs", "modes": [{"name", "gear", "locked", "dof", "states",
       "inputs", "outputs", "A", "B", "C_speeds", "D_torques", "Cy", "Dy", ...}], "skipped"}``;
     * ``npz``: arrays ``<mode>_A``, ``<mode>_B``, ... ``<mode>_Dy`` and the JSON document without
       the matrices in ``meta``;
     * ``mat``: a MATLAB struct per mode (``M1.A``, ..., ``M1.Cy``, ``M1.Dy``, ``M1.states``,
-      ``M1.inputs``, ``M1.outputs``, ...) and the cell arrays ``inputs``, ``coordinates``,
+      ``M1.inputs``, ``M1.outputs``, ``M1.gear`` (the gear it is, or empty), ``M1.locked``, ...) and the cell arrays ``inputs``, ``coordinates``,
       ``modes``: ``ss(M1.A, M1.B, M1.Cy, M1.Dy)`` in MATLAB/Octave; ``scipy.io.loadmat`` reads it;
     * ``latex``: one ``align*`` block per mode, ``\\dot x = B u``, ``w = C_speeds x``,
       ``t = D_torques u`` (``array`` environments: any number of columns).
@@ -160,7 +160,7 @@ def write_state_space(ss: StateSpaceSet, path: str | Path, fmt: str | None = Non
         }
         for m in ss.modes:
             data[matlab_name(m.name)] = {
-                "name": m.name, "label": m.label, "kind": m.kind, "dof": m.dof,
+                "name": m.name, "gear": m.gear or "", "label": m.label, "kind": m.kind, "dof": m.dof,
                 "locked": cells(m.locked), "states": cells(m.states), "inputs": cells(m.inputs),
                 "outputs": cells(m.outputs), **{k: _float(getattr(m, k)) for k in MATRICES},
                 "speed_outputs": cells(m.speed_outputs), "torque_outputs": cells(m.torque_outputs),
@@ -205,7 +205,8 @@ def state_space_latex(ss: StateSpaceSet) -> str:
            f"% coordinates: {', '.join(ss.coordinates)}; inputs u = ({', '.join(ss.inputs)})"]
     for m in ss.modes:
         locked = ", ".join(m.locked) or "none"
-        out.append(f"\\paragraph{{Mode {m.name} ({m.label or 'mode'}; locked: {locked}; {m.dof} DOF)}}")
+        gear = f"gear {m.gear}; " if m.gear is not None and f"gear {m.gear}" not in m.label else ""
+        out.append(f"\\paragraph{{Mode {m.name} ({gear}{m.label or 'mode'}; locked: {locked}; {m.dof} DOF)}}")
         out.append(r"\begin{align*}")
         x = [f"w_{s}" for s in m.states]
         u = list(m.inputs)

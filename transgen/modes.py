@@ -48,6 +48,7 @@ from .graph import bond_graph
 from .idle import gear_check
 from .kinematics import analyze, engaged_combinations, numeric_rank
 from .model import Mechanism
+from .names import mode_names
 
 if TYPE_CHECKING:
     from .graph import Graph
@@ -69,11 +70,14 @@ __all__ = [
 
 @dataclass(frozen=True)
 class Mode:
-    """A mode of operation: ``locked`` shift elements; ``label`` says why it is modelled."""
+    """A mode of operation: ``locked`` shift elements; ``label`` says why it is modelled;
+    ``gear``: the gear-table row (gear or neutral) it is, else None (:meth:`transgen.names.ModeNames.gear`),
+    so that a mode of any selection (``M10`` of ``"all"``) is known by the gear a user names."""
 
     name: str
     locked: tuple[str, ...]
     label: str = ""
+    gear: str | None = None
 
     @property
     def key(self) -> frozenset:
@@ -124,11 +128,11 @@ def select_modes(mech: Mechanism, which: str = "auto") -> list[Mode]:
         which = "declared" if mech.modes else "default"
     g = bond_graph(mech)
     if which == "declared":
-        return [Mode(d.name, complete_locked(g, d.locked), "declared") for d in mech.modes]
+        return _with_gears(mech, [Mode(d.name, complete_locked(g, d.locked), "declared") for d in mech.modes])
     if which == "all":
         names = list(mech.element_names)
         combos = {tuple(sorted(complete_locked(g, c), key=names.index)): None for c in engaged_combinations(names)}
-        return [Mode(f"M{i + 1}", c, "") for i, c in enumerate(combos)]
+        return _with_gears(mech, [Mode(f"M{i + 1}", c, "") for i, c in enumerate(combos)])
     if which != "default":
         raise ValueError(f"unknown mode selection {which!r}")
     if not any(g.kind == "gear" for g in mech.gears):
@@ -168,7 +172,21 @@ def select_modes(mech: Mechanism, which: str = "auto") -> list[Mode]:
             labels[key] = []
             order.append(tuple(locked))
         labels[key].append(label)
-    return [Mode(f"M{i + 1}", locked, _join_labels(labels[frozenset(locked)])) for i, locked in enumerate(order)]
+    return _with_gears(mech, [Mode(f"M{i + 1}", locked, _join_labels(labels[frozenset(locked)]))
+                              for i, locked in enumerate(order)])
+
+
+def _with_gears(mech: Mechanism, modes: list[Mode]) -> list[Mode]:
+    """``modes`` with the gear each one is (:meth:`transgen.names.ModeNames.gear`); an unlabelled one
+    (of the ``"all"`` selection) labelled by it (``gear 1``, ``neutral N``)."""
+    kinds = {gear.name: gear.kind for gear in mech.gears}
+    names = mode_names(mech)
+    out = []
+    for m in modes:
+        gear = names.gear(m.locked)
+        label = m.label or (f"{kinds[gear]} {gear}" if gear is not None else "")
+        out.append(Mode(m.name, m.locked, label, gear))
+    return out
 
 
 MAX_SHIFT_SPAN = 8

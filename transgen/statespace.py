@@ -61,6 +61,9 @@ class ModeStateSpace:
     idle: tuple[str, ...] = ()
     """Idle members of a gear mode (:mod:`transgen.idle`): links that move with the input held;
     their motions are states besides the gear's (e.g. ``states = (IN, H)``)."""
+    gear: str | None = None
+    """The gear-table row (gear or neutral) the mode is, else None (:attr:`transgen.modes.Mode.gear`):
+    with ``locked``, what joins the matrices to a simulation result's modes."""
 
     @property
     def A(self) -> np.ndarray:
@@ -161,7 +164,7 @@ class StateSpaceSet:
             "inputs": list(self.inputs),
             "symbolic": self.symbolic,
             "modes": [
-                {"name": m.name, "label": m.label, "locked": list(m.locked), "kind": m.kind, "dof": m.dof,
+                {"name": m.name, "gear": m.gear, "label": m.label, "locked": list(m.locked), "kind": m.kind, "dof": m.dof,
                  "states": list(m.states), "inputs": list(m.inputs), "outputs": list(m.outputs),
                  **{k: mat(getattr(m, k)) for k in MATRICES},
                  "speed_outputs": list(m.speed_outputs), "torque_outputs": list(m.torque_outputs),
@@ -225,7 +228,7 @@ def _mode_state_space(model: ModeModel, links: list[str], coords, symbolic: bool
     D = eq.G_clutches
     return ModeStateSpace(model.name, model.locked, model.mode.label, model.kind, model.dof, states, eq.u,
                           B, C, D, tuple(links), tuple(f"t_{grp.label}" for grp in eq.groups),
-                          tuple(grp.members for grp in eq.groups), model.idle)
+                          tuple(grp.members for grp in eq.groups), model.idle, model.mode.gear)
 
 
 def state_space(mech: Mechanism, coordinates=None, which: str = "auto", symbolic: bool | str = False,

@@ -32,7 +32,7 @@ it would reach, so a user sees where the model is incomplete.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import itertools
 
@@ -40,6 +40,7 @@ from .equations import LockingGroup, diagnose_singular, locking_groups
 from .graph import bond_graph
 from .model import Mechanism
 from .modes import Mode, select_modes
+from .names import mode_names
 
 __all__ = ["Transition", "StateTransitionDiagram", "state_transition_diagram", "lock_condition", "unlock_condition",
            "group_lock_condition", "group_unlock_condition"]
@@ -94,7 +95,7 @@ class StateTransitionDiagram:
     def to_dict(self) -> dict:
         return {
             "mechanism": self.mechanism,
-            "modes": [{"name": m.name, "locked": list(m.locked), "label": m.label} for m in self.modes],
+            "modes": [{"name": m.name, "gear": m.gear, "locked": list(m.locked), "label": m.label} for m in self.modes],
             "transitions": [
                 {"from": t.source, "to": t.target, "element": t.element, "event": t.event,
                  "condition": t.condition, "reaches": list(t.reaches)}
@@ -194,7 +195,8 @@ def _group_transitions(mech: Mechanism, group: LockingGroup, locked: tuple[str, 
 def state_transition_diagram(mech: Mechanism, modes: list[Mode] | None = None) -> StateTransitionDiagram:
     """The STD of the modelled modes (default: :func:`~transgen.modes.select_modes`); modes that
     cannot be modelled go to ``unmodellable``."""
-    modes = select_modes(mech) if modes is None else modes
+    names = mode_names(mech)
+    modes = select_modes(mech) if modes is None else [replace(m, gear=names.gear(m.locked)) for m in modes]
     g = bond_graph(mech)
     problems = {m.key: diagnose_singular(g, m.locked) for m in modes}
     good = [m for m in modes if not problems[m.key]]

@@ -465,14 +465,6 @@ def _spliced_table(raw, spans, t_run: float) -> dict:
     return {"type": "table", "t": list(table.times), "value": list(table.values)}
 
 
-def _gear_of(mech, locked: Sequence[str]) -> str | None:
-    engaged = set(locked)
-    for g in mech.gears:
-        if set(g.engaged) <= engaged and not (engaged - set(g.engaged) - {e.name for e in mech.elements if e.kind == "oneway"}):
-            return g.name
-    return None
-
-
 def plan_calibration(path, files: Mapping[str, str], result, scenario) -> tuple[Calibration, list[ShiftPlan]]:
     """The calibration of the scenario and its shifts (from the shift report of its run
     ``result``), each with its starting template (fitted to raw tables where it has them)."""
@@ -482,7 +474,6 @@ def plan_calibration(path, files: Mapping[str, str], result, scenario) -> tuple[
     qualities = shift_report(result, scenario.shifts or None)
     data = scenario.data
     tr = scenario.powertrain.transmission
-    mech = scenario.mechanism
     t_run = scenario.options.t_start
     plans: list[ShiftPlan] = []
     if data.get("auto_shift"):
@@ -523,9 +514,7 @@ def plan_calibration(path, files: Mapping[str, str], result, scenario) -> tuple[
         zero = ts[np.argmax(a_off <= 1e-9)] if np.any(a_off <= 1e-9) else limit
         t_end = max(full, zero)
         tmpl, residual = fit_template(on, off, q.t_start, min(limit, t_end + 0.1))
-        before = _gear_of(mech, [tr.elements[i].name for i in _locked_at(result, q.t_start)])
-        after = _gear_of(mech, [tr.elements[i].name for i in _locked_at(result, q.shift_end + 1e-9)]) if q.completed else None
-        name = f"{before}-{after}" if before and after else q.name
+        name = q.name  # the shift report's name: its gears (1-2), transgen.names
         plans.append(ShiftPlan(len(plans) + 1, name, q.oncoming, q.offgoing, q.t_start, tmpl, name, float(t_end), residual))
     request = next((c.request for c in scenario.powertrain.components if getattr(c, "request", None) is not None), None)
     return Calibration("tables", t_run, raw=raw, request=request), plans
@@ -565,17 +554,6 @@ def reference_limits(reference, overrides: Mapping, plans: Sequence[ShiftPlan]) 
                                 f"(its shifts: {', '.join(by_name) or 'none'})")
         limits[p.number] = found[k]
     return limits
-
-
-def _locked_at(result, t: float) -> frozenset:
-    names = {e: i for i, e in enumerate(result.meta.get("elements", []))}
-    for m in result.modes:
-        if m.t0 <= t < m.t1 or (t >= m.t1 and m is result.modes[-1]):
-            return frozenset(names[x] for x in m.locked if x in names)
-    return frozenset()
-
-
-# ---------------------------------------------------------------------------------- metrics
 
 
 def shift_metrics(result, oncoming: str, offgoing: str, t_start: float, name: str = "") -> dict:
@@ -1008,7 +986,8 @@ def _select(plans: list[ShiftPlan], names: Sequence[str] | None, path) -> list[S
         return plans
     out = []
     for name in names:
-        found = [p for p in plans if p.name == name or str(p.number) == str(name)]
+        name = str(name).replace("->", "-")  # the separator of shift names before gear names
+        found = [p for p in plans if p.name == name or str(p.number) == name]
         if not found:
             known = ", ".join(f"{p.number} ({p.name})" for p in plans)
             raise ValueError(f"--shift {name}: error: no such shift in {path} (shifts: {known})")
@@ -1062,7 +1041,7 @@ def tuned_scenario_text(result: OptimizeResult, output, before: Sequence | None 
     out_dir = Path(output).resolve().parent
     bundled = original.parent == next(iter(bundled_scenarios().values())).parent
     ref = original.stem if bundled and not (out_dir / original.stem).exists() else os.path.relpath(original, out_dir)
-    lines = [f"# Shift calibration by 'transgen optimize' of {result.path}",
+    lines = [f"# Shift calibration by 'transgen optimize' of {ref}",  # no path of this machine
              f"# objective: {result.objective.text()} (terms relative to the starting calibration of each shift)",
              f"# constraints: {result.constraints.text()}", f"# seed: {result.seed}",
              f"# tuned: {', '.join(result.parameters)}"

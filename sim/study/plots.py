@@ -17,11 +17,11 @@ import itertools
 import math
 from pathlib import Path
 
-from .table import SweepTable, column_unit
+from .table import SweepTable, column_shift, column_unit
 
 __all__ = ["plot_metric", "plot_heatmap", "plot_sweep", "sweep_metrics", "METRICS"]
 
-#: the shift-report figures plotted by :func:`plot_sweep` (``shiftN.NAME`` for every shift)
+#: the shift-report figures plotted by :func:`plot_sweep` (``shift.1-2.NAME`` for every shift)
 METRICS = ("torque_hole", "bindup_torque", "flare_max_rpm", "energy_total", "shift_duration")
 
 
@@ -114,9 +114,9 @@ def sweep_metrics(table: SweepTable) -> list[str]:
     """The columns :func:`plot_sweep` draws: :data:`METRICS` of every shift, the energy
     dissipated and the turbocharger's time to 90 % boost, where the table has them."""
     columns = table.columns
-    shifts = _sortable(int(c.split(".")[0][5:]) for c in columns
-                       if c.startswith("shift") and c.split(".")[0][5:].isdigit())
-    wanted = [f"shift{n}.{m}" for n, m in itertools.product(shifts, METRICS)]
+    prefixes = list(dict.fromkeys(c.rsplit(".", 1)[0] for c in columns
+                                  if (s := column_shift(c)) is not None and len(s[1]) == 1))
+    wanted = [f"{p}.{m}" for p, m in itertools.product(prefixes, METRICS)]
     wanted += ["energy.dissipated", "turbo.time_to_90_boost"]
     return [c for c in wanted if c in columns]
 

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .design import full_grid, latin_hypercube, row_key
-from .table import FIRST_COLUMNS, SweepTable
+from .table import FIRST_COLUMNS, SweepTable, column_shift
 
 __all__ = ["sweep", "SweepProgress", "validate_variants", "design_variants", "scenario_path"]
 
@@ -76,7 +76,7 @@ def design_variants(grid: Mapping[str, Sequence], samples: int | None = None, se
         raise ValueError("--grid: error: give at least one parameter to vary (--grid KEY=V1,V2,...)")
     for key in grid:
         if key == "key" or key in FIRST_COLUMNS or key.split(".")[0] in ("energy", "turbo") \
-                or key.split(".")[0].startswith("shift") and key.split(".")[0][5:].isdigit():
+                or column_shift(key) is not None:
             raise ValueError(f"--grid {key}: error: not a scenario key (the name of a result column)")
     if samples is None:
         return full_grid(grid)

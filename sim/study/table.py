@@ -2,8 +2,11 @@
 
 Columns: ``key`` (the row key, :func:`~.design.row_key`), the parameters (their dotted keys),
 ``success``, ``message``, ``wall_time`` [s], then the scalars of the run (``energy.*``,
-``shiftN.*``, ``turbo.*``, see :mod:`.task`) in the order they first appear. A run that lacks a
-column (a failed run, fewer shifts) has an empty cell. Units are those of :func:`column_unit`.
+``shift.<name>.*`` - ``shift.1-2.torque_hole``, a shift by its name, :func:`shift_columns` -,
+``turbo.*``, see :mod:`.task`) in the order they first appear. A run that lacks a column (a
+failed run, fewer shifts) has an empty cell. Units are those of :func:`column_unit`. Tables
+written before shifts were named by gear number them (``shift1.torque_hole``): they are read as
+they are, and :func:`column_shift` knows both.
 
 The CSV is plain (header = column names, so that pandas and spreadsheets read it as it is);
 numbers are written with Python's shortest round-trip repr, so :meth:`SweepTable.from_csv` reads
@@ -18,7 +21,7 @@ import re
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
-__all__ = ["SweepTable", "column_unit", "FIRST_COLUMNS"]
+__all__ = ["SweepTable", "column_unit", "shift_columns", "column_shift", "FIRST_COLUMNS"]
 
 FIRST_COLUMNS = ("success", "message", "wall_time")
 
@@ -43,13 +46,34 @@ _SUFFIX = (("_time", "s"), ("_start", "s"), ("_end", "s"), ("_duration", "s"), (
            ("_torque_at_unlock", "N*m"), ("_torque_min", "N*m"), ("_torque_max", "N*m"))
 
 
+def shift_columns(names: Iterable[str]) -> list[str]:
+    """The column prefix of each shift of a run, from the shifts' names in order: ``shift.1-2``,
+    a name that repeats numbered (``shift.2-3#2``, :func:`transgen.names.numbered`)."""
+    from transgen.names import numbered
+
+    return [f"shift.{name}" for name in numbered(names)]
+
+
+def column_shift(column: str) -> tuple[str, list[str]] | None:
+    """``(shift, rest)`` of a shift's column: ``shift.1-2.energy.C4`` -> ``("1-2", ["energy", "C4"])``;
+    an old table's numbered column ``shift1.energy.C4`` -> ``("1", [...])``; None for any other."""
+    head, _, tail = column.partition(".")
+    if head == "shift" and "." in tail:
+        name, _, rest = tail.partition(".")
+        return name, rest.split(".")
+    if head.startswith("shift") and head[5:].isdigit() and tail:
+        return head[5:], tail.split(".")
+    return None
+
+
 def column_unit(column: str) -> str:
     """The unit of a result column (``"s"``, ``"N*m"``, ``"J"``, ``"W"``, ``"rad/s"``, ``"rpm"``,
     ``"%"``, ``"m/s^2"``, ``"m/s^3"``, ``"m/s^1.75"``, ``"1"`` for ratios and counts); ``""`` for texts, flags, parameters and unknown columns."""
     parts = column.split(".")
-    if len(parts) == 3 and parts[0].startswith("shift") and parts[1] in ("energy", "peak_power"):
-        return "J" if parts[1] == "energy" else "W"  # per-element dicts of a shift
-    if len(parts) == 3 and parts[0].startswith("shift") and parts[1] in ("lock_counts", "unlock_counts"):
+    shift = column_shift(column)
+    if shift is not None and len(shift[1]) == 2 and shift[1][0] in ("energy", "peak_power"):
+        return "J" if shift[1][0] == "energy" else "W"  # per-element dicts of a shift
+    if shift is not None and len(shift[1]) == 2 and shift[1][0] in ("lock_counts", "unlock_counts"):
         return "1"
     name = parts[-1]
     if name in _EXACT:

@@ -9,8 +9,9 @@ row with ``success = False`` and its message.
 
 The scalars are found generically in the JSON of the reports: the energy balance
 (:func:`transgen.sim.report.energy_balance`) as ``energy.NAME``, every scalar of each shift's
-:meth:`~transgen.sim.shift_quality.ShiftQuality.to_dict` as ``shiftN.NAME`` (N from 1; the
-per-element dicts as ``shiftN.energy.C4``), and where a turbodiesel runs the
+:meth:`~transgen.sim.shift_quality.ShiftQuality.to_dict` as ``shift.<shift>.NAME`` (the shift
+by its name, ``shift.1-2.torque_hole``, a repeated one ``shift.2-3#2``: :func:`.table.shift_columns`;
+the per-element dicts as ``shift.1-2.energy.C4``), and where a turbodiesel runs the
 :class:`~transgen.sim.engine.turbo_report.TurboReport` as ``turbo.NAME``. Lists (notes) are left out.
 """
 from __future__ import annotations
@@ -68,8 +69,10 @@ def result_scalars(scenario, result) -> dict:
     row = flatten("energy", jsonable(energy_balance(result)))
     if result.success and len(result.time):
         report = report_dict(result, shift_report(result, scenario.shifts or None))
-        for i, shift in enumerate(report["shifts"], start=1):
-            flatten(f"shift{i}", shift, row)
+        from .table import shift_columns
+
+        for prefix, shift in zip(shift_columns(s["name"] for s in report["shifts"]), report["shifts"]):
+            flatten(prefix, shift, row)
         if "omega_tc" in result.signals:
             from transgen.sim.engine.turbo_report import turbo_report
 
