@@ -35,6 +35,7 @@ import numpy as np
 from transgen.errors import MechError, ModeError, ScenarioError
 from transgen.kinematics import constraint_matrix, numeric_rank
 from transgen.language import load_mechanism, parse_mechanism
+from transgen.limits import LIMITS, limit
 from transgen.model import Mechanism
 
 from .components import Driveline, EngineMap, EngineOnLink, EngineWithConverter, InputTorque, LinkLoad
@@ -66,6 +67,10 @@ class Scenario:
     outputs: list[str] = field(default_factory=list)
     data: dict = field(default_factory=dict)
     lockup: list[str] = field(default_factory=list)  # converter lock-up clutches (not gear shifts)
+    #: the periodic signals the file gives, ``(key path, signal)``, and a function giving an error
+    #: located at a key path (:mod:`.run_limits` checks the run's size with them)
+    periodic: list = field(default_factory=list, repr=False, compare=False)
+    locate: object = field(default=None, repr=False, compare=False)
 
     def run(self, progress=None, start=None, t_end: float | None = None):
         """Simulate; returns a :class:`~transgen.sim.result.Result`. ``start``: a saved state
@@ -225,6 +230,10 @@ def _build(data: dict, source: Source, path: Path, overrides=None, access: FileA
     if options.method not in ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA"):
         raise r.error(("simulation", "method"), f"unknown integration method {shown(options.method)}")
     duration = options.t_end - options.t_start
+    for key in ("rtol", "atol"):  # a tolerance below the floor never converges (transgen.limits)
+        if getattr(options, key) < limit(key):
+            raise r.error(("simulation", key), f"{key} = {getattr(options, key):g} is below the limit of "
+                                               f"{limit(key):g}: {LIMITS[key].why}")
     for key, step in (("output_dt", options.output_dt), ("max_step", options.max_step)):
         if duration / step > MAX_STEPS:
             raise r.error(("simulation", key), f"{key} = {step:g} s gives {duration / step:.3g} steps in the simulated "
@@ -393,7 +402,7 @@ def _build(data: dict, source: Source, path: Path, overrides=None, access: FileA
     title = data.get("title", path.stem)
     if not isinstance(title, str):
         raise r.error(("title",), f"title must be a string, not {shown(title)}")
-    return Scenario(path, title, mech, pt, options, shifts_report, outputs, data, lockup)
+    return Scenario(path, title, mech, pt, options, shifts_report, outputs, data, lockup, list(r.periodic), r.error)
 
 
 _EVENT = '{ t = ..., from = "1", to = "2" }'

@@ -510,10 +510,10 @@ def main(argv: list[str] | None = None) -> int:
 
 def _located(message: str) -> bool:
     """Whether ``message`` already starts ``FILE:LINE:COL: error:`` (or ``FILE:LINE: error:``, or
-    ``--set KEY: error:`` for a value given on the command line)."""
+    ``--set KEY: error:``, ``--OPTION ...: error:`` for a value given on the command line)."""
     first = message.split("\n", 1)[0]
     where = first.split(": error: ", 1)[0]
-    return ": error: " in first and (where.rsplit(":", 1)[-1].isdigit() or where.startswith("--set "))
+    return ": error: " in first and (where.rsplit(":", 1)[-1].isdigit() or where.startswith("--"))
 
 
 if __name__ == "__main__":  # pragma: no cover

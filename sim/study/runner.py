@@ -20,7 +20,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from .design import full_grid, latin_hypercube, row_key
+from .design import check_design, full_grid, latin_hypercube, row_key
 from .table import FIRST_COLUMNS, SweepTable
 
 __all__ = ["sweep", "SweepProgress", "validate_variants", "design_variants", "scenario_path"]
@@ -69,9 +69,11 @@ def scenario_path(scenario: str | Path) -> str:
     return str(named_file(scenario).resolve())
 
 
-def design_variants(grid: Mapping[str, Sequence], samples: int | None = None, seed: int = 0) -> list[dict]:
+def design_variants(grid: Mapping[str, Sequence], samples: int | None = None, seed: int = 0,
+                    force: bool = False) -> list[dict]:
     """The variants of a design: the full grid, or with ``samples`` a Latin-hypercube sample of
-    the ranges ``grid`` gives (key -> (lo, hi) tuple; key -> [value]: fixed)."""
+    the ranges ``grid`` gives (key -> (lo, hi) tuple; key -> [value]: fixed). Its size is checked
+    first (:func:`~.design.check_design`; ``force`` passes the limit on the number of runs)."""
     if not grid:
         raise ValueError("--grid: error: give at least one parameter to vary (--grid KEY=V1,V2,...)")
     for key in grid:
@@ -79,6 +81,7 @@ def design_variants(grid: Mapping[str, Sequence], samples: int | None = None, se
                 or key.split(".")[0].startswith("shift") and key.split(".")[0][5:].isdigit():
             raise ValueError(f"--grid {key}: error: not a scenario key (the name of a result column)")
     if samples is None:
+        check_design(grid, None, force)
         return full_grid(grid)
     ranges = {k: v for k, v in grid.items() if isinstance(v, tuple)}
     fixed = {}
@@ -88,6 +91,7 @@ def design_variants(grid: Mapping[str, Sequence], samples: int | None = None, se
                 raise ValueError(f"--grid {key}: error: a sampled parameter is a range (LO, HI) (LO:HI on the "
                                  f"command line); a fixed one has one value")
             fixed[key] = values[0]
+    check_design(grid, samples, force)
     return [{k: fixed[k] if k in fixed else v[k] for k in grid} for v in latin_hypercube(ranges, samples, seed)]
 
 
@@ -111,7 +115,7 @@ def validate_variants(path: str, variants: Sequence[Mapping]) -> dict[str, str]:
 
 def sweep(scenario: str | Path, grid: Mapping[str, Sequence], samples: int | None = None, seed: int = 0,
           executor=None, progress: Callable[[SweepProgress], None] | None = None,
-          results: str | Path | None = None) -> SweepTable:
+          results: str | Path | None = None, force: bool = False) -> SweepTable:
     """Run ``scenario`` (a file or a bundled name) over a design of overrides; one row per run.
 
     Parameters
@@ -130,6 +134,8 @@ def sweep(scenario: str | Path, grid: Mapping[str, Sequence], samples: int | Non
         Called with a :class:`SweepProgress` when the runs start and after every row.
     results : path
         CSV results file: resume from it and rewrite it atomically as rows complete.
+    force : bool
+        Run a design over the limit on the number of runs (:mod:`transgen.limits`).
 
     Returns
     -------
@@ -145,7 +151,7 @@ def sweep(scenario: str | Path, grid: Mapping[str, Sequence], samples: int | Non
 
     path = scenario_path(scenario)
     name = Path(path).stem
-    variants = design_variants(grid, samples, seed)
+    variants = design_variants(grid, samples, seed, force)
     parameters = list(grid)
     by_key: dict[str, dict] = {}
     for variant in variants:  # a value given twice is one run

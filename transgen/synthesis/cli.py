@@ -9,6 +9,7 @@ from __future__ import annotations
 import sys
 
 from ..cli_args import number_option
+from ..limits import add_force_option
 
 __all__ = ["add_commands"]
 
@@ -45,7 +46,7 @@ def cmd_teeth(args) -> int:
     rules = AssemblyRules(_int_list(args.planets), args.min_teeth, k_min, k_max, args.max_teeth, args.profile_shift)
     targets = ratio_targets(mech, parse_ratio_targets(args.ratios) if args.ratios else None, args.tolerance)
     progress = _progress if sys.stderr.isatty() and not args.json else None
-    result = synthesize_teeth(mech, targets, rules, top=args.top, progress=progress)
+    result = synthesize_teeth(mech, targets, rules, top=args.top, progress=progress, force=args.force)
     if progress:
         print(file=sys.stderr)
     if args.output and result.solutions:
@@ -141,6 +142,7 @@ def add_commands(sub) -> None:
     t.add_argument("--profile-shift", action="store_true", help="allow odd Nr - Ns (profile-shifted planets)")
     t.add_argument("--top", type=int, default=10, help="solutions shown (0 = all; default 10)")
     t.add_argument("-o", "--output", help="write the .mech completed with the best solution here (else it is printed)")
+    add_force_option(t)
     t.add_argument("--json", action="store_true", help="machine-readable output")
     t.set_defaults(func=cmd_teeth)
 
