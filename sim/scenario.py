@@ -336,8 +336,11 @@ def _build(data: dict, source: Source, path: Path, overrides=None, access: FileA
     sim_coords = r.names(sim_t, ("simulation",), "coordinates") if "coordinates" in sim_t else None
     try:
         tr = Transmission(mech, element_extra, sim_coords, r.text(sim_t, ("simulation",), "modes", "auto"))
+    except MechError as exc:  # a mode the simulator cannot run (as `transgen check` says)
+        raise r.error(("mechanism",), f"mechanism '{mech_ref}' has errors:\n{exc}") from None
     except (ModeError, ValueError) as exc:
-        raise r.error(("simulation",), f"cannot model the transmission: {exc}") from None
+        where = ("simulation", "modes") if "modes" in sim_t else ("simulation",) if sim_t else ("mechanism",)
+        raise r.error(where, f"cannot model the transmission: {exc}") from None
 
     w0 = _initial_speeds(r, mech, tr, init_t, init_locked)
     components = _components(r, data, mech, tr)

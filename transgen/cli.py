@@ -22,16 +22,20 @@ from .schemas import print_document
 __all__ = ["main", "load_checked"]
 
 
-def load_checked(path: str):
+def load_checked(path: str, runnable: bool = False):
     """Load a mechanism (a path or a bundled name) and check its declared gears (and the
-    direction of the one-way clutches they engage)."""
+    direction of the one-way clutches they engage); with ``runnable`` also that the simulator can
+    run its modes (no massless link left undetermined: :func:`~transgen.modes.massless_problems`)."""
     from .kinematics import check_gears
     from .language import load_mechanism
+    from .modes import massless_problems
     from .statics import check_oneways
 
     mech = load_mechanism(path)
     problems = check_gears(mech)
     problems = problems or check_oneways(mech)
+    if runnable:  # `check`: also what the simulator cannot run
+        problems = problems or massless_problems(mech)
     if problems:
         raise MechValidationError(problems)
     return mech
@@ -45,7 +49,7 @@ def _fmt_ratio(r) -> str:
 
 
 def cmd_check(args) -> int:
-    mech = load_checked(args.file)
+    mech = load_checked(args.file, runnable=True)
     if args.json:
         from .describe import MECHANISM_UNITS, mechanism_to_dict
 
