@@ -216,6 +216,10 @@ def cmd_matrices(args) -> int:
     from .modes import mode_models, valid_coordinate_sets
     from .statespace import matrices_document, state_space
 
+    if args.output is not None:  # --format and the name agree, before any work
+        from .export import output_format
+
+        output_format(args.output, args.format)
     mech = load_checked(args.file)
     which = {"auto": "auto", "all": "all", "declared": "declared", "default": "default"}[args.modes]
     progress = _symbolic_progress if args.symbolic and sys.stderr.isatty() else None

@@ -59,7 +59,7 @@ _LIMITS = (
     Limit("runs", "sweep --grid, --samples", 100_000, "runs", "max", True,
           "each run is a simulation (0.1 s to minutes) and a results row; beyond it a typing slip "
           "(K=1:2:100000000000) would run for years"),
-    Limit("grid_values", "sweep --grid KEY=LO:HI:N", 10_000_000, "values", "max", False,
+    Limit("grid_values", "sweep --grid KEY=LO:HI:N", 2_000_000, "values", "max", False,
           "the values of one key are made before the runs; more would not fit in memory"),
     Limit("design_memory", "sweep --grid, --samples", 4e9, "bytes", "max", False,
           "the design and the results table are held in memory, about 3 kB a run"),
@@ -87,7 +87,7 @@ _LIMITS = (
     Limit("signal_periods", "a periodic signal's frequency or period, against t_end - t_start", 100_000, "periods",
           "max", True,
           "an integrator resolves every period of a periodic input (about 30 right-hand-side evaluations "
-          "each, 3 ms); a 1e6 Hz sine over 7 s is 7e6 periods, about 6 hours"),
+          "each, 3 ms); a 1e6 Hz sine over 7 s is 7e6 periods: hours (about 2 h measured in issue 22)"),
     Limit("signal_nyquist", "a periodic signal's frequency against output_dt", 0.5, "cycles per output step",
           "max", True,
           "the output samples (every output_dt) cannot show a signal faster than half their rate: "
