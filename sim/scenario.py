@@ -108,14 +108,20 @@ def load_scenario(path: str | Path, overrides: Mapping[str, object] | None = Non
     return _load(path, overrides, FileAccess(files))
 
 
-def scenario_files(path: str | Path, overrides: Mapping[str, object] | None = None) -> dict[str, str]:
+def scenario_files(path: str | Path, overrides: Mapping[str, object] | None = None,
+                   limits: bool | None = None) -> dict[str, str]:
     """Every file that loading the scenario reads (with ``overrides``), keyed as ``files`` of
     :func:`load_scenario` is: ``load_scenario(path, o, files=scenario_files(path, o))`` equals
     ``load_scenario(path, o)`` without the disk. The keys are absolute resolved paths, so on
     another machine (or in another folder) name the scenario by its key,
-    ``str(scenario_path(path).resolve())``, not by a relative path."""
+    ``str(scenario_path(path).resolve())``, not by a relative path. ``limits`` (not None): also
+    check the size of its run (:func:`.run_limits.check_run` with ``force=limits``)."""
     access = FileAccess()
-    _load(path, overrides, access)
+    scenario = _load(path, overrides, access)
+    if limits is not None:
+        from .run_limits import check_run
+
+        check_run(scenario, limits)
     return dict(access.read)
 
 

@@ -332,7 +332,6 @@ def diagnose_singular(g: Graph, locked=()) -> str:
     of the simulator (:meth:`transgen.sim.transmission.Transmission.split_locked_torques`).
     """
     locked = tuple(locked)
-    links = link_nodes(g)
     groups = locked_constraints(g, locked)
     reps = tuple(grp.first for grp in groups)
     label = {grp.first: grp.label for grp in groups}

@@ -95,11 +95,12 @@ def design_variants(grid: Mapping[str, Sequence], samples: int | None = None, se
     return [{k: fixed[k] if k in fixed else v[k] for k in grid} for v in latin_hypercube(ranges, samples, seed)]
 
 
-def validate_variants(path: str, variants: Sequence[Mapping]) -> dict[str, str]:
+def validate_variants(path: str, variants: Sequence[Mapping], force: bool = False) -> dict[str, str]:
     """Load the scenario with the first variant that has each distinct key/value (every variant
     of a sample; the first row and column of a grid) and return the texts of every file those
     loads read. Raises :class:`~transgen.errors.ScenarioError` (``--set KEY: error: ...`` for a bad key
-    or value) at the first problem: before any run."""
+    or value, or a run over a limit of :mod:`transgen.limits`: ``force`` passes the forceable
+    ones) at the first problem: before any run."""
     from transgen.sim import scenario_files
 
     first: dict[tuple, int] = {}  # each distinct key/value -> the first variant that has it
@@ -109,7 +110,7 @@ def validate_variants(path: str, variants: Sequence[Mapping]) -> dict[str, str]:
     checks = [variants[i] for i in sorted(set(first.values()))]
     files: dict[str, str] = {}
     for overrides in checks:
-        files.update(scenario_files(path, overrides))
+        files.update(scenario_files(path, overrides, limits=force))
     return files
 
 
@@ -169,7 +170,7 @@ def sweep(scenario: str | Path, grid: Mapping[str, Sequence], samples: int | Non
         executor = LocalExecutor()
     with executor.opened() if isinstance(executor, LocalExecutor) and todo else contextlib.nullcontext():
         # a local pool's workers start here and import the simulator while the design is checked
-        files = validate_variants(path, unique)
+        files = validate_variants(path, unique, force)
         return _run(executor, path, files, keys, unique, rows, extra, parameters, todo, resumed, failed, results,
                     progress)
 

@@ -6,6 +6,7 @@ rules, the closest candidates are printed; the input was valid, the search ran, 
 """
 from __future__ import annotations
 
+import math
 import sys
 
 from ..cli_args import number_option
@@ -33,6 +34,8 @@ def _k_range(text: str) -> tuple[float, float]:
         low, high = (float(x) for x in text.split(","))
     except ValueError:
         raise ValueError(f"--ring-sun: two numbers MIN,MAX, e.g. 1.5,4.5, not {text!r}") from None
+    if not (math.isfinite(low) and math.isfinite(high)):
+        raise ValueError(f"--ring-sun: two finite numbers MIN,MAX, e.g. 1.5,4.5, not {text!r}")
     return low, high
 
 

@@ -531,7 +531,8 @@ def candidate_pairs(pb: _Problem) -> int:
     total = 0
     for (s0, s1), (r0, r1) in zip(pb.sun_range, pb.ring_range):
         for ns in range(max(s0, 1), s1 + 1):
-            total += max(0, min(r1, math.floor(pb.rules.k_max * ns)) - max(r0, math.ceil(pb.rules.k_min * ns)) + 1)
+            high, low = min(float(r1), pb.rules.k_max * ns), max(float(r0), pb.rules.k_min * ns)
+            total += max(0, math.floor(high) - math.ceil(low) + 1)
     return total
 
 
