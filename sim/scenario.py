@@ -109,19 +109,17 @@ def load_scenario(path: str | Path, overrides: Mapping[str, object] | None = Non
 
 
 def scenario_files(path: str | Path, overrides: Mapping[str, object] | None = None,
-                   limits: bool | None = None) -> dict[str, str]:
+                   check=None) -> dict[str, str]:
     """Every file that loading the scenario reads (with ``overrides``), keyed as ``files`` of
     :func:`load_scenario` is: ``load_scenario(path, o, files=scenario_files(path, o))`` equals
     ``load_scenario(path, o)`` without the disk. The keys are absolute resolved paths, so on
     another machine (or in another folder) name the scenario by its key,
-    ``str(scenario_path(path).resolve())``, not by a relative path. ``limits`` (not None): also
-    check the size of its run (:func:`.run_limits.check_run` with ``force=limits``)."""
+    ``str(scenario_path(path).resolve())``, not by a relative path. ``check``: a function called
+    with the loaded scenario (a sweep checks the size of each run: :func:`.run_limits.check_run`)."""
     access = FileAccess()
     scenario = _load(path, overrides, access)
-    if limits is not None:
-        from .run_limits import check_run
-
-        check_run(scenario, limits)
+    if check is not None:
+        check(scenario)
     return dict(access.read)
 
 

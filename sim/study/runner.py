@@ -102,6 +102,7 @@ def validate_variants(path: str, variants: Sequence[Mapping], force: bool = Fals
     or value, or a run over a limit of :mod:`transgen.limits`: ``force`` passes the forceable
     ones) at the first problem: before any run."""
     from transgen.sim import scenario_files
+    from transgen.sim.run_limits import check_run
 
     first: dict[tuple, int] = {}  # each distinct key/value -> the first variant that has it
     for index, variant in enumerate(variants):
@@ -110,7 +111,7 @@ def validate_variants(path: str, variants: Sequence[Mapping], force: bool = Fals
     checks = [variants[i] for i in sorted(set(first.values()))]
     files: dict[str, str] = {}
     for overrides in checks:
-        files.update(scenario_files(path, overrides, limits=force))
+        files.update(scenario_files(path, overrides, check=lambda scenario: check_run(scenario, force)))
     return files
 
 
