@@ -11,6 +11,8 @@ __all__ = ["add_commands", "cmd_simulate", "cmd_scenario_new", "cmd_scenario_key
 
 def add_commands(sub) -> None:
     """Add the simulator's sub-commands to the ``transgen`` parser."""
+    from transgen.limits import add_force_option
+    from transgen.progress import add_progress_option
     s = sub.add_parser("simulate", help="simulate a scenario (shifts, driveline, vehicle)",
                        description="Simulate a scenario file (TOML) or a bundled scenario by name "
                                    "(see 'transgen simulate --list').")
@@ -33,6 +35,8 @@ def add_commands(sub) -> None:
                         "comparison of Runde's and Haessig's models (3.2.2)")
     _set_option(s)
     s.add_argument("--quiet", action="store_true", help="no progress on standard error")
+    add_progress_option(s)
+    add_force_option(s)
     s.add_argument("--list", action="store_true", help="list the bundled scenarios")
     s.set_defaults(func=cmd_simulate)
 
@@ -121,17 +125,21 @@ def _plot_formats(spec: str) -> tuple[str, ...]:
     return formats
 
 
-def _progress(t_end: float, quiet: bool):
-    if quiet or not sys.stderr.isatty():
-        return None
-    last = [-1]
+def _progress(t_start: float, t_end: float, enabled: bool, log: bool):
+    """The progress of a run, ``(show(t), line)``: the fraction of ``t_start..t_end`` done, with
+    the time elapsed and left (:class:`transgen.progress.ProgressLine`); ``show`` is None where
+    nothing is shown."""
+    from transgen.progress import ProgressLine, eta_text
+
+    line = ProgressLine(enabled, log)
+    if not line.active:
+        return None, line
+    span = t_end - t_start
 
     def show(t):
-        pct = int(100 * t / t_end) if t_end > 0 else 100
-        if pct != last[0]:
-            last[0] = pct
-            print(f"\r  simulating: t = {t:7.3f} s ({pct:3d} %)", end="", file=sys.stderr, flush=True)
-    return show
+        fraction = (t - t_start) / span if span > 0 else 1.0
+        line.show(f"simulating: t = {t:7.3f} s, {eta_text(fraction, line.elapsed())}", final=t >= t_end)
+    return show, line
 
 
 def cmd_simulate(args) -> int:
@@ -160,13 +168,18 @@ def cmd_simulate(args) -> int:
         raise ValueError("--unique-times applies to the result file: name one with -o FILE")
     overrides = _overrides(args.overrides)
     scenario = _with_model(load_scenario(args.scenario, overrides), args.model)
-    progress = _progress(scenario.options.t_end, args.quiet or args.json)
+    from .run_limits import check_run
+
+    check_run(scenario, args.force)  # samples, memory, periodic inputs: refused before the run
+    o = scenario.options
+    progress, line = _progress(o.t_start, o.t_end, not (args.quiet or args.json), args.progress)
     if not args.quiet and not args.json:
         print(f"{scenario.title}: {scenario.mechanism.name}, {scenario.options.model} model, "
               f"t = {scenario.options.t_start:g}..{scenario.options.t_end:g} s", file=sys.stderr)
-    result = scenario.run(progress)
-    if progress is not None:
-        print(file=sys.stderr)
+    try:
+        result = scenario.run(progress)
+    finally:
+        line.end()
     if not result.success:  # nothing is written for a failed run
         print(f"error: {result.message}", file=sys.stderr)
         if args.json:
@@ -178,6 +191,7 @@ def cmd_simulate(args) -> int:
     if compare:  # both runs before anything is written: the outputs are all or none
         other_s = _with_model(load_scenario(compare, overrides if compare == args.scenario else None),
                               args.compare_model or args.model)
+        check_run(other_s, args.force)
         other = other_s.run()
         if not other.success:
             print(f"error: {compare}: {other.message}", file=sys.stderr)

@@ -11,7 +11,14 @@ Every format holds the same columns, in the same order (see :func:`result_column
 
 The CSV header is ``time [s],mode,w_L1 [rad/s],...``: every numeric column is ``NAME [UNIT]``
 (``1`` for a pure number), the text column ``mode`` has no unit. The time is written with every
-digit (shortest round trip), the signals with 9 significant digits.
+digit (shortest round trip), the signals with 9 significant digits, every number as a float
+(``0.0``, not ``0``: :func:`csv_float`). The CSV's mode column holds each mode's *field name*
+(:func:`transgen.export.field_names`: the name where it is an identifier, ``M3``, ``SP``;
+``m_1`` for a mode named ``1``, ``C1_C4`` for ``C1+C4``): a reader that guesses column types
+(``pandas.read_csv``, MATLAB ``readtable``) reads a column of names like ``1`` as numbers
+whatever the quoting, and a field name is text in every reader. The other formats hold the
+names themselves and, beside ``mode_names``, ``mode_fields`` (the same order): the map between
+the two, and the field names of the ``.mat``/``.npz`` matrices files.
 
 At an event (a mode change) and at a jump of an input signal a run records the instant twice:
 the state before and after it, so the time column repeats that value. ``unique_times=True``
@@ -32,7 +39,7 @@ from transgen.names import locked_text
 if TYPE_CHECKING:
     from .result import Result
 
-__all__ = ["RESULT_FORMATS", "SIGNALS_SCHEMA", "result_format", "result_columns", "write_result"]
+__all__ = ["RESULT_FORMATS", "SIGNALS_SCHEMA", "result_format", "result_columns", "write_result", "csv_float"]
 
 RESULT_FORMATS = {".csv": "csv", ".mat": "mat", ".npz": "npz", ".json": "json"}
 """Result file formats by file-name suffix."""
@@ -74,24 +81,35 @@ def result_columns(result: Result, names: list[str] | None = None,
     return columns, units
 
 
-def _csv_text(columns: dict[str, np.ndarray], units: dict[str, str]) -> str:
+def csv_float(x: float, digits: int = 9) -> str:
+    """``x`` with ``digits`` significant digits, always written as a float (``0.0``, ``12.0``,
+    ``1e+20``, never ``0`` or ``12``): a column of whole values stays a float column in pandas,
+    MATLAB ``readtable`` and every other reader that guesses the type of a column."""
+    text = f"{x:.{digits}g}"
+    return text if any(c in text for c in ".eEn") else text + ".0"  # n: nan, inf
+
+
+def _csv_text(columns: dict[str, np.ndarray], units: dict[str, str], modes) -> str:
+    """The CSV text: ``modes`` the text of the mode column (the modes' field names)."""
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
     writer.writerow([f"{n} [{units[n]}]" if n in units else n for n in columns])
     time = columns["time"]
     signals = [v for k, v in columns.items() if k not in ("time", "mode")]
-    for i, (t, mode) in enumerate(zip(time, columns["mode"])):
-        writer.writerow([repr(float(t)), mode] + [f"{v[i]:.9g}" for v in signals])
+    for i, (t, mode) in enumerate(zip(time, modes)):
+        writer.writerow([repr(float(t)), mode] + [csv_float(v[i]) for v in signals])
     return buf.getvalue()
 
 
 def _header(columns, units, result: Result, unique_times: bool) -> dict:
     from transgen import __version__
 
+    from transgen.export import field_names
+
     mode_names = list(dict.fromkeys(columns["mode"].tolist()))
     spans = {m.name: m for m in result.modes}
     return {"names": list(columns), "units": [units.get(n, "") for n in columns],
-            "mode_names": mode_names, "unique_times": unique_times,
+            "mode_names": mode_names, "mode_fields": field_names(mode_names), "unique_times": unique_times,
             # what joins the modes to the matrices' (transgen matrices): the gear and the locked set
             "mode_gears": [(spans[n].gear or "") if n in spans else "" for n in mode_names],
             "mode_locked": [locked_text(spans[n].locked) if n in spans else "" for n in mode_names],
@@ -120,8 +138,9 @@ def write_result(result: Result, path: str | Path, names: list[str] | None = Non
     fmt = result_format(path)
     columns, units = result_columns(result, names, unique_times)
     header = _header(columns, units, result, unique_times)
-    if fmt == "csv":
-        write_text(path, _csv_text(columns, units))
+    if fmt == "csv":  # the mode by its field name: text in every reader (a name like 1 is m_1)
+        field = dict(zip(header["mode_names"], header["mode_fields"]))
+        write_text(path, _csv_text(columns, units, [field[m] for m in columns["mode"].tolist()]))
     elif fmt == "json":
         from transgen.schemas import json_document
 

@@ -35,6 +35,7 @@ import numpy as np
 from transgen.errors import MechError, ModeError, ScenarioError
 from transgen.kinematics import constraint_matrix, numeric_rank
 from transgen.language import load_mechanism, parse_mechanism
+from transgen.limits import LIMITS, limit
 from transgen.model import Mechanism
 
 from .components import Driveline, EngineMap, EngineOnLink, EngineWithConverter, InputTorque, LinkLoad
@@ -66,6 +67,10 @@ class Scenario:
     outputs: list[str] = field(default_factory=list)
     data: dict = field(default_factory=dict)
     lockup: list[str] = field(default_factory=list)  # converter lock-up clutches (not gear shifts)
+    #: the periodic signals the file gives, ``(key path, signal)``, and a function giving an error
+    #: located at a key path (:mod:`.run_limits` checks the run's size with them)
+    periodic: list = field(default_factory=list, repr=False, compare=False)
+    locate: object = field(default=None, repr=False, compare=False)
 
     def run(self, progress=None, start=None, t_end: float | None = None):
         """Simulate; returns a :class:`~transgen.sim.result.Result`. ``start``: a saved state
@@ -103,14 +108,18 @@ def load_scenario(path: str | Path, overrides: Mapping[str, object] | None = Non
     return _load(path, overrides, FileAccess(files))
 
 
-def scenario_files(path: str | Path, overrides: Mapping[str, object] | None = None) -> dict[str, str]:
+def scenario_files(path: str | Path, overrides: Mapping[str, object] | None = None,
+                   check=None) -> dict[str, str]:
     """Every file that loading the scenario reads (with ``overrides``), keyed as ``files`` of
     :func:`load_scenario` is: ``load_scenario(path, o, files=scenario_files(path, o))`` equals
     ``load_scenario(path, o)`` without the disk. The keys are absolute resolved paths, so on
     another machine (or in another folder) name the scenario by its key,
-    ``str(scenario_path(path).resolve())``, not by a relative path."""
+    ``str(scenario_path(path).resolve())``, not by a relative path. ``check``: a function called
+    with the loaded scenario (a sweep checks the size of each run: :func:`.run_limits.check_run`)."""
     access = FileAccess()
-    _load(path, overrides, access)
+    scenario = _load(path, overrides, access)
+    if check is not None:
+        check(scenario)
     return dict(access.read)
 
 
@@ -225,6 +234,10 @@ def _build(data: dict, source: Source, path: Path, overrides=None, access: FileA
     if options.method not in ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA"):
         raise r.error(("simulation", "method"), f"unknown integration method {shown(options.method)}")
     duration = options.t_end - options.t_start
+    for key in ("rtol", "atol"):  # a tolerance below the floor never converges (transgen.limits)
+        if getattr(options, key) < limit(key):
+            raise r.error(("simulation", key), f"{key} = {getattr(options, key):g} is below the limit of "
+                                               f"{limit(key):g}: {LIMITS[key].why}")
     for key, step in (("output_dt", options.output_dt), ("max_step", options.max_step)):
         if duration / step > MAX_STEPS:
             raise r.error(("simulation", key), f"{key} = {step:g} s gives {duration / step:.3g} steps in the simulated "
@@ -327,8 +340,11 @@ def _build(data: dict, source: Source, path: Path, overrides=None, access: FileA
     sim_coords = r.names(sim_t, ("simulation",), "coordinates") if "coordinates" in sim_t else None
     try:
         tr = Transmission(mech, element_extra, sim_coords, r.text(sim_t, ("simulation",), "modes", "auto"))
+    except MechError as exc:  # a mode the simulator cannot run (as `transgen check` says)
+        raise r.error(("mechanism",), f"mechanism '{mech_ref}' has errors:\n{exc}") from None
     except (ModeError, ValueError) as exc:
-        raise r.error(("simulation",), f"cannot model the transmission: {exc}") from None
+        where = ("simulation", "modes") if "modes" in sim_t else ("simulation",) if sim_t else ("mechanism",)
+        raise r.error(where, f"cannot model the transmission: {exc}") from None
 
     w0 = _initial_speeds(r, mech, tr, init_t, init_locked)
     components = _components(r, data, mech, tr)
@@ -399,7 +415,7 @@ def _build(data: dict, source: Source, path: Path, overrides=None, access: FileA
     title = data.get("title", path.stem)
     if not isinstance(title, str):
         raise r.error(("title",), f"title must be a string, not {shown(title)}")
-    return Scenario(path, title, mech, pt, options, shifts_report, outputs, data, lockup)
+    return Scenario(path, title, mech, pt, options, shifts_report, outputs, data, lockup, list(r.periodic), r.error)
 
 
 _EVENT = '{ t = ..., from = "1", to = "2" }'

@@ -20,6 +20,7 @@ import tomllib
 from pathlib import Path
 
 from transgen.errors import Diagnostic, ScenarioError
+from transgen.limits import limit
 
 from .file_access import FileAccess
 from .scenario_schema import SIGNAL_KEYS
@@ -217,6 +218,9 @@ class Reader:
         self.source = source
         self.access = access or FileAccess()
         self.window: tuple[float, float] | None = None  # the simulated interval, once known
+        #: the periodic signals the file gives (sine, pulse train, square, periodic table) with the
+        #: key path of each, for the limits of a run (:mod:`transgen.sim.run_limits`)
+        self.periodic: list[tuple[tuple, Signal]] = []
 
     def error(self, keys, message):
         return self.source.error(keys, message)
@@ -343,7 +347,9 @@ class Reader:
                 raise self.error(keys, f"ramp needs t1 > t0 (t0={t0:g}, t1={t1:g})")
             return Ramp(t0, t1, num("v0"), num("v1"))
         if kind == "sine":
-            return Sine(num("offset", 0.0), num("amplitude"), num("frequency", positive=True), num("phase", 0.0))
+            sine = Sine(num("offset", 0.0), num("amplitude"), num("frequency", positive=True), num("phase", 0.0))
+            self.periodic.append((tuple(keys) + ("frequency",), sine))
+            return sine
         if kind in ("pulse", "square"):
             if kind == "square":
                 period = num("period", positive=True)
@@ -357,7 +363,10 @@ class Reader:
                 if period is not None and period <= width:
                     raise self.error(keys + ("period",), f"a pulse train needs period > width ({period:g} <= {width:g})")
             self._check_edges(keys, period, 2)
-            return Pulse(t0, width, num("low", 0.0), num("high", 1.0), period)
+            pulse = Pulse(t0, width, num("low", 0.0), num("high", 1.0), period)
+            if period is not None:
+                self.periodic.append((tuple(keys) + ("period",), pulse))
+            return pulse
         table = self._table(spec, keys)
         if kind == "table":
             return table
@@ -366,7 +375,9 @@ class Reader:
         if period < span:
             raise self.error(keys + ("period",), f"period {period:g} s is shorter than the table's span {span:g} s")
         self._check_edges(keys, period, len(table.times) + 1)
-        return Periodic(table, period)
+        periodic = Periodic(table, period)
+        self.periodic.append((tuple(keys) + ("period",), periodic))
+        return periodic
 
     def _table(self, spec: dict, keys) -> Table:
         ts = self.numbers(spec, keys, "t")
@@ -388,11 +399,13 @@ class Reader:
                                                  f"simulated {self.window[1] - self.window[0]:g} s (at most {MAX_BREAKPOINTS})")
 
 
-MAX_BREAKPOINTS = 100_000
-"""Most breakpoints a periodic signal may have in a scenario's simulated interval."""
+MAX_BREAKPOINTS = int(limit("breakpoints"))
+"""Most breakpoints a periodic signal may have in a scenario's simulated interval
+(:mod:`transgen.limits`, ``breakpoints``)."""
 
-MAX_STEPS = 10_000_000
-"""Most output samples (``output_dt``) and smallest steps (``max_step``) in the simulated interval."""
+MAX_STEPS = int(limit("output_samples"))
+"""Most output samples (``output_dt``) and smallest steps (``max_step``) in the simulated interval
+(:mod:`transgen.limits`, ``output_samples``)."""
 
 def as_float(v) -> float | None:
     """``v`` as a finite float, or None if it is not a finite number (bools are not numbers)."""

@@ -50,11 +50,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from transgen.equations import locking_groups
-from transgen.errors import ModeError, SimulationError
+from transgen.errors import MechValidationError, ModeError, SimulationError
 from transgen.graph import bond_graph, link_nodes
 from transgen.kinematics import constraint_matrix, numeric_rank
 from transgen.model import HOUSING, Mechanism
-from transgen.modes import Mode, mode_model, mode_models
+from transgen.modes import Mode, massless_problems, mode_model, mode_models
 from transgen.names import mode_names
 from transgen.statespace import _mode_state_space, state_space
 
@@ -105,6 +105,9 @@ def _state_space(mech: Mechanism, coordinates, modes: str):
     key = (mech, None if coordinates is None else tuple(coordinates), modes)
     ss = _SPACES.pop(key, None)
     if ss is None:
+        problems = massless_problems(mech, modes)  # as `transgen check` refuses them
+        if problems:
+            raise MechValidationError(problems)
         models = mode_models(mech, modes)
         ss = state_space(mech, coordinates, modes, models=[m for m in models if m.equations is not None])
     _SPACES[key] = ss

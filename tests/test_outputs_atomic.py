@@ -70,7 +70,8 @@ def test_sigterm_during_a_run_leaves_no_files(tmp_path):
     (tmp_path / "long.toml").write_text(LONG)
     out = tmp_path / "out"
     env = dict(os.environ, MPLBACKEND="Agg")
-    proc = subprocess.Popen([sys.executable, "-m", "transgen", "simulate", str(tmp_path / "long.toml"), "--quiet",
+    # --force: the 5 Hz input aliases at output_dt = 1 s (a limit of transgen.limits); the run is meant to be long
+    proc = subprocess.Popen([sys.executable, "-m", "transgen", "simulate", str(tmp_path / "long.toml"), "--quiet", "--force",
                              "-o", str(out / "r.csv"), "--plot", str(out / "p")],
                             stderr=subprocess.PIPE, stdout=subprocess.PIPE, env=env, cwd=tmp_path)
     time.sleep(3.0)  # a run of minutes: well inside it

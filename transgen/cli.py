@@ -22,16 +22,20 @@ from .schemas import print_document
 __all__ = ["main", "load_checked"]
 
 
-def load_checked(path: str):
+def load_checked(path: str, runnable: bool = False):
     """Load a mechanism (a path or a bundled name) and check its declared gears (and the
-    direction of the one-way clutches they engage)."""
+    direction of the one-way clutches they engage); with ``runnable`` also that the simulator can
+    run its modes (no massless link left undetermined: :func:`~transgen.modes.massless_problems`)."""
     from .kinematics import check_gears
     from .language import load_mechanism
+    from .modes import massless_problems
     from .statics import check_oneways
 
     mech = load_mechanism(path)
     problems = check_gears(mech)
     problems = problems or check_oneways(mech)
+    if runnable:  # `check`: also what the simulator cannot run
+        problems = problems or massless_problems(mech)
     if problems:
         raise MechValidationError(problems)
     return mech
@@ -45,7 +49,7 @@ def _fmt_ratio(r) -> str:
 
 
 def cmd_check(args) -> int:
-    mech = load_checked(args.file)
+    mech = load_checked(args.file, runnable=True)
     if args.json:
         from .describe import MECHANISM_UNITS, mechanism_to_dict
 
@@ -215,6 +219,10 @@ def cmd_matrices(args) -> int:
     from .modes import mode_models, valid_coordinate_sets
     from .statespace import matrices_document, state_space
 
+    if args.output is not None:  # --format and the name agree, before any work
+        from .export import output_format
+
+        output_format(args.output, args.format)
     mech = load_checked(args.file)
     which = {"auto": "auto", "all": "all", "declared": "declared", "default": "default"}[args.modes]
     progress = _symbolic_progress if args.symbolic and sys.stderr.isatty() else None
@@ -518,10 +526,10 @@ def main(argv: list[str] | None = None) -> int:
 
 def _located(message: str) -> bool:
     """Whether ``message`` already starts ``FILE:LINE:COL: error:`` (or ``FILE:LINE: error:``, or
-    ``--set KEY: error:`` for a value given on the command line)."""
+    ``--set KEY: error:``, ``--OPTION ...: error:`` for a value given on the command line)."""
     first = message.split("\n", 1)[0]
     where = first.split(": error: ", 1)[0]
-    return ": error: " in first and (where.rsplit(":", 1)[-1].isdigit() or where.startswith("--set "))
+    return ": error: " in first and (where.rsplit(":", 1)[-1].isdigit() or where.startswith("--"))
 
 
 if __name__ == "__main__":  # pragma: no cover

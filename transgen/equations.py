@@ -50,7 +50,7 @@ if TYPE_CHECKING:
     from .graph import Graph
 
 __all__ = ["ModeEquations", "LockingGroup", "locking_groups", "locked_constraints", "complete_locked", "input_names",
-           "assemble", "solve", "diagnose_singular", "symbols_of", "kinematic_basis"]
+           "assemble", "solve", "diagnose_singular", "undetermined_links", "symbols_of", "kinematic_basis"]
 
 
 @dataclass(frozen=True)
@@ -303,6 +303,25 @@ def complete_locked(g: Graph, locked) -> tuple[str, ...]:
     return locked + extra
 
 
+def undetermined_links(g: Graph, locked=(), a: np.ndarray | None = None) -> list[str]:
+    """The massless links whose motion a mode with ``locked`` leaves undetermined: those a
+    motion the constraints allow moves while it moves no link with inertia (J > 0) at all
+    (structural: no torque accelerates such a motion). ``a``: the mode's constraint matrix,
+    if known."""
+    links = link_nodes(g)
+    if a is None:
+        a = constraint_matrix(g, tuple(grp.first for grp in locked_constraints(g, tuple(locked))))
+    basis = null_space(a, len(links))
+    if not basis.shape[1]:
+        return []
+    massive = np.array([g.nodes[k]["J"] > 0 for k in links])
+    free = null_space(basis[massive], basis.shape[1], scale=1.0)
+    if not free.shape[1]:
+        return []
+    motion = basis @ free
+    return [k for k, row in zip(links, motion) if np.linalg.norm(row) > 1e-9]
+
+
 def diagnose_singular(g: Graph, locked=()) -> str:
     """Why the mode's equations have no unique solution, or ``""`` when they do.
 
@@ -313,7 +332,6 @@ def diagnose_singular(g: Graph, locked=()) -> str:
     of the simulator (:meth:`transgen.sim.transmission.Transmission.split_locked_torques`).
     """
     locked = tuple(locked)
-    links = link_nodes(g)
     groups = locked_constraints(g, locked)
     reps = tuple(grp.first for grp in groups)
     label = {grp.first: grp.label for grp in groups}
@@ -332,16 +350,10 @@ def diagnose_singular(g: Graph, locked=()) -> str:
         else:
             problems.append("the transformers " + ", ".join(transformers) + " impose redundant constraints, "
                             "so their internal torques are not unique (e.g. twin load paths)")
-    basis = null_space(a, len(links))
-    if basis.shape[1]:
-        # masslessness is structural: a motion that moves no link with inertia (J > 0) at all
-        massive = np.array([g.nodes[k]["J"] > 0 for k in links])
-        free = null_space(basis[massive], basis.shape[1], scale=1.0)
-        if free.shape[1]:
-            motion = basis @ free
-            names = [k for k, row in zip(links, motion) if np.linalg.norm(row) > 1e-9]
-            problems.append("the motion of the massless link(s) " + ", ".join(names)
-                            + " is undetermined (no inertia is coupled to it)")
+    names = undetermined_links(g, locked, a)
+    if names:
+        problems.append("the motion of the massless link(s) " + ", ".join(names)
+                        + " is undetermined (no inertia is coupled to it)")
     if not problems:
         return ""
     return f"mode with {', '.join(locked) or 'no element'} locked: " + "; ".join(problems)

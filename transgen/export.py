@@ -18,9 +18,31 @@ import numpy as np
 from .statespace import StateSpaceSet
 
 __all__ = ["atomic_path", "output_set", "write_text", "write_json", "write_state_space", "state_space_latex",
-           "matlab_name", "FORMATS"]
+           "matlab_name", "field_names", "output_format", "FORMATS", "SUFFIXES"]
 
 FORMATS = ("json", "npz", "mat", "latex")
+
+SUFFIXES = {".json": "json", ".npz": "npz", ".mat": "mat", ".tex": "latex"}
+"""The format of a matrices file by its suffix."""
+
+
+def output_format(path: str | Path, fmt: str | None = None, suffixes: dict[str, str] = SUFFIXES) -> str:
+    """The format of the output ``path``: ``fmt`` (``--format``) or the one of its suffix. A
+    ``fmt`` that another format's suffix contradicts (``--format mat -o x.npz``) is a ValueError:
+    a file named ``.npz`` holding MATLAB data misleads every tool that opens it."""
+    by_suffix = suffixes.get(Path(path).suffix.lower())
+    if fmt is None:
+        if by_suffix is None:
+            raise ValueError(f"unknown format for {Path(path).name!r}: choose one of {', '.join(FORMATS)} "
+                             f"(--format) or a {'/'.join(suffixes)} name")
+        return by_suffix
+    if fmt not in suffixes.values():
+        raise ValueError(f"unknown format {fmt!r}: choose one of {', '.join(dict.fromkeys(suffixes.values()))}")
+    if by_suffix is not None and by_suffix != fmt:
+        want = next(k for k, v in suffixes.items() if v == fmt)
+        raise ValueError(f"--format {fmt} and -o {path}: the name says {by_suffix}: name the file {want} "
+                         f"(or leave --format out)")
+    return fmt
 
 
 #: the files of the innermost :func:`output_set` block: (temporary path, target)
@@ -97,9 +119,31 @@ def write_json(path: str | Path, data) -> None:
 
 def matlab_name(name: str) -> str:
     """A valid MATLAB identifier for ``name`` (a mode or signal name): characters other than
-    letters, digits and ``_`` become ``_``, and a name not starting with a letter gets ``m_``."""
-    out = "".join(ch if ch.isalnum() or ch == "_" else "_" for ch in name)
-    return out if out[:1].isalpha() else f"m_{out}"
+    ASCII letters, digits and ``_`` become ``_``, and a name not starting with a letter gets
+    ``m_``; at most :data:`MATLAB_NAME_LENGTH` characters."""
+    out = "".join(ch if (ch.isascii() and ch.isalnum()) or ch == "_" else "_" for ch in name)
+    out = out if out[:1].isascii() and out[:1].isalpha() else f"m_{out}"
+    return out[:MATLAB_NAME_LENGTH]
+
+
+MATLAB_NAME_LENGTH = 63
+"""The longest MATLAB identifier (``namelengthmax``)."""
+
+
+def field_names(names) -> list[str]:
+    """The field name of each of ``names`` (mode names) in ``.mat`` and ``.npz`` files: its
+    :func:`matlab_name`, made unique (``_2``, ``_3``, ... where two names give the same one).
+    Every file that renames stores the map beside the names (``fields``), so that
+    ``M.(M.fields{k})`` in MATLAB/Octave is the mode ``M.modes{k}``."""
+    out: list[str] = []
+    for name in names:
+        base = field = matlab_name(name)
+        k = 1
+        while field in out:
+            k += 1
+            field = f"{base[:MATLAB_NAME_LENGTH - len(str(k)) - 1]}_{k}"
+        out.append(field)
+    return out
 
 
 def _float(x) -> np.ndarray:
@@ -116,23 +160,27 @@ def write_state_space(ss: StateSpaceSet, path: str | Path, fmt: str | None = Non
     * ``json``: a ``transgen.matrices/1`` document (:func:`~transgen.statespace.matrices_document`):
       ``{"mechanism", "coordinates", "inputs", "modes": [{"name", "gear", "locked", "dof", "states",
       "inputs", "outputs", "A", "B", "C_speeds", "D_torques", "Cy", "Dy", ...}], "skipped"}``;
-    * ``npz``: arrays ``<mode>_A``, ``<mode>_B``, ... ``<mode>_Dy`` and the JSON document without
-      the matrices in ``meta``;
-    * ``mat``: a MATLAB struct per mode (``M1.A``, ..., ``M1.Cy``, ``M1.Dy``, ``M1.states``,
-      ``M1.inputs``, ``M1.outputs``, ``M1.gear`` (the gear it is, or empty), ``M1.locked``, ...) and the cell arrays ``inputs``, ``coordinates``,
-      ``modes``: ``ss(M1.A, M1.B, M1.Cy, M1.Dy)`` in MATLAB/Octave; ``scipy.io.loadmat`` reads it;
+    * ``npz``: arrays ``<field>_A``, ``<field>_B``, ... ``<field>_Dy`` (``field``: the mode's
+      field name, :func:`field_names`) and the JSON document without the matrices in ``meta``
+      (each mode with its ``field``, and ``fields``: name -> field);
+    * ``mat``: a MATLAB struct per mode, named by its field (``M1.A``, ..., ``M1.Cy``, ``M1.Dy``,
+      ``M1.states``, ``M1.inputs``, ``M1.outputs``, ``M1.gear`` (the gear it is, or empty), ``M1.locked``,
+      ``M1.locked_groups``, ``M1.dof`` a double,
+      ...), the cell arrays ``modes`` (the names) and ``fields`` (``M.(M.fields{k})`` is mode
+      ``M.modes{k}``), ``labels``, ``inputs``, ``coordinates``, ``skipped`` (structs: name,
+      locked, kind, problem) and the JSON's ``schema``, ``units`` (a struct) and
+      ``transgen_version``: ``ss(M1.A, M1.B, M1.Cy, M1.Dy)`` in MATLAB/Octave;
+      ``scipy.io.loadmat`` reads it;
     * ``latex``: one ``align*`` block per mode, ``\\dot x = B u``, ``w = C_speeds x``,
       ``t = D_torques u`` (``array`` environments: any number of columns).
 
     Symbolic matrices are written as expressions in JSON and LaTeX; ``npz`` and ``mat`` need
     numbers and refuse symbolic input.
     """
-    from .statespace import MATRICES, matrices_document
+    from .statespace import MATRICES, MATRICES_SCHEMA, MATRICES_UNITS, matrices_document
 
     path = Path(path)
-    fmt = fmt or {".json": "json", ".npz": "npz", ".mat": "mat", ".tex": "latex"}.get(path.suffix.lower())
-    if fmt not in FORMATS:
-        raise ValueError(f"unknown format for {path.name!r}: choose one of {', '.join(FORMATS)} (or a .json/.npz/.mat/.tex name)")
+    fmt = output_format(path, fmt)
     if ss.symbolic and fmt in ("npz", "mat"):
         raise ValueError(f"{fmt} holds numbers only: write symbolic matrices as json or latex")
     if fmt == "json":
@@ -140,9 +188,12 @@ def write_state_space(ss: StateSpaceSet, path: str | Path, fmt: str | None = Non
     elif fmt == "latex":
         write_text(path, state_space_latex(ss))
     elif fmt == "npz":
-        arrays = {f"{matlab_name(m.name)}_{k}": _float(getattr(m, k)) for m in ss.modes for k in MATRICES}
+        fields = field_names(m.name for m in ss.modes)
+        arrays = {f"{f}_{k}": _float(getattr(m, k)) for m, f in zip(ss.modes, fields) for k in MATRICES}
         meta = matrices_document(ss)
-        meta["modes"] = [{k: v for k, v in d.items() if k not in MATRICES} for d in meta["modes"]]
+        meta["modes"] = [{k: v for k, v in d.items() if k not in MATRICES} | {"field": f}
+                         for d, f in zip(meta["modes"], fields)]
+        meta["fields"] = dict(zip((m.name for m in ss.modes), fields))
         with atomic_path(path) as tmp:
             with open(tmp, "wb") as f:
                 np.savez(f, meta=np.array(json.dumps(meta)), **arrays)
@@ -154,19 +205,42 @@ def write_state_space(ss: StateSpaceSet, path: str | Path, fmt: str | None = Non
         def cells(names):
             return np.array(list(names), dtype=object)
 
+        fields = field_names(m.name for m in ss.modes)
         data = {
-            "mechanism": ss.mechanism, "transgen_version": __version__,
+            "schema": MATRICES_SCHEMA, "mechanism": ss.mechanism, "transgen_version": __version__,
+            "units": dict(MATRICES_UNITS), "symbolic": False,
             "coordinates": cells(ss.coordinates), "inputs": cells(ss.inputs), "modes": cells(m.name for m in ss.modes),
+            "fields": cells(fields), "labels": cells(m.label or "" for m in ss.modes),
+            "skipped": _skipped_cells(ss.skipped),
         }
-        for m in ss.modes:
-            data[matlab_name(m.name)] = {
-                "name": m.name, "gear": m.gear or "", "label": m.label, "kind": m.kind, "dof": m.dof,
+        for m, field in zip(ss.modes, fields):
+            data[field] = {
+                "name": m.name, "field": field, "gear": m.gear or "", "label": m.label or "", "kind": m.kind,
+                "dof": float(m.dof),
                 "locked": cells(m.locked), "states": cells(m.states), "inputs": cells(m.inputs),
                 "outputs": cells(m.outputs), **{k: _float(getattr(m, k)) for k in MATRICES},
                 "speed_outputs": cells(m.speed_outputs), "torque_outputs": cells(m.torque_outputs),
+                "locked_groups": _nested_cells(m.locked_groups),
             }
         with atomic_path(path) as tmp:
             scipy.io.savemat(str(tmp), data, oned_as="column")
+
+
+def _nested_cells(groups) -> np.ndarray:
+    """A cell array of cell arrays of names (a mode's locked groups) for ``scipy.io.savemat``."""
+    out = np.empty(len(groups), dtype=object)
+    for i, grp in enumerate(groups):
+        out[i] = np.array(list(grp), dtype=object)
+    return out
+
+
+def _skipped_cells(skipped) -> np.ndarray:
+    """The skipped combinations as a cell array of structs (name, locked, kind, problem)."""
+    out = np.empty(len(skipped), dtype=object)
+    for i, m in enumerate(skipped):
+        out[i] = {"name": m.name, "locked": np.array(list(m.locked), dtype=object), "kind": m.kind,
+                  "problem": m.problem}
+    return out
 
 
 def _latex_matrix(x, symbolic: bool) -> str:

@@ -42,6 +42,7 @@ import numpy as np
 
 from .blas import one_blas_thread
 from .equations import (LockingGroup, ModeEquations, assemble, complete_locked, diagnose_singular, locked_constraints,
+                        undetermined_links,
                         solve)
 from .errors import ModeError
 from .graph import bond_graph
@@ -65,6 +66,7 @@ __all__ = [
     "default_coordinates",
     "default_neutral",
     "neutral_note",
+    "massless_problems",
 ]
 
 
@@ -128,6 +130,9 @@ def select_modes(mech: Mechanism, which: str = "auto") -> list[Mode]:
         which = "declared" if mech.modes else "default"
     g = bond_graph(mech)
     if which == "declared":
+        if not mech.modes:
+            raise ModeError("the mode selection 'declared' needs 'mode NAME = ELEMENTS' statements, and the "
+                            "mechanism declares none: choose 'auto' (the default), 'default' or 'all'")
         return _with_gears(mech, [Mode(d.name, complete_locked(g, d.locked), "declared") for d in mech.modes])
     if which == "all":
         names = list(mech.element_names)
@@ -231,6 +236,34 @@ def shift_modes(mech: Mechanism, source: str, a, target: str, b, graph: Graph | 
         else:
             continue
         out.append((f"{kind} {source}-{target}", locked))
+    return out
+
+
+def massless_problems(mech: Mechanism, which: str = "auto") -> list:
+    """Errors (:class:`~transgen.errors.Diagnostic`) for the modes of the selection ``which``
+    that leave the motion of massless links undetermined (no inertia coupled to them: no torque
+    accelerates them, the simulator cannot run such a mode), one per mode, located at the link
+    statement of the first such link and naming every one. Every combination (``"all"``, or a
+    mechanism without gear table) is the simulator's choice among them, not each one a mode it
+    must run: then only when no combination can be run."""
+    from .errors import Diagnostic
+
+    g = bond_graph(mech)
+    modes = select_modes(mech, which)
+    found = [(m, undetermined_links(g, m.locked)) for m in modes]
+    found = [(m, links) for m, links in found if links]
+    every = which == "all" or (which in ("auto", "default") and not mech.modes
+                               and not any(x.kind == "gear" for x in mech.gears))
+    if every and len(found) < len(modes):
+        return []
+    out = []
+    for m, links in found:
+        link = mech.link(links[0])
+        what = f"mode {m.name}" + (f" ({m.label})" if m.label else "") + f", {' '.join(m.locked) or 'nothing'} locked"
+        out.append(Diagnostic(mech.source, link.span.line, link.span.column,
+                              f"{what}: the motion of the massless link(s) {', '.join(links)} is undetermined (no "
+                              f"inertia is coupled to it), so the simulator cannot run this mode: give one of them "
+                              f"an inertia J > 0", mech.source_line(link.span.line)))
     return out
 
 

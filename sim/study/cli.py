@@ -17,6 +17,9 @@ _RANGE = re.compile(r"\s*([^:,]+?)\s*:\s*([^:,]+?)\s*(?::\s*([^:,]+?)\s*)?")
 
 def add_commands(sub) -> None:
     """Add ``sweep`` to the ``transgen`` parser."""
+    from transgen.limits import add_force_option
+    from transgen.progress import add_progress_option
+
     s = sub.add_parser("sweep", help="run a scenario over a grid or a Latin-hypercube sample of parameters",
                        description="Run a scenario (a .toml file or a bundled name) over a full grid of dotted-key "
                                    "overrides (--grid KEY=V1,V2,... or KEY=LO:HI:N) or a Latin-hypercube sample "
@@ -41,6 +44,8 @@ def add_commands(sub) -> None:
     s.add_argument("--plot", metavar="DIR", help="write plots of the shift metrics into DIR")
     s.add_argument("--format", default="png", help="plot formats, comma-separated: png,svg,pdf (default png)")
     s.add_argument("--quiet", action="store_true", help="no progress on standard error")
+    add_progress_option(s)
+    add_force_option(s)
     s.set_defaults(func=cmd_sweep)
     from .optimize_cli import add_optimize_command
 
@@ -102,6 +107,9 @@ def parse_grid(text: str, sampled: bool = False) -> tuple[str, object]:
             if not isinstance(n, int) or isinstance(n, bool) or n < 1:
                 raise ScenarioError(f"--grid {key}: error: LO:HI:N needs the number of values N (a whole number "
                                     f">= 1), e.g. {key}={lo}:{hi}:5; or sample the range with --samples")
+            from transgen.limits import check_limit
+
+            check_limit("grid_values", n, f"--grid {key}={spec.strip()}")  # before the values are made
             return key, linspace_values(lo, hi, n)
     values = [value(part) for part in _values(spec)]
     if sampled and len(values) != 1:
@@ -116,25 +124,12 @@ def _as_grid_error(message: str) -> str:
     return message.replace("--set", "--grid") if message.startswith("--set ") else message
 
 
-def _progress_printer(enabled: bool):
-    if not enabled:
-        return None, lambda: None
-    width = [0]
-
-    def show(p) -> None:
-        text = "  " + p.text()
-        print("\r" + text.ljust(width[0]), end="", file=sys.stderr, flush=True)
-        width[0] = max(width[0], len(text))
-
-    def end() -> None:
-        if width[0]:
-            print(file=sys.stderr)
-    return show, end
-
-
 def cmd_sweep(args) -> int:
     from transgen.errors import ScenarioError
+    from transgen.limits import check_workers
+    from transgen.progress import ProgressLine
 
+    from .design import check_design
     from .executors import make_executor
     from .runner import sweep
 
@@ -150,25 +145,26 @@ def cmd_sweep(args) -> int:
             from transgen.sim.cli import _plot_formats
 
             formats = _plot_formats(args.format)
+        check_design(grid, args.samples, args.force)  # counted, not made: before anything is allocated
+        check_workers(args.workers, args.force)
         executor = make_executor(args.workers, args.scheduler)
     except (ScenarioError, ValueError, ImportError) as exc:
         return _fail(exc)
-    show, end = _progress_printer(not (args.quiet or args.json) and sys.stderr.isatty())
+    line = ProgressLine(not (args.quiet or args.json), args.progress)
     last = []
 
     def progress(p) -> None:
         last[:] = [p]
-        if show is not None:
-            show(p)
+        line.show(p.text(), final=p.done == p.total)
     start = time.perf_counter()
     try:
         table = sweep(args.scenario, grid, samples=args.samples, seed=args.seed, executor=executor,
-                      progress=progress, results=args.output)
+                      progress=progress, results=args.output, force=args.force)
     except (ScenarioError, ValueError) as exc:  # found before any run: bad values, design or results file
-        end()
+        line.end()
         return _fail(exc)
     finally:
-        end()
+        line.end()
     elapsed = time.perf_counter() - start
     written = [args.output]
     if args.plot:

@@ -162,6 +162,8 @@ class DaskExecutor:
     def __init__(self, address: str | None = None, client=None):
         if (address is None) == (client is None):
             raise ValueError("DaskExecutor: give the scheduler address or a distributed.Client (one of them)")
+        if address is not None:
+            _check_address(address)
         self.address, self.client = address, client
         self._opened = False
         _distributed()  # a missing extra is an error before anything runs
@@ -217,6 +219,24 @@ class DaskExecutor:
 
     def __repr__(self) -> str:
         return f"DaskExecutor({self.address or self.client!r})"
+
+
+def _check_address(address: str) -> None:
+    """A scheduler address this executor can connect to: ``tcp://HOST:PORT`` (or ``HOST:PORT``).
+    A ``tls://`` scheduler needs certificates (a ``distributed.Security``), which an address
+    alone cannot give: ValueError saying how to connect (exit 2), before anything runs."""
+    scheme, sep, rest = address.partition("://")
+    if not sep:
+        scheme, rest = "tcp", address
+    if scheme == "tls":
+        raise ValueError(f"--scheduler {address}: error: a TLS scheduler needs its certificates, which an "
+                         f"address cannot carry: connect from Python with "
+                         f"DaskExecutor(client=distributed.Client('{address}', security=...)), or give a tcp:// address")
+    if scheme != "tcp":
+        raise ValueError(f"--scheduler {address}: error: unknown protocol '{scheme}://': give tcp://HOST:PORT")
+    host, colon, port = rest.rpartition(":")
+    if not colon or not host or not port.isdigit() or not 0 < int(port) < 65536:
+        raise ValueError(f"--scheduler {address}: error: expected tcp://HOST:PORT with a port from 1 to 65535")
 
 
 class ClusterError(TransgenError, RuntimeError):

@@ -731,8 +731,13 @@ class OptimizeProgress:
     rate: float
 
     def text(self) -> str:
+        from transgen.progress import clock
+
+        left = ((self.budget - self.evaluations) + (self.shifts - self.shift) * self.budget) / self.rate \
+            if self.rate > 0 else None
         return (f"shift {self.shift}/{self.shifts} {self.name}: {self.evaluations}/{self.budget} evaluations, "
-                f"best {self.best:.4g}{'' if self.feasible else ' (infeasible)'}, {self.rate:.1f} evaluations/s")
+                f"best {self.best:.4g}{'' if self.feasible else ' (infeasible)'}, {self.rate:.1f} evaluations/s"
+                + ("" if left is None else f", at most {clock(left)} left"))
 
 
 def _bounds(template, t_gap: float, names: Sequence[str] = PARAMETERS) -> list[tuple[float, float]]:
@@ -761,8 +766,11 @@ def optimize(path, shifts: Sequence[str] | None = None, objective: Objective = O
     keys set in the scenario first (as ``--set``); ``engine_torque``: tune the engine torque
     intervention too (None: where the input is an engine; False: the clutches only, the
     scenario's own intervention kept; True: an error without an engine)."""
+    from transgen.limits import check_optimize
+
     from .executors import SerialExecutor
 
+    check_optimize(max_evaluations, population, force=True)  # the hard limits; the command line has --force
     executor = executor or SerialExecutor()
     with executor:  # one pool of workers (or Dask client) for all the generations
         return _optimize(path, shifts, objective, constraints, executor, seed, max_evaluations, population, progress,

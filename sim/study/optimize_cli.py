@@ -19,6 +19,8 @@ OPTIMIZE_SCHEMA = "transgen.optimize/1"
 
 def add_optimize_command(sub) -> None:
     """Add ``optimize`` to the ``transgen`` parser."""
+    from transgen.limits import add_force_option
+    from transgen.progress import add_progress_option
     from transgen.sim.cli import _set_option
 
     s = sub.add_parser("optimize", help="tune the clutch apply trajectories of each shift of a scenario",
@@ -74,11 +76,15 @@ def add_optimize_command(sub) -> None:
     s.add_argument("--json", action="store_true", help=f"print a JSON summary (schema {OPTIMIZE_SCHEMA})")
     _set_option(s)
     s.add_argument("--quiet", action="store_true", help="no progress on standard error")
+    add_progress_option(s)
+    add_force_option(s)
     s.set_defaults(func=cmd_optimize)
 
 
 def _options(args):
     """(objective, constraints, executor) of the command line; ValueError/ScenarioError: exit 2."""
+    from transgen.limits import check_optimize, check_workers
+
     from .executors import make_executor
     from .optimize import Constraints, parse_objective
 
@@ -90,6 +96,8 @@ def _options(args):
     for name, value in (("--evaluations", args.evaluations), ("--population", args.population)):
         if value < 2:
             raise ValueError(f"{name}: error: give a whole number >= 2, not {value}")
+    check_optimize(args.evaluations, args.population, args.force)
+    check_workers(args.workers, args.force)
     if args.no_worse_than is not None:  # a missing reference is said before anything runs
         from transgen.sim.scenario import scenario_path
 
@@ -122,24 +130,20 @@ def cmd_optimize(args) -> int:
         history_path = Path(args.history) if args.history else output.with_suffix(".history.csv")
     except (ScenarioError, ValueError, ImportError) as exc:
         return _fail(exc)
-    show = not (args.quiet or args.json) and sys.stderr.isatty()
-    width = [0]
+    from transgen.progress import ProgressLine
+
+    line = ProgressLine(not (args.quiet or args.json), args.progress)
 
     def progress(p) -> None:
-        if show:
-            text = "  " + p.text()
-            print("\r" + text.ljust(width[0]), end="", file=sys.stderr, flush=True)
-            width[0] = max(width[0], len(text))
+        line.show(p.text())
     start = time.perf_counter()
     try:
         result = optimize(args.scenario, args.shift, objective, constraints, executor, args.seed, args.evaluations,
                           args.population, progress, overrides, args.engine_torque)
     except (ScenarioError, ValueError) as exc:
-        if width[0]:
-            print(file=sys.stderr)
+        line.end()
         return _fail(exc)
-    if width[0]:
-        print(file=sys.stderr)
+    line.end()
     elapsed = time.perf_counter() - start
     original = load_scenario(result.path, overrides)
     before_run = original.run()

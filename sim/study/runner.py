@@ -20,7 +20,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from .design import full_grid, latin_hypercube, row_key
+from .design import check_design, full_grid, latin_hypercube, row_key
 from .table import FIRST_COLUMNS, SweepTable, column_shift
 
 __all__ = ["sweep", "SweepProgress", "validate_variants", "design_variants", "scenario_path"]
@@ -69,9 +69,11 @@ def scenario_path(scenario: str | Path) -> str:
     return str(named_file(scenario).resolve())
 
 
-def design_variants(grid: Mapping[str, Sequence], samples: int | None = None, seed: int = 0) -> list[dict]:
+def design_variants(grid: Mapping[str, Sequence], samples: int | None = None, seed: int = 0,
+                    force: bool = False) -> list[dict]:
     """The variants of a design: the full grid, or with ``samples`` a Latin-hypercube sample of
-    the ranges ``grid`` gives (key -> (lo, hi) tuple; key -> [value]: fixed)."""
+    the ranges ``grid`` gives (key -> (lo, hi) tuple; key -> [value]: fixed). Its size is checked
+    first (:func:`~.design.check_design`; ``force`` passes the limit on the number of runs)."""
     if not grid:
         raise ValueError("--grid: error: give at least one parameter to vary (--grid KEY=V1,V2,...)")
     for key in grid:
@@ -79,6 +81,7 @@ def design_variants(grid: Mapping[str, Sequence], samples: int | None = None, se
                 or column_shift(key) is not None:
             raise ValueError(f"--grid {key}: error: not a scenario key (the name of a result column)")
     if samples is None:
+        check_design(grid, None, force)
         return full_grid(grid)
     ranges = {k: v for k, v in grid.items() if isinstance(v, tuple)}
     fixed = {}
@@ -88,15 +91,18 @@ def design_variants(grid: Mapping[str, Sequence], samples: int | None = None, se
                 raise ValueError(f"--grid {key}: error: a sampled parameter is a range (LO, HI) (LO:HI on the "
                                  f"command line); a fixed one has one value")
             fixed[key] = values[0]
+    check_design(grid, samples, force)
     return [{k: fixed[k] if k in fixed else v[k] for k in grid} for v in latin_hypercube(ranges, samples, seed)]
 
 
-def validate_variants(path: str, variants: Sequence[Mapping]) -> dict[str, str]:
+def validate_variants(path: str, variants: Sequence[Mapping], force: bool = False) -> dict[str, str]:
     """Load the scenario with the first variant that has each distinct key/value (every variant
     of a sample; the first row and column of a grid) and return the texts of every file those
     loads read. Raises :class:`~transgen.errors.ScenarioError` (``--set KEY: error: ...`` for a bad key
-    or value) at the first problem: before any run."""
+    or value, or a run over a limit of :mod:`transgen.limits`: ``force`` passes the forceable
+    ones) at the first problem: before any run."""
     from transgen.sim import scenario_files
+    from transgen.sim.run_limits import check_run
 
     first: dict[tuple, int] = {}  # each distinct key/value -> the first variant that has it
     for index, variant in enumerate(variants):
@@ -105,13 +111,13 @@ def validate_variants(path: str, variants: Sequence[Mapping]) -> dict[str, str]:
     checks = [variants[i] for i in sorted(set(first.values()))]
     files: dict[str, str] = {}
     for overrides in checks:
-        files.update(scenario_files(path, overrides))
+        files.update(scenario_files(path, overrides, check=lambda scenario: check_run(scenario, force)))
     return files
 
 
 def sweep(scenario: str | Path, grid: Mapping[str, Sequence], samples: int | None = None, seed: int = 0,
           executor=None, progress: Callable[[SweepProgress], None] | None = None,
-          results: str | Path | None = None) -> SweepTable:
+          results: str | Path | None = None, force: bool = False) -> SweepTable:
     """Run ``scenario`` (a file or a bundled name) over a design of overrides; one row per run.
 
     Parameters
@@ -130,6 +136,8 @@ def sweep(scenario: str | Path, grid: Mapping[str, Sequence], samples: int | Non
         Called with a :class:`SweepProgress` when the runs start and after every row.
     results : path
         CSV results file: resume from it and rewrite it atomically as rows complete.
+    force : bool
+        Run a design over the limit on the number of runs (:mod:`transgen.limits`).
 
     Returns
     -------
@@ -145,7 +153,7 @@ def sweep(scenario: str | Path, grid: Mapping[str, Sequence], samples: int | Non
 
     path = scenario_path(scenario)
     name = Path(path).stem
-    variants = design_variants(grid, samples, seed)
+    variants = design_variants(grid, samples, seed, force)
     parameters = list(grid)
     by_key: dict[str, dict] = {}
     for variant in variants:  # a value given twice is one run
@@ -163,7 +171,7 @@ def sweep(scenario: str | Path, grid: Mapping[str, Sequence], samples: int | Non
         executor = LocalExecutor()
     with executor.opened() if isinstance(executor, LocalExecutor) and todo else contextlib.nullcontext():
         # a local pool's workers start here and import the simulator while the design is checked
-        files = validate_variants(path, unique)
+        files = validate_variants(path, unique, force)
         return _run(executor, path, files, keys, unique, rows, extra, parameters, todo, resumed, failed, results,
                     progress)
 

@@ -9,13 +9,15 @@ is a *document*: a JSON object with
 * ``units``: the SI unit of every numeric field, by field name (``"1"`` for a pure number);
 
 and then the command's own fields. The schemas ship as package data in this folder, one file per
-document, ``<name>.json`` (``transgen.modes/1`` is ``modes.json``, ``$id``
-``urn:transgen:modes:1``); each refers to ``document.json`` for the three keys above.
+document, ``<name>.json`` (``transgen.modes/1`` is ``modes.json``, whose ``$id`` is its file name
+``modes.json``); each refers to ``document.json`` for the three keys above by the relative
+``"$ref": "document.json"``, so that a validator given the folder (check-jsonschema, ajv with
+``-r document.json``, :func:`validate`) resolves it offline, with no registry or network.
 
 The pattern for a new command (or a new JSON file):
 
-1. write ``transgen/schemas/<name>.json`` (draft 2020-12) with ``"$id": "urn:transgen:<name>:1"``,
-   ``"allOf": [{"$ref": "urn:transgen:document:1"}]``, ``properties.schema.const`` =
+1. write ``transgen/schemas/<name>.json`` (draft 2020-12) with ``"$id": "<name>.json"``,
+   ``"allOf": [{"$ref": "document.json"}]``, ``properties.schema.const`` =
    ``"transgen.<name>/1"`` and the command's own fields;
 2. print the output with ``print_document("transgen.<name>/1", data, units)`` (or build it with
    :func:`json_document` and write it with :func:`transgen.export.write_json`);
@@ -51,7 +53,7 @@ def schema_path(name: str) -> Path:
     transgen ships no schema of that name and version."""
     short, version = _parse(name)
     path = SCHEMA_DIR / f"{short}.json"
-    if not path.is_file() or load_schema(path).get("$id") != f"urn:transgen:{short}:{version}":
+    if not path.is_file() or load_schema(path).get("properties", {}).get("schema", {}).get("const") != name:
         raise ValueError(f"no JSON Schema for {name!r} in {SCHEMA_DIR}")
     return path
 
@@ -68,9 +70,8 @@ def schema_names() -> list[str]:
     """The document names of every shipped schema except the common ``document`` part."""
     names = []
     for path in sorted(SCHEMA_DIR.glob("*.json")):
-        _, short, version = load_schema(path)["$id"].split(":")[1:]
-        if short != "document":
-            names.append(f"transgen.{short}/{version}")
+        if path.name != "document.json":
+            names.append(load_schema(path)["properties"]["schema"]["const"])
     return names
 
 
@@ -99,6 +100,7 @@ def validate(document: dict) -> None:
     import jsonschema
     from referencing import Registry, Resource
 
+    # the shipped files by their file-name $id: the relative $ref "document.json" resolves among them
     resources = [Resource.from_contents(load_schema(p)) for p in sorted(SCHEMA_DIR.glob("*.json"))]
     registry = Registry().with_resources((r.contents["$id"], r) for r in resources)
     name = document.get("schema") if isinstance(document, dict) else None

@@ -6,9 +6,11 @@ rules, the closest candidates are printed; the input was valid, the search ran, 
 """
 from __future__ import annotations
 
+import math
 import sys
 
 from ..cli_args import number_option
+from ..limits import add_force_option
 
 __all__ = ["add_commands"]
 
@@ -32,6 +34,8 @@ def _k_range(text: str) -> tuple[float, float]:
         low, high = (float(x) for x in text.split(","))
     except ValueError:
         raise ValueError(f"--ring-sun: two numbers MIN,MAX, e.g. 1.5,4.5, not {text!r}") from None
+    if not (math.isfinite(low) and math.isfinite(high)):
+        raise ValueError(f"--ring-sun: two finite numbers MIN,MAX, e.g. 1.5,4.5, not {text!r}")
     return low, high
 
 
@@ -45,7 +49,7 @@ def cmd_teeth(args) -> int:
     rules = AssemblyRules(_int_list(args.planets), args.min_teeth, k_min, k_max, args.max_teeth, args.profile_shift)
     targets = ratio_targets(mech, parse_ratio_targets(args.ratios) if args.ratios else None, args.tolerance)
     progress = _progress if sys.stderr.isatty() and not args.json else None
-    result = synthesize_teeth(mech, targets, rules, top=args.top, progress=progress)
+    result = synthesize_teeth(mech, targets, rules, top=args.top, progress=progress, force=args.force)
     if progress:
         print(file=sys.stderr)
     if args.output and result.solutions:
@@ -141,6 +145,7 @@ def add_commands(sub) -> None:
     t.add_argument("--profile-shift", action="store_true", help="allow odd Nr - Ns (profile-shifted planets)")
     t.add_argument("--top", type=int, default=10, help="solutions shown (0 = all; default 10)")
     t.add_argument("-o", "--output", help="write the .mech completed with the best solution here (else it is printed)")
+    add_force_option(t)
     t.add_argument("--json", action="store_true", help="machine-readable output")
     t.set_defaults(func=cmd_teeth)
 

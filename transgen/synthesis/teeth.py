@@ -509,13 +509,59 @@ def _closest(pb: _Problem, minima, top: int) -> list[TeethSolution]:
     return out[:top]
 
 
+def _check_teeth_range(rules: AssemblyRules) -> None:
+    """The tooth counts of the rules within :mod:`transgen.limits` (``min_teeth``, ``max_teeth``):
+    whole numbers, checked before the search allocates its tables of candidate pairs."""
+    from ..limits import LimitExceeded, check_limit
+
+    for value, option in ((rules.min_teeth, "--min-teeth"), (rules.max_teeth, "--max-teeth")):
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise SynthesisInputError(f"{option}: a whole number of teeth, not {value!r}")
+    try:
+        check_limit("min_teeth", rules.min_teeth, f"--min-teeth {rules.min_teeth}")
+        check_limit("max_teeth", rules.max_teeth, f"--max-teeth {rules.max_teeth}")
+    except LimitExceeded as exc:
+        raise SynthesisInputError(str(exc)) from None
+
+
+PAIR_SECONDS = 4e-4
+"""Search time per candidate (Ns, Nr) pair of the unknown sets [s]: the HT-740 with its three
+sets unknown took 13 s for 44,000 pairs (--max-teeth 150) and 74 s for 179,000 (300)."""
+
+
+def candidate_pairs(pb: _Problem) -> int:
+    """The number of (Ns, Nr) pairs within the ranges and ring/sun bounds of every unknown set,
+    counted (one loop over the sun range) before any is made."""
+    total = 0
+    for (s0, s1), (r0, r1) in zip(pb.sun_range, pb.ring_range):
+        for ns in range(max(s0, 1), s1 + 1):
+            high, low = min(float(r1), pb.rules.k_max * ns), max(float(r0), pb.rules.k_min * ns)
+            total += max(0, math.floor(high) - math.ceil(low) + 1)
+    return total
+
+
+def _check_search_size(pb: _Problem, force: bool | None) -> None:
+    from ..limits import LimitExceeded, check_limit, human_time
+
+    pairs = candidate_pairs(pb)
+    try:
+        check_limit("teeth_pairs", pairs, f"--max-teeth {pb.rules.max_teeth} (the tooth ranges of {', '.join(pb.unknown)})",
+                    f"about {human_time(pairs * PAIR_SECONDS)} to search", force,
+                    hint="give a smaller --max-teeth, a larger --min-teeth or narrower ranges Ns=A..B")
+    except LimitExceeded as exc:
+        raise SynthesisInputError(str(exc)) from None
+
+
 def synthesize_teeth(mech: Mechanism, targets: tuple[RatioTarget, ...], rules: AssemblyRules = AssemblyRules(),
-                     top: int = 10, starts: int = 64, seed: int = 0, progress=None) -> TeethSynthesis:
+                     top: int = 10, starts: int = 64, seed: int = 0, progress=None,
+                     force: bool | None = None) -> TeethSynthesis:
     """Every admissible set of tooth counts for the unknown sets of ``mech`` that meets every
     target ratio within its tolerance (see the module docstring for the method and the rules).
 
     ``top`` limits the solutions returned (0: all; ``count`` is always the total); ``starts`` is
-    the number of least-squares starts; ``progress(text)`` is called on long runs.
+    the number of least-squares starts; ``progress(text)`` is called on long runs; ``force``
+    searches beyond the limit ``teeth_pairs`` of :mod:`transgen.limits` (None: refused without
+    offering ``--force``).
     """
     if top < 0:
         raise SynthesisInputError(f"--top must be 0 (all) or a positive number, not {top}")
@@ -523,8 +569,10 @@ def synthesize_teeth(mech: Mechanism, targets: tuple[RatioTarget, ...], rules: A
         raise SynthesisInputError("--planets needs positive planet counts, e.g. 3,4,5")
     if not 1 < rules.k_min < rules.k_max:
         raise SynthesisInputError(f"ring/sun ratio bounds must satisfy 1 < min < max, not {rules.k_min:g}..{rules.k_max:g}")
+    _check_teeth_range(rules)
     rng = np.random.default_rng(seed)
     pb = _problem(mech, targets, rules, rng)
+    _check_search_size(pb, force)
     notes = []
     free = {p for p in range(len(pb.unknown)) if not any(p in gk.depends for gk in pb.gears)}
     for p, name in enumerate(pb.unknown):
