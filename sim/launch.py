@@ -46,6 +46,8 @@ from transgen.kinematics import analyze
 from transgen.model import Mechanism
 from transgen.modes import Mode, mode_model
 
+from . import calibration
+from .calibration import ShiftTiming, UpshiftCalibration, upshift_calibration
 from .components import GRAVITY, EngineMap
 from .engine.map_file import DATA_DIR
 from .schedule import ShiftTemplate, gear_swap
@@ -67,7 +69,8 @@ LAUNCH_UNITS = {"ratio": "1", "torque_factors": "1", "output_inertia": "kg*m^2",
                 "final_drive": "1", "fill_time": "s", "fill_level": "1", "ramp_time": "s", "ramp_end": "1",
                 "hold_time": "s", "final_time": "s", "offgoing_delay": "s", "offgoing_level": "1", "offgoing_ramp": "s",
                 "upshift_rpm": "rpm", "downshift_rpm": "rpm", "min_interval": "s", "estimated_shift_times": "s",
-                "t_end": "s"}
+                "t_end": "s", "input_torque": "N*m", "input_speed": "rad/s", "speed_change": "rad/s",
+                "inertia": "kg*m^2", "handover_level": "1", "inertia_level": "1", "inertia_phase": "s"}
 """Units of the numeric fields of ``transgen scenario new --json`` (shift lines: output speed, rev/min)."""
 MAX_LAUNCH_TIME = 300.0
 """Longest launch [s] the estimate allows before it calls the top gear unreachable."""
@@ -102,6 +105,7 @@ class VehicleClass:
     last_upshift_speed: float  # m/s: the launch reaches the top gear by this vehicle speed
     upshift_rpm: tuple[float, float]
     downshift_rpm: tuple[float, float]
+    shift_timing: ShiftTiming = ShiftTiming()
     comments: dict = field(default_factory=dict, compare=False)
 
     def engine(self, scale: float = 1.0) -> EngineMap:
@@ -122,6 +126,8 @@ def _load_vehicles() -> dict[str, VehicleClass]:
             spec[key] = tuple(float(x) for x in spec[key])
         spec["torque_table"] = tuple(tuple(float(x) for x in row) for row in spec["torque_table"])
         spec["converter"] = spec.get("converter") or None
+        if "shift_timing" in spec:
+            spec["shift_timing"] = ShiftTiming(**{k: float(v) for k, v in spec["shift_timing"].items()})
         out[name] = VehicleClass(name=name, **spec)
     return out
 
@@ -198,6 +204,7 @@ class Launch:
     shift_times: tuple[float, ...]
     t_end: float
     warnings: tuple[str, ...]
+    calibrations: tuple[UpshiftCalibration, ...] = ()
 
     def gear(self, name: str) -> ForwardGear:
         return next(g for g in self.gears if g.name == name)
@@ -225,6 +232,7 @@ class Launch:
             "upshift_rpm": [list(r) for r in self.upshift_rpm], "downshift_rpm": [list(r) for r in self.downshift_rpm],
             "min_interval": self.min_interval, "estimated_shift_times": list(self.shift_times),
             "t_end": self.t_end, "warnings": list(self.warnings),
+            "calibration": [c.as_data() for c in self.calibrations],
         }, LAUNCH_UNITS)
 
 
@@ -466,8 +474,6 @@ def derive_launch(mech: Mechanism, vehicle: str = "car") -> Launch:
                                  description=f"{vc.description}, scaled to {100 * scale:.1f} % (gearbox capacities)")
     ramp_end = min(max(need, RAMP_END_RANGE[0]), RAMP_END_RANGE[1])
     template = ShiftTemplate(ramp_end=round(ramp_end, 3))
-    duration = template.fill_time + template.ramp_time + template.hold_time + template.final_time
-    min_interval = round(duration + 0.5, 3)
     final_drive = vc.overall_first / gears[0].ratio
     ratio = {g.name: g.ratio for g in gears}
     # engine speed at the upshifts: the class band at the first, falling geometrically with the
@@ -483,6 +489,9 @@ def derive_launch(mech: Mechanism, vehicle: str = "car") -> Launch:
         d = tuple(min(n / ratio[b], 0.8 * x) for n, x in zip(vc.downshift_rpm, u))
         up.append(tuple(round(x, 1) for x in u))
         down.append(tuple(round(x, 1) for x in d))
+    calibrations = _calibrate(mech, vc, scale, by_name, shifts, up)
+    duration = max(_duration(c.template) for c in calibrations)
+    min_interval = round(duration + 0.5, 3)
     try:
         times = _estimate_launch(vc, scale, gears, order, final_drive, up, template, min_interval)
     except ValueError as exc:
@@ -490,7 +499,28 @@ def derive_launch(mech: Mechanism, vehicle: str = "car") -> Launch:
                             f"with this gearbox") from None
     t_end = float(math.ceil(1.3 * times[-1] + duration + 3.0))
     return Launch(mech, vc, tuple(gears), tuple(order), tuple(shifts), tuple(skipped), tuple(sizing), scale, t_in,
-                  final_drive, template, tuple(up), tuple(down), min_interval, tuple(times), t_end, tuple(warnings))
+                  final_drive, template, tuple(up), tuple(down), min_interval, tuple(times), t_end, tuple(warnings),
+                  tuple(calibrations))
+
+
+def _duration(t: ShiftTemplate) -> float:
+    return t.fill_time + t.ramp_time + t.hold_time + t.final_time
+
+
+def _calibrate(mech, vc: VehicleClass, scale: float, gears: dict, shifts, up) -> list[UpshiftCalibration]:
+    """Each upshift's calibration (:func:`~transgen.sim.calibration.upshift_calibration`) at the
+    input torque and speed the schedule's upshift line gives: the turbine speed of the line at the
+    class throttle, the turbine torque of the engine/converter match there."""
+    engine, tc = vc.engine(scale), vc.converter_model()
+    idle, throttle = vc.idle_rpm * RPM, vc.throttle_signal
+    graph = build_graph(mech)
+    out = []
+    for s, line in zip(shifts, up):
+        a, b = gears[s.source], gears[s.target]
+        w_t = float(np.interp(throttle, (0.0, 1.0), line)) * RPM * a.ratio
+        torque = _converter_match(engine, tc, idle, throttle, w_t)
+        out.append(upshift_calibration(mech, a, b, s.oncoming, s.offgoing, torque, w_t, vc.shift_timing, graph))
+    return out
 
 
 # --------------------------------------------------------------------------------- TOML text
@@ -619,4 +649,23 @@ def launch_scenario(mech: Mechanism, vehicle: str = "car", mechanism_ref: str | 
         "template = { " + ", ".join(f"{k} = {_num(v)}" for k, v in lc.template.as_data().items()) + " }",
         "",
     ]
+    lines += _calibration_lines(lc)
     return "\n".join(lines)
+
+
+def _calibration_lines(lc: Launch) -> list[str]:
+    """The ``[auto_shift.templates."A-B"]`` tables of the derived calibration, each with the numbers
+    it comes from (docs/calibration.md)."""
+    t = lc.vehicle.shift_timing
+    lines = ["# Each upshift's own calibration, derived from the statics of its two gears and the inertia it",
+             "# synchronises (docs/calibration.md): the oncoming ramps to the handover level (its gear-B torque",
+             f"# share of the expected input torque) in the torque phase ({t.torque_phase:g} s), the offgoing falls from",
+             f"# {100 * calibration.OFFGOING_MARGIN:.0f} % of the level holding its gear-A torque to zero just before it; the inertia-phase level",
+             f"# adds the torque that synchronises the inertia in {t.inertia_phase:g} s (at most {calibration.MAX_LEVEL:g} of full apply).", ""]
+    for c in lc.calibrations:
+        lines += [f'[auto_shift.templates."{c.source}-{c.target}"]   # input torque {c.input_torque:.0f} N*m at '
+                  f'{c.input_speed / RPM:.0f} rpm; input slows by {c.speed_change / RPM:.0f} rpm; J = {c.inertia:.4g} kg*m^2;'
+                  f' handover level {c.handover_level:.3f}; inertia phase {c.inertia_phase:.2f} s']
+        lines += [f"{k} = {_num(v)}" for k, v in c.template.as_data().items()]
+        lines.append("")
+    return lines

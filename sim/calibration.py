@@ -1,0 +1,158 @@
+"""A default upshift calibration from the gearbox's own physics (``transgen scenario new``).
+
+For an upshift from gear A to gear B under drive, :func:`upshift_calibration` derives the shift
+template (:class:`~transgen.sim.schedule.ShiftTemplate`, apply levels as fractions of full apply)
+from four things the mechanism and the vehicle class fix (the method, with its reasoning, is in
+``docs/calibration.md``):
+
+* the **statics of the two gears**: each element's torque per unit input torque, ``k`` (the
+  numbers ``transgen powerflow`` and ``scenario new`` print: :func:`~transgen.sim.launch.static_element_torques`).
+  While the offgoing element is still locked, its torque falls linearly with the oncoming
+  element's torque and reaches zero when the oncoming element carries its gear-B share
+  ``|k_on^B| * T_in`` (the gear-B torque distribution is the only static balance with the
+  offgoing torque zero). That is the **handover**;
+* the **expected input torque** ``T_in`` at the shift point (the engine/converter match at the
+  turbine speed of the upshift line: :func:`~transgen.sim.launch.derive_launch`);
+* the **inertia to synchronise**: ``J_eff = sum_i J_i (dw_i / dw_in)^2`` over the links, with
+  ``dw_i`` the change of link i's speed from gear A to gear B at a fixed output speed (the
+  vehicle hardly changes speed during a shift), and the input's speed change ``dw_in = w_in (1 -
+  r_B/r_A)`` (the ratio step);
+* the class's **target times**: torque phase ``t_tp`` and inertia phase ``t_ip``.
+
+The template: the oncoming element ramps from zero so that it reaches the handover level
+``a_h = |k_on^B| T_in / T_dyn`` after ``t_tp`` and goes on to the inertia-phase level ``a_ip =
+|k_on^B| (T_in + J_eff dw_in / t_ip) / T_dyn`` (the extra torque decelerates the input side in
+``t_ip``), holds it until the element locks and then applies fully. The offgoing element drops,
+when the oncoming ramp starts, to ``OFFGOING_MARGIN`` times the static level that holds its
+gear-A torque ``|k_off^A| T_in / T_static`` and falls linearly to zero a little
+(``RELEASE_LEAD`` of the torque phase) *before* the handover: its capacity stays just above the
+torque it must still carry, so it never holds against the oncoming element (bindup) and lets go
+while the input torque it leaves uncarried is a few percent (a flare of some rpm). Where the
+inertia-phase level would exceed :data:`MAX_LEVEL`, the level is capped and the inertia phase
+lasts longer. Several oncoming (offgoing) elements of a double swap share one profile: the
+largest level of them. A one-way clutch needs no command; a dog clutch (no finite capacity)
+holds at any apply, so only its release time matters.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from transgen.kinematics import link_speeds
+from transgen.model import Mechanism
+
+from .schedule import ShiftTemplate
+
+__all__ = ["ShiftTiming", "UpshiftCalibration", "upshift_calibration", "synchronised_inertia",
+           "OFFGOING_MARGIN", "RELEASE_LEAD", "MAX_LEVEL"]
+
+OFFGOING_MARGIN = 1.3
+"""Offgoing static capacity over the torque it carries while the torque is handed over."""
+RELEASE_LEAD = 0.1
+"""Fraction of the torque phase by which the offgoing apply reaches zero before the handover."""
+MAX_LEVEL = 0.95
+"""Highest inertia-phase apply level (a reserve to full apply)."""
+MIN_LEVEL = 1e-4
+"""Lowest handover level (a floor for an oncoming element with no static torque share)."""
+
+
+@dataclass(frozen=True)
+class ShiftTiming:
+    """Target times of a vehicle class's upshifts [s]: ``fill`` (oncoming stroke, no torque),
+    ``torque_phase`` (the handover), ``inertia_phase`` (the speed change), ``final`` (ramp to
+    full apply after the lock)."""
+
+    fill: float = 0.05
+    torque_phase: float = 0.2
+    inertia_phase: float = 0.4
+    final: float = 0.2
+
+
+@dataclass(frozen=True)
+class UpshiftCalibration:
+    """The derived numbers of one upshift and its template. Torques in N*m, speeds in rad/s,
+    inertia in kg*m^2, times in s, levels as fractions of full apply."""
+
+    source: str
+    target: str
+    input_torque: float
+    input_speed: float
+    speed_change: float
+    inertia: float
+    handover_level: float
+    inertia_level: float
+    offgoing_level: float
+    inertia_phase: float
+    template: ShiftTemplate
+
+    def as_data(self) -> dict:
+        return {"from": self.source, "to": self.target, "input_torque": self.input_torque,
+                "input_speed": self.input_speed, "speed_change": self.speed_change, "inertia": self.inertia,
+                "handover_level": self.handover_level, "inertia_level": self.inertia_level,
+                "offgoing_level": self.offgoing_level, "inertia_phase": self.inertia_phase,
+                "template": self.template.as_data()}
+
+
+def synchronised_inertia(mech: Mechanism, source: tuple[str, ...], target: tuple[str, ...], graph=None) -> float:
+    """Inertia [kg*m^2] referred to the input that a shift from the gear ``source`` to ``target``
+    (engaged elements) speeds up or slows down at a fixed output speed: ``sum J_i (dw_i/dw_in)^2``
+    with ``dw_i`` the change of link i's speed per unit output speed between the two gears. A
+    member that floats in either gear is counted with the speed of the other (its own inertia
+    moves it freely)."""
+    a, b = link_speeds(mech, source, graph), link_speeds(mech, target, graph)
+    out = mech.output
+    ra, rb = 1.0 / a[out], 1.0 / b[out]  # input/output ratios
+    d_in = ra - rb
+    if abs(d_in) < 1e-12:
+        return 0.0
+    total = 0.0
+    for link in mech.links:
+        wa, wb = a.get(link.name), b.get(link.name)
+        if wa is None or wb is None:
+            continue
+        total += link.inertia * ((wa * ra - wb * rb) / d_in) ** 2
+    return total
+
+
+def _capacity(mech: Mechanism, name: str, kind: str) -> float:
+    e = mech.element(name)
+    value = getattr(e, kind, None)
+    return float(value) if value is not None and math.isfinite(value) and value > 0 else math.inf
+
+
+def upshift_calibration(mech: Mechanism, source, target, oncoming: tuple[str, ...], offgoing: tuple[str, ...],
+                        input_torque: float, input_speed: float, timing: ShiftTiming = ShiftTiming(),
+                        graph=None) -> UpshiftCalibration:
+    """The calibration of the upshift from ``source`` to ``target`` (:class:`~transgen.sim.launch.ForwardGear`:
+    ratio, engaged elements, static torque factors) with the commanded ``oncoming`` and
+    ``offgoing`` elements, at the expected input torque ``input_torque`` [N*m] and input speed
+    ``input_speed`` [rad/s] at the shift command (see the module docstring)."""
+    t_in = max(float(input_torque), 1e-6)
+    step = source.ratio / target.ratio
+    dw = max(float(input_speed), 0.0) * (1.0 - 1.0 / step)
+    j_eff = synchronised_inertia(mech, source.engaged, target.engaged, graph)
+
+    def level(names, factors, torque, kind):
+        levels = [abs(factors.get(n, 0.0)) * torque / _capacity(mech, n, kind) for n in names]
+        return max(levels, default=0.0)
+
+    a_h = max(level(oncoming, target.torque_factors, t_in, "dynamic"), MIN_LEVEL)
+    a_ip = level(oncoming, target.torque_factors, t_in + j_eff * dw / timing.inertia_phase, "dynamic")
+    a_ip = min(max(a_ip, 1.05 * a_h), MAX_LEVEL)
+    # the inertia phase at the level reached: J dw / (extra torque referred to the input)
+    extra = (a_ip / a_h - 1.0) * t_in if a_h > 0 else 0.0
+    t_ip = j_eff * dw / extra if extra > 0 else timing.inertia_phase
+    off = level(offgoing, source.torque_factors, t_in, "static")
+    off_level = min(1.0, OFFGOING_MARGIN * off) if off > 0 else 1.0  # a dog holds at any apply
+    ramp_time = timing.torque_phase * a_ip / a_h
+    template = ShiftTemplate(
+        fill_time=timing.fill, fill_level=0.0, ramp_time=_round(ramp_time), ramp_end=_round(a_ip),
+        hold_time=_round(max(1.5 * t_ip, 0.1)), final_time=timing.final, offgoing_delay=0.0,
+        offgoing_level=_round(off_level), offgoing_ramp=_round(timing.torque_phase * (1.0 - RELEASE_LEAD)))
+    return UpshiftCalibration(source.name, target.name, t_in, float(input_speed), dw, j_eff, a_h, a_ip, off_level,
+                              t_ip, template)
+
+
+def _round(x: float) -> float:
+    """Four significant digits (the scenario file's numbers stay readable)."""
+    return float(f"{x:.4g}")
