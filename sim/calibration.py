@@ -38,6 +38,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
+from transgen.graph import build_graph
+
 from transgen.kinematics import link_speeds
 from transgen.model import Mechanism
 
@@ -48,7 +52,7 @@ __all__ = ["ShiftTiming", "UpshiftCalibration", "upshift_calibration", "synchron
 
 OFFGOING_MARGIN = 1.3
 """Offgoing static capacity over the torque it carries while the torque is handed over."""
-RELEASE_LEAD = 0.1
+RELEASE_LEAD = 0.2
 """Fraction of the torque phase by which the offgoing apply reaches zero before the handover."""
 MAX_LEVEL = 0.95
 """Highest inertia-phase apply level (a reserve to full apply)."""
@@ -114,6 +118,51 @@ def synchronised_inertia(mech: Mechanism, source: tuple[str, ...], target: tuple
     return total
 
 
+def handover(mech: Mechanism, source_engaged, oncoming: dict, offgoing, input_torque: float,
+             output_accel: float = 0.0, graph=None) -> tuple[float, dict]:
+    """``(lam, before)``: the handover of a torque phase from the gear ``source_engaged`` with the
+    gearbox accelerating as in that gear (output link ``output_accel`` [rad/s^2]).
+
+    In the torque-phase mode (the source gear's elements locked, the oncoming ones slipping) every
+    locked torque is linear in the input torque, the output torque and the oncoming torques
+    (:func:`transgen.modes.mode_model`). The oncoming elements carry ``lam`` times their gear-B
+    static torque ``oncoming[e] * input_torque``; the output torque is the one that keeps the
+    output's acceleration. ``lam`` is the smallest value at which an offgoing element's torque
+    vanishes (1 at zero acceleration: the statics), ``before`` each offgoing element's torque
+    [N*m] at ``lam = 0`` (before the shift)."""
+    from transgen.graph import link_nodes
+    from transgen.modes import Mode, mode_model
+
+    g = graph if graph is not None else build_graph(mech)
+    model = mode_model(mech, Mode("torque phase", tuple(source_engaged)), g)
+    eq = model.equations
+    names = list(eq.u)
+    i_out = list(link_nodes(g)).index(mech.output)
+    base = np.zeros(len(names))
+    base[names.index("T_in")] = input_torque
+    e_out = np.zeros(len(names))
+    e_out[names.index("T_out")] = 1.0
+    e_on = np.zeros(len(names))
+    for name, k in oncoming.items():
+        e_on[names.index(f"t_{name}")] = k * input_torque
+    acc, clu = np.asarray(eq.G_accel, float), np.asarray(eq.G_clutches, float)
+    a0, a1, a2 = acc[i_out] @ base, acc[i_out] @ e_out, acc[i_out] @ e_on
+    if abs(a1) < 1e-12:
+        raise ValueError("the output torque does not act on the output in the torque phase")
+    lams, before = [], {}
+    for name in offgoing:
+        if name not in model.locked:
+            continue
+        row = clu[list(model.locked).index(name)]
+        b0, b1, b2 = row @ base, row @ e_out, row @ e_on
+        t0 = b0 + b1 * (output_accel - a0) / a1
+        before[name] = float(t0)
+        slope = b2 - b1 * a2 / a1
+        if abs(slope) > 1e-12 and -t0 / slope > 0:
+            lams.append(-t0 / slope)
+    return (min(lams) if lams else 1.0), before
+
+
 def _capacity(mech: Mechanism, name: str, kind: str) -> float:
     e = mech.element(name)
     value = getattr(e, kind, None)
@@ -122,7 +171,7 @@ def _capacity(mech: Mechanism, name: str, kind: str) -> float:
 
 def upshift_calibration(mech: Mechanism, source, target, oncoming: tuple[str, ...], offgoing: tuple[str, ...],
                         input_torque: float, input_speed: float, timing: ShiftTiming = ShiftTiming(),
-                        graph=None) -> UpshiftCalibration:
+                        graph=None, output_accel: float = 0.0) -> UpshiftCalibration:
     """The calibration of the upshift from ``source`` to ``target`` (:class:`~transgen.sim.launch.ForwardGear`:
     ratio, engaged elements, static torque factors) with the commanded ``oncoming`` and
     ``offgoing`` elements, at the expected input torque ``input_torque`` [N*m] and input speed
@@ -136,13 +185,15 @@ def upshift_calibration(mech: Mechanism, source, target, oncoming: tuple[str, ..
         levels = [abs(factors.get(n, 0.0)) * torque / _capacity(mech, n, kind) for n in names]
         return max(levels, default=0.0)
 
-    a_h = max(level(oncoming, target.torque_factors, t_in, "dynamic"), MIN_LEVEL)
+    factors = {n: target.torque_factors.get(n, 0.0) for n in oncoming}
+    lam, before = handover(mech, source.engaged, factors, offgoing, t_in, output_accel, graph)
+    a_h = max(lam * level(oncoming, target.torque_factors, t_in, "dynamic"), MIN_LEVEL)
     a_ip = level(oncoming, target.torque_factors, t_in + j_eff * dw / timing.inertia_phase, "dynamic")
     a_ip = min(max(a_ip, 1.05 * a_h), MAX_LEVEL)
     # the inertia phase at the level reached: J dw / (extra torque referred to the input)
     extra = (a_ip / a_h - 1.0) * t_in if a_h > 0 else 0.0
     t_ip = j_eff * dw / extra if extra > 0 else timing.inertia_phase
-    off = level(offgoing, source.torque_factors, t_in, "static")
+    off = max((abs(t) / _capacity(mech, n, "static") for n, t in before.items()), default=0.0)
     off_level = min(1.0, OFFGOING_MARGIN * off) if off > 0 else 1.0  # a dog holds at any apply
     ramp_time = timing.torque_phase * a_ip / a_h
     template = ShiftTemplate(

@@ -489,7 +489,7 @@ def derive_launch(mech: Mechanism, vehicle: str = "car") -> Launch:
         d = tuple(min(n / ratio[b], 0.8 * x) for n, x in zip(vc.downshift_rpm, u))
         up.append(tuple(round(x, 1) for x in u))
         down.append(tuple(round(x, 1) for x in d))
-    calibrations = _calibrate(mech, vc, scale, by_name, shifts, up)
+    calibrations = _calibrate(mech, vc, scale, by_name, shifts, up, final_drive)
     duration = max(_duration(c.template) for c in calibrations)
     min_interval = round(duration + 0.5, 3)
     try:
@@ -507,7 +507,7 @@ def _duration(t: ShiftTemplate) -> float:
     return t.fill_time + t.ramp_time + t.hold_time + t.final_time
 
 
-def _calibrate(mech, vc: VehicleClass, scale: float, gears: dict, shifts, up) -> list[UpshiftCalibration]:
+def _calibrate(mech, vc: VehicleClass, scale: float, gears: dict, shifts, up, final_drive: float) -> list[UpshiftCalibration]:
     """Each upshift's calibration (:func:`~transgen.sim.calibration.upshift_calibration`) at the
     input torque and speed the schedule's upshift line gives: the turbine speed of the line at the
     class throttle, the turbine torque of the engine/converter match there."""
@@ -519,7 +519,12 @@ def _calibrate(mech, vc: VehicleClass, scale: float, gears: dict, shifts, up) ->
         a, b = gears[s.source], gears[s.target]
         w_t = float(np.interp(throttle, (0.0, 1.0), line)) * RPM * a.ratio
         torque = _converter_match(engine, tc, idle, throttle, w_t)
-        out.append(upshift_calibration(mech, a, b, s.oncoming, s.offgoing, torque, w_t, vc.shift_timing, graph))
+        # the vehicle's acceleration there (as _estimate_launch): the gearbox accelerates with it
+        speed = w_t / a.ratio / final_drive * vc.wheel_radius
+        mass = 1.03 * vc.mass + (a.inertia + vc.output_inertia) * (final_drive / vc.wheel_radius) ** 2
+        accel = (torque * a.ratio * final_drive / vc.wheel_radius - _road_force(vc, speed)) / mass
+        out.append(upshift_calibration(mech, a, b, s.oncoming, s.offgoing, torque, w_t, vc.shift_timing, graph,
+                                       accel * final_drive / vc.wheel_radius))
     return out
 
 
