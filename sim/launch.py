@@ -49,6 +49,7 @@ from transgen.modes import Mode, mode_model
 from . import calibration
 from .calibration import ShiftTiming, UpshiftCalibration, upshift_calibration
 from .components import GRAVITY, EngineMap
+from .driveline_class import DrivelineParts, EquivalentDriveline
 from .engine.map_file import DATA_DIR
 from .schedule import ShiftTemplate, gear_swap
 from .engine.torque_converter import DEFAULT_TORQUE_CONVERTER, TorqueConverter
@@ -70,7 +71,8 @@ LAUNCH_UNITS = {"ratio": "1", "torque_factors": "1", "output_inertia": "kg*m^2",
                 "hold_time": "s", "final_time": "s", "offgoing_delay": "s", "offgoing_level": "1", "offgoing_ramp": "s",
                 "upshift_rpm": "rpm", "downshift_rpm": "rpm", "min_interval": "s", "estimated_shift_times": "s",
                 "t_end": "s", "input_torque": "N*m", "input_speed": "rad/s", "speed_change": "rad/s",
-                "inertia": "kg*m^2", "handover_level": "1", "inertia_level": "1", "inertia_phase": "s"}
+                "inertia": "kg*m^2", "handover_level": "1", "inertia_level": "1", "inertia_phase": "s",
+                "stiffness": "N*m/rad", "damping": "N*m*s/rad", "parts": "N*m/rad", "frequency": "Hz"}
 """Units of the numeric fields of ``transgen scenario new --json`` (shift lines: output speed, rev/min)."""
 MAX_LAUNCH_TIME = 300.0
 """Longest launch [s] the estimate allows before it calls the top gear unreachable."""
@@ -99,8 +101,7 @@ class VehicleClass:
     rolling_resistance: float
     cd_a: float
     output_inertia: float
-    stiffness: float
-    damping: float
+    driveline: DrivelineParts
     overall_first: float
     last_upshift_speed: float  # m/s: the launch reaches the top gear by this vehicle speed
     upshift_rpm: tuple[float, float]
@@ -126,6 +127,7 @@ def _load_vehicles() -> dict[str, VehicleClass]:
             spec[key] = tuple(float(x) for x in spec[key])
         spec["torque_table"] = tuple(tuple(float(x) for x in row) for row in spec["torque_table"])
         spec["converter"] = spec.get("converter") or None
+        spec["driveline"] = DrivelineParts(**spec["driveline"])
         if "shift_timing" in spec:
             spec["shift_timing"] = ShiftTiming(**{k: float(v) for k, v in spec["shift_timing"].items()})
         out[name] = VehicleClass(name=name, **spec)
@@ -205,6 +207,7 @@ class Launch:
     t_end: float
     warnings: tuple[str, ...]
     calibrations: tuple[UpshiftCalibration, ...] = ()
+    driveline: EquivalentDriveline | None = None
 
     def gear(self, name: str) -> ForwardGear:
         return next(g for g in self.gears if g.name == name)
@@ -233,6 +236,8 @@ class Launch:
             "min_interval": self.min_interval, "estimated_shift_times": list(self.shift_times),
             "t_end": self.t_end, "warnings": list(self.warnings),
             "calibration": [c.as_data() for c in self.calibrations],
+            "driveline": {"stiffness": self.driveline.stiffness, "damping": self.driveline.damping,
+                          "parts": dict(self.driveline.parts), "frequency": self.driveline.frequency},
         }, LAUNCH_UNITS)
 
 
@@ -498,9 +503,10 @@ def derive_launch(mech: Mechanism, vehicle: str = "car") -> Launch:
         raise ScenarioError(f"{where}: error: {exc}; the {vc.name} cannot be launched through the gears "
                             f"with this gearbox") from None
     t_end = float(math.ceil(1.3 * times[-1] + duration + 3.0))
+    driveline = vc.driveline.equivalent(final_drive, vc.wheel_radius, vc.mass, vc.output_inertia, gears[0].inertia)
     return Launch(mech, vc, tuple(gears), tuple(order), tuple(shifts), tuple(skipped), tuple(sizing), scale, t_in,
                   final_drive, template, tuple(up), tuple(down), min_interval, tuple(times), t_end, tuple(warnings),
-                  tuple(calibrations))
+                  tuple(calibrations), driveline)
 
 
 def _duration(t: ShiftTemplate) -> float:
@@ -629,8 +635,12 @@ def launch_scenario(mech: Mechanism, vehicle: str = "car", mechanism_ref: str | 
         "",
         "[driveline]",
         f"output_inertia = {_num(vc.output_inertia)}       # kg*m^2: {vc.comments.get('output_inertia', '')}",
-        f"stiffness = {_num(vc.stiffness)}           # N*m/rad: {vc.comments.get('stiffness', '')}",
-        f"damping = {_num(vc.damping)}             # N*m*s/rad",
+        "# the propeller shaft, half-shafts and tyres in series, referred to the gearbox output (N*m/rad):",
+        "# " + ", ".join(f"{k} {v:.0f}" for k, v in lc.driveline.parts.items())
+        + f"; first torsional mode {lc.driveline.frequency:.1f} Hz in gear {first.name}, damping ratio "
+        f"{vc.driveline.damping_ratio:g} (sim/data/vehicle_classes.toml has the sources)",
+        f"stiffness = {_num(round(lc.driveline.stiffness, 1))}           # N*m/rad",
+        f"damping = {_num(round(lc.driveline.damping, 2))}             # N*m*s/rad",
         f"final_drive = {_num(round(lc.final_drive, 4))}          # overall first-gear ratio {_num(vc.overall_first)}"
         f" / gear {first.name} ratio {first.ratio:.4f}",
         f"wheel_radius = {_num(vc.wheel_radius)}        # m",
