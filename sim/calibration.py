@@ -171,7 +171,7 @@ def _capacity(mech: Mechanism, name: str, kind: str) -> float:
 
 def upshift_calibration(mech: Mechanism, source, target, oncoming: tuple[str, ...], offgoing: tuple[str, ...],
                         input_torque: float, input_speed: float, timing: ShiftTiming = ShiftTiming(),
-                        graph=None, output_accel: float = 0.0) -> UpshiftCalibration:
+                        graph=None, output_accel: float = 0.0, torque_after: float | None = None) -> UpshiftCalibration:
     """The calibration of the upshift from ``source`` to ``target`` (:class:`~transgen.sim.launch.ForwardGear`:
     ratio, engaged elements, static torque factors) with the commanded ``oncoming`` and
     ``offgoing`` elements, at the expected input torque ``input_torque`` [N*m] and input speed
@@ -188,10 +188,14 @@ def upshift_calibration(mech: Mechanism, source, target, oncoming: tuple[str, ..
     factors = {n: target.torque_factors.get(n, 0.0) for n in oncoming}
     lam, before = handover(mech, source.engaged, factors, offgoing, t_in, output_accel, graph)
     a_h = max(lam * level(oncoming, target.torque_factors, t_in, "dynamic"), MIN_LEVEL)
-    a_ip = level(oncoming, target.torque_factors, t_in + j_eff * dw / timing.inertia_phase, "dynamic")
+    # in the inertia phase the input torque rises towards the converter's at the new gear's turbine
+    # speed (``torque_after``): its mean over the phase
+    t_ip_in = 0.5 * (t_in + max(t_in, float(torque_after))) if torque_after is not None else t_in
+    a_ip = level(oncoming, target.torque_factors, t_ip_in + j_eff * dw / timing.inertia_phase, "dynamic")
     a_ip = min(max(a_ip, 1.05 * a_h), MAX_LEVEL)
     # the inertia phase at the level reached: J dw / (extra torque referred to the input)
-    extra = (a_ip / a_h - 1.0) * t_in if a_h > 0 else 0.0
+    a_static = level(oncoming, target.torque_factors, t_ip_in, "dynamic")
+    extra = (a_ip / a_static - 1.0) * t_ip_in if a_static > 0 else 0.0
     t_ip = j_eff * dw / extra if extra > 0 else timing.inertia_phase
     off = max((abs(t) / _capacity(mech, n, "static") for n, t in before.items()), default=0.0)
     off_level = min(1.0, OFFGOING_MARGIN * off) if off > 0 else 1.0  # a dog holds at any apply

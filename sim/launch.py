@@ -402,19 +402,25 @@ def _road_force(v: VehicleClass, speed: float) -> float:
 
 def _converter_match(engine, tc, idle, throttle, w_t) -> float:
     """Turbine torque [N*m] at turbine speed ``w_t`` with the engine at its steady match."""
+    return _engine_match(engine, tc, idle, throttle, w_t)[1]
+
+
+def _engine_match(engine, tc, idle, throttle, w_t) -> tuple[float, float]:
+    """(engine speed [rad/s], turbine torque [N*m]) of the steady engine/converter match at
+    turbine speed ``w_t``."""
     def excess(w_e):
         return _engine_torque(engine, idle, throttle, w_e) - tc.torques(w_e, w_t)[0]
 
     lo = max(w_t, 1e-3)
     if excess(lo) <= 0:
-        return tc.torques(lo, w_t)[1]
+        return lo, tc.torques(lo, w_t)[1]
     hi = 2 * lo + 100.0
     while excess(hi) > 0 and hi < 1e4:
         hi *= 1.5
     for _ in range(30):
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if excess(mid) > 0 else (lo, mid)
-    return tc.torques(lo, w_t)[1]
+    return lo, tc.torques(lo, w_t)[1]
 
 
 def _estimate_launch(vehicle, scale, gears, order, final_drive, up_rpm, template, min_interval):
@@ -516,7 +522,9 @@ def _duration(t: ShiftTemplate) -> float:
 def _calibrate(mech, vc: VehicleClass, scale: float, gears: dict, shifts, up, final_drive: float) -> list[UpshiftCalibration]:
     """Each upshift's calibration (:func:`~transgen.sim.calibration.upshift_calibration`) at the
     input torque and speed the schedule's upshift line gives: the turbine speed of the line at the
-    class throttle, the turbine torque of the engine/converter match there."""
+    class throttle, the turbine torque of the engine/converter match there; in the inertia phase
+    the turbine slows to the new gear's speed while the engine (its inertia) keeps its speed, and
+    the converter's torque rises with the lower speed ratio."""
     engine, tc = vc.engine(scale), vc.converter_model()
     idle, throttle = vc.idle_rpm * RPM, vc.throttle_signal
     graph = build_graph(mech)
@@ -524,13 +532,14 @@ def _calibrate(mech, vc: VehicleClass, scale: float, gears: dict, shifts, up, fi
     for s, line in zip(shifts, up):
         a, b = gears[s.source], gears[s.target]
         w_t = float(np.interp(throttle, (0.0, 1.0), line)) * RPM * a.ratio
-        torque = _converter_match(engine, tc, idle, throttle, w_t)
+        w_e, torque = _engine_match(engine, tc, idle, throttle, w_t)
         # the vehicle's acceleration there (as _estimate_launch): the gearbox accelerates with it
         speed = w_t / a.ratio / final_drive * vc.wheel_radius
         mass = 1.03 * vc.mass + (a.inertia + vc.output_inertia) * (final_drive / vc.wheel_radius) ** 2
         accel = (torque * a.ratio * final_drive / vc.wheel_radius - _road_force(vc, speed)) / mass
         out.append(upshift_calibration(mech, a, b, s.oncoming, s.offgoing, torque, w_t, vc.shift_timing, graph,
-                                       accel * final_drive / vc.wheel_radius))
+                                       accel * final_drive / vc.wheel_radius,
+                                       tc.torques(w_e, w_t * b.ratio / a.ratio)[1]))  # the engine keeps its speed
     return out
 
 
