@@ -50,7 +50,7 @@ from .schedule import ShiftTemplate
 __all__ = ["ShiftTiming", "UpshiftCalibration", "upshift_calibration", "synchronised_inertia",
            "OFFGOING_MARGIN", "RELEASE_LEAD", "MAX_LEVEL"]
 
-OFFGOING_MARGIN = 1.3
+OFFGOING_MARGIN = 2.0
 """Offgoing static capacity over the torque it carries while the torque is handed over."""
 RELEASE_LEAD = 0.2
 """Fraction of the torque phase by which the offgoing apply reaches zero before the handover."""
