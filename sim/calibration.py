@@ -52,7 +52,7 @@ __all__ = ["ShiftTiming", "UpshiftCalibration", "upshift_calibration", "synchron
 
 OFFGOING_MARGIN = 2.0
 """Offgoing static capacity over the torque it carries while the torque is handed over."""
-RELEASE_LEAD = 0.2
+RELEASE_LEAD = 0.1
 """Fraction of the torque phase by which the offgoing apply reaches zero before the handover."""
 MAX_LEVEL = 0.95
 """Highest inertia-phase apply level (a reserve to full apply)."""

@@ -424,30 +424,38 @@ def _engine_match(engine, tc, idle, throttle, w_t) -> tuple[float, float]:
 
 
 def _estimate_launch(vehicle, scale, gears, order, final_drive, up_rpm, template, min_interval):
-    """Quasi-static launch: vehicle speed integrated gear by gear (engine/converter match, road
-    load, gearbox inertias neglected); returns the shift command times [s], or raises
+    """Quasi-static launch: vehicle speed integrated gear by gear (the engine speed with the
+    engine's inertia against the converter's pump torque, road load, gearbox inertias referred to
+    the output; the shifts themselves instantaneous); returns the shift command times [s] and,
+    at each, (engine speed [rad/s], turbine speed [rad/s], turbine torque [N*m]), or raises
     ``ValueError`` when the vehicle cannot reach an upshift speed."""
     engine, tc = vehicle.engine(scale), vehicle.converter_model()
     idle, throttle = vehicle.idle_rpm * RPM, vehicle.throttle_signal
     ratio = {g.name: g.ratio for g in gears}
     inertia = {g.name: g.inertia + vehicle.output_inertia for g in gears}
     r = vehicle.wheel_radius
-    t, v, dt, last, times = 0.0, 0.0, 0.1, -math.inf, []
+    t, v, dt, last, times, states = 0.0, 0.0, 0.02, -math.inf, [], []
+    w_e = idle
     for k, source in enumerate(order[:-1]):
         m = 1.03 * vehicle.mass + inertia[source] * (final_drive / r) ** 2
         line = float(np.interp(throttle, (0.0, 1.0), up_rpm[k])) * RPM
-        while v * final_drive / r < line or t < last + min_interval:
+        while True:
             w_out = v * final_drive / r
-            torque = _converter_match(engine, tc, idle, throttle, w_out * ratio[source])
+            w_t = w_out * ratio[source]
+            t_pump, torque = tc.torques(w_e, w_t)
+            if w_out >= line and t >= last + min_interval:
+                break
             a = (torque * ratio[source] * final_drive / r - _road_force(vehicle, v)) / m
             if (a <= 0 or t > MAX_LAUNCH_TIME) and w_out < line:
                 raise ValueError(f"the vehicle cannot reach the {source}-{order[k + 1]} upshift speed "
                                  f"({line / RPM:.0f} rpm at the output) within {MAX_LAUNCH_TIME:g} s: "
                                  f"{w_out / RPM:.0f} rpm at {t:.0f} s")
+            w_e = max(w_e + (_engine_torque(engine, idle, throttle, w_e) - t_pump) / vehicle.J_engine * dt, 1e-3)
             v, t = v + a * dt, t + dt
         times.append(t)
+        states.append((w_e, w_t, torque))
         last = t
-    return times
+    return times, states
 
 
 def derive_launch(mech: Mechanism, vehicle: str = "car") -> Launch:
@@ -500,14 +508,18 @@ def derive_launch(mech: Mechanism, vehicle: str = "car") -> Launch:
         d = tuple(min(n / ratio[b], 0.8 * x) for n, x in zip(vc.downshift_rpm, u))
         up.append(tuple(round(x, 1) for x in u))
         down.append(tuple(round(x, 1) for x in d))
-    calibrations = _calibrate(mech, vc, scale, by_name, shifts, up, final_drive)
-    duration = max(_duration(c.template) for c in calibrations)
-    min_interval = round(duration + 0.5, 3)
+    # the calibration at the steady engine/converter match first (it spaces the shifts), then at the
+    # state the launch estimate reaches at each shift
+    first_pass = _calibrate(mech, vc, scale, by_name, shifts, up, final_drive)
+    min_interval = round(max(_duration(c.template) for c in first_pass) + 0.5, 3)
     try:
-        times = _estimate_launch(vc, scale, gears, order, final_drive, up, template, min_interval)
+        times, states = _estimate_launch(vc, scale, gears, order, final_drive, up, template, min_interval)
     except ValueError as exc:
         raise ScenarioError(f"{where}: error: {exc}; the {vc.name} cannot be launched through the gears "
                             f"with this gearbox") from None
+    calibrations = _calibrate(mech, vc, scale, by_name, shifts, up, final_drive, states)
+    duration = max(_duration(c.template) for c in first_pass + calibrations)
+    min_interval = round(duration + 0.5, 3)
     t_end = float(math.ceil(1.3 * times[-1] + duration + 3.0))
     driveline = vc.driveline.equivalent(final_drive, vc.wheel_radius, vc.mass, vc.output_inertia, gears[0].inertia)
     return Launch(mech, vc, tuple(gears), tuple(order), tuple(shifts), tuple(skipped), tuple(sizing), scale, t_in,
@@ -519,20 +531,25 @@ def _duration(t: ShiftTemplate) -> float:
     return t.fill_time + t.ramp_time + t.hold_time + t.final_time
 
 
-def _calibrate(mech, vc: VehicleClass, scale: float, gears: dict, shifts, up, final_drive: float) -> list[UpshiftCalibration]:
+def _calibrate(mech, vc: VehicleClass, scale: float, gears: dict, shifts, up, final_drive: float,
+               states=None) -> list[UpshiftCalibration]:
     """Each upshift's calibration (:func:`~transgen.sim.calibration.upshift_calibration`) at the
-    input torque and speed the schedule's upshift line gives: the turbine speed of the line at the
-    class throttle, the turbine torque of the engine/converter match there; in the inertia phase
-    the turbine slows to the new gear's speed while the engine (its inertia) keeps its speed, and
-    the converter's torque rises with the lower speed ratio."""
+    input torque and speed at its command: ``states`` (engine speed, turbine speed, turbine torque
+    from :func:`_estimate_launch`), else the steady engine/converter match at the turbine speed of
+    the schedule's upshift line. In the inertia phase the turbine slows to the new gear's speed
+    while the engine (its inertia) keeps its speed, and the converter's torque rises with the
+    lower speed ratio."""
     engine, tc = vc.engine(scale), vc.converter_model()
     idle, throttle = vc.idle_rpm * RPM, vc.throttle_signal
     graph = build_graph(mech)
     out = []
-    for s, line in zip(shifts, up):
+    for k, (s, line) in enumerate(zip(shifts, up)):
         a, b = gears[s.source], gears[s.target]
-        w_t = float(np.interp(throttle, (0.0, 1.0), line)) * RPM * a.ratio
-        w_e, torque = _engine_match(engine, tc, idle, throttle, w_t)
+        if states is None:
+            w_t = float(np.interp(throttle, (0.0, 1.0), line)) * RPM * a.ratio
+            w_e, torque = _engine_match(engine, tc, idle, throttle, w_t)
+        else:
+            w_e, w_t, torque = states[k]
         # the vehicle's acceleration there (as _estimate_launch): the gearbox accelerates with it
         speed = w_t / a.ratio / final_drive * vc.wheel_radius
         mass = 1.03 * vc.mass + (a.inertia + vc.output_inertia) * (final_drive / vc.wheel_radius) ** 2
