@@ -18,6 +18,9 @@ vehicle class (:data:`VEHICLES`), the way one starts with a new gearbox:
   engine torque to protect the gearbox), the vehicle's mass and drag area are scaled by the same
   factor (the class's performance kept: a truck on a car gearbox becomes a light truck), and a
   warning says so;
+* each upshift's own calibration from the statics of its two gears, the inertia it synchronises
+  and the expected input torque (:mod:`~transgen.sim.calibration`, ``docs/calibration.md``), and
+  the driveline's compliance from the class's parts (:mod:`~transgen.sim.driveline_class`);
 * the final drive from the class's overall first-gear ratio, an automatic schedule whose upshift
   and downshift lines are the class's engine-speed band divided by the gear ratios, and ``t_end``
   from a quasi-static estimate of the launch (vehicle speed integrated gear by gear with the
@@ -48,8 +51,10 @@ from transgen.modes import Mode, mode_model
 
 from . import calibration
 from .calibration import ShiftTiming, UpshiftCalibration, upshift_calibration
-from .components import GRAVITY, EngineMap
+from .components import EngineMap
 from .driveline_class import DrivelineParts, EquivalentDriveline
+from .launch_estimate import (MAX_LAUNCH_TIME, RPM, _engine_match, _engine_torque_max,
+                              _estimate_launch, _input_torque_max, _road_force)
 from .engine.map_file import DATA_DIR
 from .schedule import ShiftTemplate, gear_swap
 from .engine.torque_converter import DEFAULT_TORQUE_CONVERTER, TorqueConverter
@@ -57,7 +62,6 @@ from .engine.torque_converter import DEFAULT_TORQUE_CONVERTER, TorqueConverter
 __all__ = ["VehicleClass", "VEHICLES", "ForwardGear", "LaunchShift", "ElementSizing", "Launch",
            "derive_launch", "launch_scenario", "static_element_torques", "HOLD_FACTOR", "SHIFT_FACTOR"]
 
-RPM = 2 * math.pi / 60
 HOLD_FACTOR = 1.2
 """Safety factor of a holding element's static capacity over its largest static torque."""
 SHIFT_FACTOR = 1.5
@@ -74,10 +78,6 @@ LAUNCH_UNITS = {"ratio": "1", "torque_factors": "1", "output_inertia": "kg*m^2",
                 "inertia": "kg*m^2", "handover_level": "1", "inertia_level": "1", "inertia_phase": "s",
                 "stiffness": "N*m/rad", "damping": "N*m*s/rad", "parts": "N*m/rad", "frequency": "Hz"}
 """Units of the numeric fields of ``transgen scenario new --json`` (shift lines: output speed, rev/min)."""
-MAX_LAUNCH_TIME = 300.0
-"""Longest launch [s] the estimate allows before it calls the top gear unreachable."""
-
-
 @dataclass(frozen=True)
 class VehicleClass:
     """A vehicle class: engine map, converter, driveline, vehicle and shift speed band.
@@ -283,32 +283,6 @@ def output_inertia(mech: Mechanism, engaged: tuple[str, ...], graph=None) -> flo
     return 1.0 / abs(accel) if accel else math.inf
 
 
-def _engine_torque(engine: EngineMap, idle: float, throttle: float, w: float) -> float:
-    """Engine torque [N*m] at ``w`` with the idle governor of EngineWithConverter."""
-    if idle > 0 and w < idle:
-        throttle = max(throttle, min(1.0, (idle - w) / (0.1 * idle)))
-    return engine(w, throttle)
-
-
-def _input_torque_max(vehicle: VehicleClass, scale: float) -> float:
-    """Largest turbine torque [N*m] over the converter's drive range at the class throttle: at each
-    speed ratio the engine/converter match (the largest torque both the engine gives and the pump
-    absorbs) times the torque ratio."""
-    engine, tc = vehicle.engine(scale), vehicle.converter_model()
-    ws = np.linspace(0.5 * vehicle.speed_rpm[0], vehicle.speed_rpm[-1], 400) * RPM
-    t_eng = np.array([_engine_torque(engine, vehicle.idle_rpm * RPM, vehicle.throttle_signal, w) for w in ws])
-    best = 0.0
-    for sr in tc.speed_ratio[:-1]:
-        pump = np.square(ws / tc.capacity_factor_at(sr))
-        best = max(best, tc.torque_ratio_at(sr) * float(np.max(np.minimum(t_eng, pump))))
-    return best
-
-
-def _engine_torque_max(vehicle: VehicleClass, scale: float) -> float:
-    engine = vehicle.engine(scale)
-    return max(engine(s * RPM, vehicle.throttle_signal) for s in vehicle.speed_rpm)
-
-
 def _forward_gears(mech: Mechanism) -> list[ForwardGear]:
     g = build_graph(mech)
     out = []
@@ -394,68 +368,6 @@ def _torque_scale(mech, vehicle, gears, shifts) -> float:
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if ok(mid) else (lo, mid)
     return lo
-
-
-def _road_force(v: VehicleClass, speed: float) -> float:
-    return v.rolling_resistance * v.mass * GRAVITY * math.tanh(speed / 0.1) + 0.6 * v.cd_a * speed * abs(speed)
-
-
-def _converter_match(engine, tc, idle, throttle, w_t) -> float:
-    """Turbine torque [N*m] at turbine speed ``w_t`` with the engine at its steady match."""
-    return _engine_match(engine, tc, idle, throttle, w_t)[1]
-
-
-def _engine_match(engine, tc, idle, throttle, w_t) -> tuple[float, float]:
-    """(engine speed [rad/s], turbine torque [N*m]) of the steady engine/converter match at
-    turbine speed ``w_t``."""
-    def excess(w_e):
-        return _engine_torque(engine, idle, throttle, w_e) - tc.torques(w_e, w_t)[0]
-
-    lo = max(w_t, 1e-3)
-    if excess(lo) <= 0:
-        return lo, tc.torques(lo, w_t)[1]
-    hi = 2 * lo + 100.0
-    while excess(hi) > 0 and hi < 1e4:
-        hi *= 1.5
-    for _ in range(30):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if excess(mid) > 0 else (lo, mid)
-    return lo, tc.torques(lo, w_t)[1]
-
-
-def _estimate_launch(vehicle, scale, gears, order, final_drive, up_rpm, template, min_interval):
-    """Quasi-static launch: vehicle speed integrated gear by gear (the engine speed with the
-    engine's inertia against the converter's pump torque, road load, gearbox inertias referred to
-    the output; the shifts themselves instantaneous); returns the shift command times [s] and,
-    at each, (engine speed [rad/s], turbine speed [rad/s], turbine torque [N*m]), or raises
-    ``ValueError`` when the vehicle cannot reach an upshift speed."""
-    engine, tc = vehicle.engine(scale), vehicle.converter_model()
-    idle, throttle = vehicle.idle_rpm * RPM, vehicle.throttle_signal
-    ratio = {g.name: g.ratio for g in gears}
-    inertia = {g.name: g.inertia + vehicle.output_inertia for g in gears}
-    r = vehicle.wheel_radius
-    t, v, dt, last, times, states = 0.0, 0.0, 0.02, -math.inf, [], []
-    w_e = idle
-    for k, source in enumerate(order[:-1]):
-        m = 1.03 * vehicle.mass + inertia[source] * (final_drive / r) ** 2
-        line = float(np.interp(throttle, (0.0, 1.0), up_rpm[k])) * RPM
-        while True:
-            w_out = v * final_drive / r
-            w_t = w_out * ratio[source]
-            t_pump, torque = tc.torques(w_e, w_t)
-            if w_out >= line and t >= last + min_interval:
-                break
-            a = (torque * ratio[source] * final_drive / r - _road_force(vehicle, v)) / m
-            if (a <= 0 or t > MAX_LAUNCH_TIME) and w_out < line:
-                raise ValueError(f"the vehicle cannot reach the {source}-{order[k + 1]} upshift speed "
-                                 f"({line / RPM:.0f} rpm at the output) within {MAX_LAUNCH_TIME:g} s: "
-                                 f"{w_out / RPM:.0f} rpm at {t:.0f} s")
-            w_e = max(w_e + (_engine_torque(engine, idle, throttle, w_e) - t_pump) / vehicle.J_engine * dt, 1e-3)
-            v, t = v + a * dt, t + dt
-        times.append(t)
-        states.append((w_e, w_t, torque))
-        last = t
-    return times, states
 
 
 def derive_launch(mech: Mechanism, vehicle: str = "car") -> Launch:
@@ -683,9 +595,9 @@ def launch_scenario(mech: Mechanism, vehicle: str = "car", mechanism_ref: str | 
         "downshift_rpm = [" + ", ".join(_list(r) for r in lc.downshift_rpm) + "]   # below the upshift lines",
         f"throttle_signal = {_num(vc.throttle_signal)}",
         f"min_interval = {_num(lc.min_interval)}      # s: one shift's duration and 0.5 s",
-        "# shift template: the oncoming element(s) fill, ramp to ramp_end (torque phase), hold (inertia",
-        f"# phase), then apply fully; ramp_end is chosen so that each oncoming element carries {SHIFT_FACTOR:g} x its",
-        "# static share of the engine torque in the inertia phase. The offgoing element(s) drop and release.",
+        "# shift template (for a shift without its own below): the oncoming element(s) fill, ramp to ramp_end",
+        f"# (torque phase), hold (inertia phase), then apply fully; ramp_end carries {SHIFT_FACTOR:g} x an oncoming",
+        "# element's static share of the engine torque. The offgoing element(s) drop and release.",
         "# One-way clutches are not commanded: they overrun or lock by themselves.",
         "template = { " + ", ".join(f"{k} = {_num(v)}" for k, v in lc.template.as_data().items()) + " }",
         "",
