@@ -20,16 +20,18 @@ from four things the mechanism and the vehicle class fix (the method, with its r
 * the class's **target times**: torque phase ``t_tp`` and inertia phase ``t_ip``.
 
 The template: the oncoming element ramps from zero so that it reaches the handover level
-``a_h = |k_on^B| T_in / T_dyn`` after ``t_tp`` and goes on to the inertia-phase level ``a_ip =
-|k_on^B| (T_in + J_eff dw_in / t_ip) / T_dyn`` (the extra torque decelerates the input side in
-``t_ip``), holds it until the element locks and then applies fully. The offgoing element drops,
-when the oncoming ramp starts, to ``OFFGOING_MARGIN`` times the static level that holds its
-gear-A torque ``|k_off^A| T_in / T_static`` and falls linearly to zero a little
-(``RELEASE_LEAD`` of the torque phase) *before* the handover: its capacity stays just above the
-torque it must still carry, so it never holds against the oncoming element (bindup) and lets go
-while the input torque it leaves uncarried is a few percent (a flare of some rpm). Where the
-inertia-phase level would exceed :data:`MAX_LEVEL`, the level is capped and the inertia phase
-lasts longer. Several oncoming (offgoing) elements of a double swap share one profile: the
+``a_h = lam |k_on^B| T_in / T_dyn`` after ``t_tp`` (``lam``: where the handover lies with the
+gearbox accelerating as in the launch, :func:`handover`; 1 at rest) and goes on to the
+inertia-phase level ``a_ip = |k_on^B| (T_ip + J_eff dw_in / t_ip) / T_dyn`` (``T_ip`` the mean input
+torque of the phase, which the converter raises as the turbine slows; the extra torque
+decelerates the input side in ``t_ip``), holds it until the element locks and then applies fully.
+The offgoing element drops, when the oncoming ramp starts, to ``OFFGOING_MARGIN`` times the
+static level that holds its torque before the shift and falls linearly to zero a little
+(``RELEASE_LEAD`` of the torque phase) *before* the handover: its capacity stays above the torque
+it must still carry until shortly before, so it never holds against the oncoming element (bindup)
+and lets go while the input torque it leaves uncarried is a few percent (a flare of some rpm).
+Where the inertia-phase level would exceed :data:`MAX_LEVEL`, the level is capped and the inertia
+phase lasts longer. Several oncoming (offgoing) elements of a double swap share one profile: the
 largest level of them. A one-way clutch needs no command; a dog clutch (no finite capacity)
 holds at any apply, so only its release time matters.
 """
@@ -160,7 +162,7 @@ def handover(mech: Mechanism, source_engaged, oncoming: dict, offgoing, input_to
         slope = b2 - b1 * a2 / a1
         if abs(slope) > 1e-12 and -t0 / slope > 0:
             lams.append(-t0 / slope)
-    return (min(lams) if lams else 1.0), before
+    return (float(min(lams)) if lams else 1.0), before
 
 
 def _capacity(mech: Mechanism, name: str, kind: str) -> float:
@@ -175,7 +177,10 @@ def upshift_calibration(mech: Mechanism, source, target, oncoming: tuple[str, ..
     """The calibration of the upshift from ``source`` to ``target`` (:class:`~transgen.sim.launch.ForwardGear`:
     ratio, engaged elements, static torque factors) with the commanded ``oncoming`` and
     ``offgoing`` elements, at the expected input torque ``input_torque`` [N*m] and input speed
-    ``input_speed`` [rad/s] at the shift command (see the module docstring)."""
+    ``input_speed`` [rad/s] at the shift command, the output link's acceleration there
+    ``output_accel`` [rad/s^2] (the handover, :func:`handover`) and the input torque expected at
+    the end of the inertia phase ``torque_after`` [N*m] (None: ``input_torque``); see the module
+    docstring."""
     t_in = max(float(input_torque), 1e-6)
     step = source.ratio / target.ratio
     dw = max(float(input_speed), 0.0) * (1.0 - 1.0 / step)
