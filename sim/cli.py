@@ -53,7 +53,10 @@ def add_commands(sub) -> None:
                                      "the elements swapped per upshift (single or double swaps; one-way clutches "
                                      "overrun or lock by themselves), capacities checked against the vehicle class's "
                                      "engine and converter (the engine torque is limited where they do not hold), "
-                                     "final drive, shift lines and t_end. Without -o the TOML goes to standard output.")
+                                     "final drive, shift lines and t_end, each upshift's calibration from the statics "
+                                     "of its two gears and the inertia it synchronises (docs/calibration.md), and the "
+                                     "driveline's compliance from the class's shafts and tyres. Without -o the TOML goes "
+                                     "to standard output.")
     n.add_argument("file", metavar="FILE", help=".mech file or bundled mechanism name")
     n.add_argument("--vehicle", choices=("car", "truck"), default="car",
                    help="vehicle class: car (1700 kg, 340 N*m) or truck (M915 class, 36 t; default car)")

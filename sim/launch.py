@@ -19,6 +19,9 @@ vehicle class (:data:`VEHICLES`), the way one starts with a new gearbox:
   engine torque to protect the gearbox), the vehicle's mass and drag area are scaled by the same
   factor (the class's performance kept: a truck on a car gearbox becomes a light truck), and a
   warning says so;
+* each upshift's own calibration from the statics of its two gears, the inertia it synchronises
+  and the expected input torque (:mod:`~transgen.sim.calibration`, ``docs/calibration.md``), and
+  the driveline's compliance from the class's parts (:mod:`~transgen.sim.driveline_class`);
 * the final drive from the class's overall first-gear ratio, an automatic schedule whose upshift
   and downshift lines are the class's engine-speed band divided by the gear ratios, and ``t_end``
   from a quasi-static estimate of the launch (vehicle speed integrated gear by gear with the
@@ -47,7 +50,12 @@ from transgen.idle import gear_check
 from transgen.model import Mechanism
 from transgen.modes import Mode, mode_model
 
-from .components import GRAVITY, EngineMap
+from . import calibration
+from .calibration import ShiftTiming, UpshiftCalibration, upshift_calibration
+from .components import EngineMap
+from .driveline_class import DrivelineParts, EquivalentDriveline
+from .launch_estimate import (MAX_LAUNCH_TIME, RPM, _engine_match, _engine_torque_max,
+                              _estimate_launch, _input_torque_max, _road_force)
 from .engine.map_file import DATA_DIR
 from .schedule import ShiftTemplate, gear_swap
 from .engine.torque_converter import DEFAULT_TORQUE_CONVERTER, TorqueConverter
@@ -56,7 +64,6 @@ __all__ = ["VehicleClass", "VEHICLES", "ForwardGear", "LaunchShift", "ElementSiz
            "derive_launch", "launch_scenario", "mechanism_reference", "static_element_torques", "HOLD_FACTOR",
            "SHIFT_FACTOR"]
 
-RPM = 2 * math.pi / 60
 HOLD_FACTOR = 1.2
 """Safety factor of a holding element's static capacity over its largest static torque."""
 SHIFT_FACTOR = 1.5
@@ -69,12 +76,11 @@ LAUNCH_UNITS = {"ratio": "1", "torque_factors": "1", "output_inertia": "kg*m^2",
                 "final_drive": "1", "fill_time": "s", "fill_level": "1", "ramp_time": "s", "ramp_end": "1",
                 "hold_time": "s", "final_time": "s", "offgoing_delay": "s", "offgoing_level": "1", "offgoing_ramp": "s",
                 "upshift_rpm": "rpm", "downshift_rpm": "rpm", "min_interval": "s", "estimated_shift_times": "s",
-                "t_end": "s", "speed": "m/s", "throttle": "1", "throttle_after": "1", "brake": "N*m"}
+                "t_end": "s", "speed": "m/s", "throttle": "1", "throttle_after": "1", "brake": "N*m",
+                "input_torque": "N*m", "input_speed": "rad/s", "speed_change": "rad/s",
+                "inertia": "kg*m^2", "handover_level": "1", "inertia_level": "1", "inertia_phase": "s",
+                "stiffness": "N*m/rad", "damping": "N*m*s/rad", "parts": "N*m/rad", "frequency": "Hz"}
 """Units of the numeric fields of ``transgen scenario new --json`` (shift lines: output speed, rev/min)."""
-MAX_LAUNCH_TIME = 300.0
-"""Longest launch [s] the estimate allows before it calls the top gear unreachable."""
-
-
 @dataclass(frozen=True)
 class VehicleClass:
     """A vehicle class: engine map, converter, driveline, vehicle and shift speed band.
@@ -98,12 +104,12 @@ class VehicleClass:
     rolling_resistance: float
     cd_a: float
     output_inertia: float
-    stiffness: float
-    damping: float
+    driveline: DrivelineParts
     overall_first: float
     last_upshift_speed: float  # m/s: the launch reaches the top gear by this vehicle speed
     upshift_rpm: tuple[float, float]
     downshift_rpm: tuple[float, float]
+    shift_timing: ShiftTiming = ShiftTiming()
     comments: dict = field(default_factory=dict, compare=False)
 
     def engine(self, scale: float = 1.0) -> EngineMap:
@@ -124,6 +130,9 @@ def _load_vehicles() -> dict[str, VehicleClass]:
             spec[key] = tuple(float(x) for x in spec[key])
         spec["torque_table"] = tuple(tuple(float(x) for x in row) for row in spec["torque_table"])
         spec["converter"] = spec.get("converter") or None
+        spec["driveline"] = DrivelineParts(**spec["driveline"])
+        if "shift_timing" in spec:
+            spec["shift_timing"] = ShiftTiming(**{k: float(v) for k, v in spec["shift_timing"].items()})
         out[name] = VehicleClass(name=name, **spec)
     return out
 
@@ -201,6 +210,8 @@ class Launch:
     shift_times: tuple[float, ...]
     t_end: float
     warnings: tuple[str, ...]
+    calibrations: tuple[UpshiftCalibration, ...] = ()
+    driveline: EquivalentDriveline | None = None
 
     def gear(self, name: str) -> ForwardGear:
         return next(g for g in self.gears if g.name == name)
@@ -229,6 +240,9 @@ class Launch:
             "upshift_rpm": [list(r) for r in self.upshift_rpm], "downshift_rpm": [list(r) for r in self.downshift_rpm],
             "min_interval": self.min_interval, "estimated_shift_times": list(self.shift_times),
             "t_end": self.t_end, "warnings": list(self.warnings),
+            "calibration": [c.as_data() for c in self.calibrations],
+            "driveline": {"stiffness": self.driveline.stiffness, "damping": self.driveline.damping,
+                          "parts": dict(self.driveline.parts), "frequency": self.driveline.frequency},
         }, LAUNCH_UNITS)
 
 
@@ -274,32 +288,6 @@ def output_inertia(mech: Mechanism, engaged: tuple[str, ...], graph=None) -> flo
     links = list(link_nodes(graph if graph is not None else build_graph(mech)))
     accel = model.equations.G_accel[links.index(mech.output), i_out]
     return 1.0 / abs(accel) if accel else math.inf
-
-
-def _engine_torque(engine: EngineMap, idle: float, throttle: float, w: float) -> float:
-    """Engine torque [N*m] at ``w`` with the idle governor of EngineWithConverter."""
-    if idle > 0 and w < idle:
-        throttle = max(throttle, min(1.0, (idle - w) / (0.1 * idle)))
-    return engine(w, throttle)
-
-
-def _input_torque_max(vehicle: VehicleClass, scale: float) -> float:
-    """Largest turbine torque [N*m] over the converter's drive range at the class throttle: at each
-    speed ratio the engine/converter match (the largest torque both the engine gives and the pump
-    absorbs) times the torque ratio."""
-    engine, tc = vehicle.engine(scale), vehicle.converter_model()
-    ws = np.linspace(0.5 * vehicle.speed_rpm[0], vehicle.speed_rpm[-1], 400) * RPM
-    t_eng = np.array([_engine_torque(engine, vehicle.idle_rpm * RPM, vehicle.throttle_signal, w) for w in ws])
-    best = 0.0
-    for sr in tc.speed_ratio[:-1]:
-        pump = np.square(ws / tc.capacity_factor_at(sr))
-        best = max(best, tc.torque_ratio_at(sr) * float(np.max(np.minimum(t_eng, pump))))
-    return best
-
-
-def _engine_torque_max(vehicle: VehicleClass, scale: float) -> float:
-    engine = vehicle.engine(scale)
-    return max(engine(s * RPM, vehicle.throttle_signal) for s in vehicle.speed_rpm)
 
 
 def _forward_gears(mech: Mechanism) -> tuple[list[ForwardGear], list[tuple[str, str]]]:
@@ -398,54 +386,6 @@ def _torque_scale(mech, vehicle, gears, shifts) -> float:
     return lo
 
 
-def _road_force(v: VehicleClass, speed: float) -> float:
-    return v.rolling_resistance * v.mass * GRAVITY * math.tanh(speed / 0.1) + 0.6 * v.cd_a * speed * abs(speed)
-
-
-def _converter_match(engine, tc, idle, throttle, w_t) -> float:
-    """Turbine torque [N*m] at turbine speed ``w_t`` with the engine at its steady match."""
-    def excess(w_e):
-        return _engine_torque(engine, idle, throttle, w_e) - tc.torques(w_e, w_t)[0]
-
-    lo = max(w_t, 1e-3)
-    if excess(lo) <= 0:
-        return tc.torques(lo, w_t)[1]
-    hi = 2 * lo + 100.0
-    while excess(hi) > 0 and hi < 1e4:
-        hi *= 1.5
-    for _ in range(30):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if excess(mid) > 0 else (lo, mid)
-    return tc.torques(lo, w_t)[1]
-
-
-def _estimate_launch(vehicle, scale, gears, order, final_drive, up_rpm, template, min_interval):
-    """Quasi-static launch: vehicle speed integrated gear by gear (engine/converter match, road
-    load, gearbox inertias neglected); returns the shift command times [s], or raises
-    ``ValueError`` when the vehicle cannot reach an upshift speed."""
-    engine, tc = vehicle.engine(scale), vehicle.converter_model()
-    idle, throttle = vehicle.idle_rpm * RPM, vehicle.throttle_signal
-    ratio = {g.name: g.ratio for g in gears}
-    inertia = {g.name: g.inertia + vehicle.output_inertia for g in gears}
-    r = vehicle.wheel_radius
-    t, v, dt, last, times = 0.0, 0.0, 0.1, -math.inf, []
-    for k, source in enumerate(order[:-1]):
-        m = 1.03 * vehicle.mass + inertia[source] * (final_drive / r) ** 2
-        line = float(np.interp(throttle, (0.0, 1.0), up_rpm[k])) * RPM
-        while v * final_drive / r < line or t < last + min_interval:
-            w_out = v * final_drive / r
-            torque = _converter_match(engine, tc, idle, throttle, w_out * ratio[source])
-            a = (torque * ratio[source] * final_drive / r - _road_force(vehicle, v)) / m
-            if (a <= 0 or t > MAX_LAUNCH_TIME) and w_out < line:
-                raise ValueError(f"the vehicle cannot reach the {source}-{order[k + 1]} upshift speed "
-                                 f"({line / RPM:.0f} rpm at the output) within {MAX_LAUNCH_TIME:g} s: "
-                                 f"{w_out / RPM:.0f} rpm at {t:.0f} s")
-            v, t = v + a * dt, t + dt
-        times.append(t)
-        last = t
-    return times
-
-
 def derive_launch(mech: Mechanism, vehicle: str = "car") -> Launch:
     """Derive a launch scenario for ``mech`` in a vehicle of class ``vehicle`` (a key of
     :data:`VEHICLES`). Raises :class:`~transgen.errors.ScenarioError` (``FILE:LINE:COL: error:``)
@@ -483,8 +423,6 @@ def derive_launch(mech: Mechanism, vehicle: str = "car") -> Launch:
                                  description=f"{vc.description}, scaled to {100 * scale:.1f} % (gearbox capacities)")
     ramp_end = min(max(need, RAMP_END_RANGE[0]), RAMP_END_RANGE[1])
     template = ShiftTemplate(ramp_end=round(ramp_end, 3))
-    duration = template.fill_time + template.ramp_time + template.hold_time + template.final_time
-    min_interval = round(duration + 0.5, 3)
     final_drive = vc.overall_first / gears[0].ratio
     ratio = {g.name: g.ratio for g in gears}
     # engine speed at the upshifts: the class band at the first, falling geometrically with the
@@ -500,14 +438,56 @@ def derive_launch(mech: Mechanism, vehicle: str = "car") -> Launch:
         d = tuple(min(n / ratio[b], 0.8 * x) for n, x in zip(vc.downshift_rpm, u))
         up.append(tuple(round(x, 1) for x in u))
         down.append(tuple(round(x, 1) for x in d))
+    # the calibration at the steady engine/converter match first (it spaces the shifts), then at the
+    # state the launch estimate reaches at each shift
+    first_pass = _calibrate(mech, vc, scale, by_name, shifts, up, final_drive)
+    min_interval = round(max(_duration(c.template) for c in first_pass) + 0.5, 3)
     try:
-        times = _estimate_launch(vc, scale, gears, order, final_drive, up, template, min_interval)
+        times, states = _estimate_launch(vc, scale, gears, order, final_drive, up, template, min_interval)
     except ValueError as exc:
         raise ScenarioError(f"{where}: error: {exc}; the {vc.name} cannot be launched through the gears "
                             f"with this gearbox") from None
+    calibrations = _calibrate(mech, vc, scale, by_name, shifts, up, final_drive, states)
+    duration = max(_duration(c.template) for c in first_pass + calibrations)
+    min_interval = round(duration + 0.5, 3)
     t_end = float(math.ceil(1.3 * times[-1] + duration + 3.0))
+    driveline = vc.driveline.equivalent(final_drive, vc.wheel_radius, vc.mass, vc.output_inertia, gears[0].inertia)
     return Launch(mech, vc, tuple(gears), tuple(order), tuple(shifts), tuple(skipped), tuple(sizing), scale, t_in,
-                  final_drive, template, tuple(up), tuple(down), min_interval, tuple(times), t_end, tuple(warnings))
+                  final_drive, template, tuple(up), tuple(down), min_interval, tuple(times), t_end, tuple(warnings),
+                  tuple(calibrations), driveline)
+
+
+def _duration(t: ShiftTemplate) -> float:
+    return t.fill_time + t.ramp_time + t.hold_time + t.final_time
+
+
+def _calibrate(mech, vc: VehicleClass, scale: float, gears: dict, shifts, up, final_drive: float,
+               states=None) -> list[UpshiftCalibration]:
+    """Each upshift's calibration (:func:`~transgen.sim.calibration.upshift_calibration`) at the
+    input torque and speed at its command: ``states`` (engine speed, turbine speed, turbine torque
+    from :func:`_estimate_launch`), else the steady engine/converter match at the turbine speed of
+    the schedule's upshift line. In the inertia phase the turbine slows to the new gear's speed
+    while the engine (its inertia) keeps its speed, and the converter's torque rises with the
+    lower speed ratio."""
+    engine, tc = vc.engine(scale), vc.converter_model()
+    idle, throttle = vc.idle_rpm * RPM, vc.throttle_signal
+    graph = build_graph(mech)
+    out = []
+    for k, (s, line) in enumerate(zip(shifts, up)):
+        a, b = gears[s.source], gears[s.target]
+        if states is None:
+            w_t = float(np.interp(throttle, (0.0, 1.0), line)) * RPM * a.ratio
+            w_e, torque = _engine_match(engine, tc, idle, throttle, w_t)
+        else:
+            w_e, w_t, torque = states[k]
+        # the vehicle's acceleration there (as _estimate_launch): the gearbox accelerates with it
+        speed = w_t / a.ratio / final_drive * vc.wheel_radius
+        mass = 1.03 * vc.mass + (a.inertia + vc.output_inertia) * (final_drive / vc.wheel_radius) ** 2
+        accel = (torque * a.ratio * final_drive / vc.wheel_radius - _road_force(vc, speed)) / mass
+        out.append(upshift_calibration(mech, a, b, s.oncoming, s.offgoing, torque, w_t, vc.shift_timing, graph,
+                                       accel * final_drive / vc.wheel_radius,
+                                       tc.torques(w_e, w_t * b.ratio / a.ratio)[1]))  # the engine keeps its speed
+    return out
 
 
 # --------------------------------------------------------------------------------- TOML text
@@ -621,8 +601,12 @@ def launch_scenario(mech: Mechanism, vehicle: str = "car", mechanism_ref: str | 
         "",
         "[driveline]",
         f"output_inertia = {_num(vc.output_inertia)}       # kg*m^2: {vc.comments.get('output_inertia', '')}",
-        f"stiffness = {_num(vc.stiffness)}           # N*m/rad: {vc.comments.get('stiffness', '')}",
-        f"damping = {_num(vc.damping)}             # N*m*s/rad",
+        "# the propeller shaft, half-shafts and tyres in series, referred to the gearbox output (N*m/rad):",
+        "# " + ", ".join(f"{k} {v:.0f}" for k, v in lc.driveline.parts.items())
+        + f"; first torsional mode {lc.driveline.frequency:.1f} Hz in gear {first.name}, damping ratio "
+        f"{vc.driveline.damping_ratio:g} (sim/data/vehicle_classes.toml has the sources)",
+        f"stiffness = {_num(round(lc.driveline.stiffness, 1))}           # N*m/rad",
+        f"damping = {_num(round(lc.driveline.damping, 2))}             # N*m*s/rad",
         f"final_drive = {_num(round(lc.final_drive, 4))}          # overall first-gear ratio {_num(vc.overall_first)}"
         f" / gear {first.name} ratio {first.ratio:.4f}",
         f"wheel_radius = {_num(vc.wheel_radius)}        # m",
@@ -639,11 +623,30 @@ def launch_scenario(mech: Mechanism, vehicle: str = "car", mechanism_ref: str | 
         "downshift_rpm = [" + ", ".join(_list(r) for r in lc.downshift_rpm) + "]   # below the upshift lines",
         f"throttle_signal = {_num(vc.throttle_signal)}",
         f"min_interval = {_num(lc.min_interval)}      # s: one shift's duration and 0.5 s",
-        "# shift template: the oncoming element(s) fill, ramp to ramp_end (torque phase), hold (inertia",
-        f"# phase), then apply fully; ramp_end is chosen so that each oncoming element carries {SHIFT_FACTOR:g} x its",
-        "# static share of the engine torque in the inertia phase. The offgoing element(s) drop and release.",
+        "# shift template (for a shift without its own below): the oncoming element(s) fill, ramp to ramp_end",
+        f"# (torque phase), hold (inertia phase), then apply fully; ramp_end carries {SHIFT_FACTOR:g} x an oncoming",
+        "# element's static share of the engine torque. The offgoing element(s) drop and release.",
         "# One-way clutches are not commanded: they overrun or lock by themselves.",
         "template = { " + ", ".join(f"{k} = {_num(v)}" for k, v in lc.template.as_data().items()) + " }",
         "",
     ]
+    lines += _calibration_lines(lc)
     return "\n".join(lines)
+
+
+def _calibration_lines(lc: Launch) -> list[str]:
+    """The ``[auto_shift.templates."A-B"]`` tables of the derived calibration, each with the numbers
+    it comes from (docs/calibration.md)."""
+    t = lc.vehicle.shift_timing
+    lines = ["# Each upshift's own calibration, derived from the statics of its two gears and the inertia it",
+             "# synchronises (docs/calibration.md): the oncoming ramps to the handover level (its gear-B torque",
+             f"# share of the expected input torque) in the torque phase ({t.torque_phase:g} s), the offgoing falls from",
+             f"# {100 * calibration.OFFGOING_MARGIN:.0f} % of the level holding its gear-A torque to zero just before it; the inertia-phase level",
+             f"# adds the torque that synchronises the inertia in {t.inertia_phase:g} s (at most {calibration.MAX_LEVEL:g} of full apply).", ""]
+    for c in lc.calibrations:
+        lines += [f'[auto_shift.templates."{c.source}-{c.target}"]   # input torque {c.input_torque:.0f} N*m at '
+                  f'{c.input_speed / RPM:.0f} rpm; input slows by {c.speed_change / RPM:.0f} rpm; J = {c.inertia:.4g} kg*m^2;'
+                  f' handover level {c.handover_level:.3f}; inertia phase {c.inertia_phase:.2f} s']
+        lines += [f"{k} = {_num(v)}" for k, v in c.template.as_data().items()]
+        lines.append("")
+    return lines

@@ -23,8 +23,8 @@ template, vehicle class) and changes what the maneuver needs:
 ``cycle``      a drive cycle (:mod:`.cycles`): the driver model of :mod:`.driver` follows a
                standard speed trace, from rest in first gear.
 
-The cruise state is quasi-static: the road load at the speed ``v`` (:func:`~.launch._road_force`)
-equals the turbine torque (the engine/converter match, :func:`~.launch._converter_match`) times
+The cruise state is quasi-static: the road load at the speed ``v`` (:func:`~.launch_estimate._road_force`)
+equals the turbine torque (the engine/converter match, :func:`~.launch_estimate._converter_match`) times
 the gear and final-drive ratios; the throttle that gives it is found by bisection. The run starts
 there with the driveshaft wound to its steady torque (``[initial] driveshaft = "settled"``) and
 :data:`T_STEP` s to settle.
@@ -49,7 +49,8 @@ from pathlib import Path
 
 from transgen.model import Mechanism
 
-from .launch import RPM, Launch, _converter_match, _num, _road_force, derive_launch, launch_scenario
+from .launch import Launch, _num, derive_launch, launch_scenario
+from .launch_estimate import RPM, _converter_match, _road_force
 from .schedule import POWER_ON_THROTTLE, ShiftTemplate
 
 __all__ = ["MANEUVERS", "ManeuverClass", "MANEUVER_CLASSES", "Maneuver", "derive_maneuver", "maneuver_scenario",
