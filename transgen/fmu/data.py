@@ -1,0 +1,187 @@
+"""What an FMU of a transmission holds, as plain data: the tables the generated C code reads.
+
+:func:`fmu_data` takes the simulator's own :class:`~transgen.sim.transmission.Transmission` (the
+per-mode matrices ``B``, ``C``, ``D`` of every lock set, the elements, the groups in parallel)
+and, from a scenario, its time signals; it computes nothing the simulator does not, so that the
+FMU and ``transgen simulate`` run on the same numbers. Units SI: speeds rad/s, torques N*m,
+inertias kg*m^2. The mode decision itself is the C port of
+:meth:`Transmission.decide <transgen.sim.transmission.Transmission.decide>` (``c/tg_model.c``);
+what it needs from the gearing alone (which lock is implied by the others, the lock sets that
+are no mode) is tabulated here with the simulator's functions.
+"""
+from __future__ import annotations
+
+import hashlib
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from transgen.errors import ModeError, TransgenError
+from transgen.kinematics import constraint_matrix, numeric_rank
+
+__all__ = ["FmuData", "FmuInput", "FmuError", "fmu_data", "MAX_ELEMENTS", "CS_STEP"]
+
+#: The most shift elements an FMU holds: every lock set (2^n) is tabulated.
+MAX_ELEMENTS = 10
+#: The largest internal step [s] of the co-simulation integrator (a parameter of the FMU).
+CS_STEP = 2.5e-4
+
+
+class FmuError(TransgenError, ValueError):
+    """A transmission or scenario that cannot be exported as an FMU (bad input: exit 2)."""
+
+
+@dataclass(frozen=True)
+class FmuInput:
+    """One input of the FMU: ``name`` (``T_in``, ``T_out``, a named load, ``apply_<element>``),
+    the column of the mode matrices' input vector it adds to (None for an apply), the element
+    whose apply it is (None otherwise), its start value and its built-in signal (a
+    :class:`~transgen.sim.signals.Signal`, or None: the input is what the importer sets)."""
+
+    name: str
+    column: int | None
+    element: int | None
+    start: float
+    signal: object | None
+    unit: str
+    description: str
+
+
+@dataclass
+class FmuData:
+    """The tables of one FMU (see the module docstring); ``modes[mask]`` is None for a lock set
+    that is no mode (its locked torques are not unique), else ``(name, coords, B, C, D, rows)``
+    with ``rows`` the ``(members, signs)`` of each row of ``D``."""
+
+    title: str
+    model_name: str
+    links: list[str]
+    inertias: list[float]
+    elements: list[dict]
+    P: np.ndarray
+    groups: list[tuple[tuple[int, ...], tuple[int, ...]]]
+    n_u: int
+    modes: list
+    implied: np.ndarray
+    gears: list[tuple[str, int]]
+    inputs: list[FmuInput]
+    w0: list[float]
+    slip_tol: float
+    breakpoints: list[float] = field(default_factory=list)
+    source: str = ""
+
+    @property
+    def mode_masks(self) -> list[int]:
+        """The lock sets (bit masks over the elements) that are modes, in increasing order: the
+        FMU's ``mode`` output is the position of the current one in this list."""
+        return [mask for mask, m in enumerate(self.modes) if m is not None]
+
+    def mode_label(self, mask: int) -> str:
+        """The mode's name as the simulator prints it, with its locked elements."""
+        name, locked = self.modes[mask][0], self.lock_names(mask)
+        return name if name == locked else f"{name} ({locked})"
+
+    def lock_names(self, mask: int) -> str:
+        return "+".join(e["name"] for i, e in enumerate(self.elements) if mask >> i & 1) or "none"
+
+    def gear_of(self, mask: int) -> int:
+        """1 + the position in the gear table of the gear that locks exactly ``mask``, else 0."""
+        names = {e["name"] for i, e in enumerate(self.elements) if mask >> i & 1}
+        for k, (_, engaged) in enumerate(self.gears):
+            if set(engaged) == names:
+                return k + 1
+        return 0
+
+    def guid(self, extra: str = "") -> str:
+        """A GUID from the model's content (the same model gives the same GUID: deterministic)."""
+        h = hashlib.sha256()
+        h.update(repr((self.title, self.links, self.inertias, self.elements, self.P.tolist(), self.groups,
+                       [None if m is None else (m[0], m[1], m[2].tolist(), m[3].tolist(), m[4].tolist(), m[5])
+                        for m in self.modes], [(i.name, i.start, repr(i.signal)) for i in self.inputs],
+                       self.w0, self.slip_tol, self.breakpoints, extra)).encode())
+        d = h.hexdigest()
+        return "{" + f"{d[:8]}-{d[8:12]}-{d[12:16]}-{d[16:20]}-{d[20:32]}" + "}"
+
+
+def fmu_data(tr, model_name: str, title: str, signals: dict | None = None, w0=None, slip_tol: float = 1e-7,
+             t_end: float | None = None, source: str = "") -> FmuData:
+    """The FMU tables of the transmission ``tr`` (:class:`~transgen.sim.transmission.Transmission`).
+
+    ``signals``: built-in signals by input name (``T_in``, ``T_out``, ``apply_<element>``): the
+    input follows it while the importer leaves it unset; ``w0``: initial link speeds [rad/s];
+    ``t_end``: the end of the breakpoint window for periodic signals [s]."""
+    signals = dict(signals or {})
+    n = len(tr.elements)
+    if n > MAX_ELEMENTS:
+        raise FmuError(f"{model_name}: {n} shift elements; an FMU holds at most {MAX_ELEMENTS} "
+                       f"(every lock set is tabulated)")
+    modes = []
+    for mask in range(1 << n):
+        locked = frozenset(i for i in range(n) if mask >> i & 1)
+        try:
+            m = tr.mode(locked)
+        except ModeError:
+            modes.append(None)
+            continue
+        rows = [(tuple(int(i) for i in grp), tuple(int(s) for s in sg)) for grp, sg in zip(m.groups, m.signs)]
+        if [r[0][0] for r in rows] != list(m.locked_order):
+            raise FmuError(f"{model_name}: mode {tr.mode_name(locked)}: the rows of D are not in the order of "
+                           f"their representatives")  # pragma: no cover - a property of transmission.py
+        modes.append((tr.mode_name(locked), [int(k) for k in m.coords], np.asarray(m.B, float),
+                      np.asarray(m.C, float), np.asarray(m.D, float), rows))
+    groups = [(tuple(int(i) for i in mem), tuple(int(s) for s in sg)) for mem, sg in tr.groups]
+    if sorted(i for mem, _ in groups for i in mem) != list(range(n)):
+        raise FmuError(f"{model_name}: every element must be in exactly one locking group")  # pragma: no cover
+    implied = np.zeros((1 << n, max(1, len(groups))), dtype=np.uint8)
+    for rest in range(1 << n):
+        names = [tr.elements[i].name for i in range(n) if rest >> i & 1]
+        a = constraint_matrix(tr.graph, names)
+        rank = numeric_rank(a)
+        for g, (members, _) in enumerate(groups):
+            if rest & sum(1 << i for i in members):
+                continue  # never asked: the group is taken out of the rest first
+            implied[rest, g] = numeric_rank(np.vstack([a, tr.P[members[0]]])) == rank
+    elements = [{"name": e.name, "kind": e.code, "free": int(e.free), "static": float(e.static),
+                 "dynamic": float(e.dynamic), "gain": float(e.gain), "energizing": int(e.energizing),
+                 "column": int(tr.element_input[i]), "kind_name": e.kind}
+                for i, e in enumerate(tr.elements)]
+    for e in tr.elements:
+        if e.friction is not None:
+            raise FmuError(f"{model_name}: element {e.name} has a friction table (slip-dependent friction): "
+                           f"not supported by the FMU export")
+    inputs = []
+    for col, name in enumerate(tr.inputs):
+        if name.startswith("t_") and name[2:] in tr.element_index:
+            continue
+        what = {"T_in": "input torque on the input link (drives)",
+                "T_out": "load torque delivered by the output link (acts -T_out on it)"}.get(name, "external torque")
+        sig = signals.pop(name, None)
+        inputs.append(FmuInput(name, col, None, _start(sig), sig, "N.m", what))
+    for i, e in enumerate(tr.elements):
+        if e.kind == "oneway":
+            continue
+        name = f"apply_{e.name}"
+        sig = signals.pop(name, None)
+        inputs.append(FmuInput(name, None, i, _start(sig), sig, "1",
+                               f"apply fraction of {e.kind} {e.name} (capacity = apply x capacity); <= 0: released"))
+    if signals:
+        raise FmuError(f"{model_name}: no input for the signal(s) {', '.join(sorted(signals))}")
+    points = set()
+    for inp in inputs:
+        if inp.signal is not None:
+            try:
+                points.update(inp.signal.breakpoints())
+            except ValueError:  # periodic: infinitely many
+                if t_end is None:
+                    raise FmuError(f"{model_name}: input {inp.name}: a periodic signal needs the scenario's end time")
+                points.update(inp.signal.breakpoints(0.0, t_end))
+    w0 = [0.0] * len(tr.links) if w0 is None else [float(x) for x in w0]
+    gears = [(g.name, tuple(g.engaged)) for g in tr.mech.gears if g.kind == "gear"]
+    return FmuData(title, model_name, list(tr.links), [float(x) for x in tr.inertia], elements, np.asarray(tr.P, float),
+                   groups, len(tr.inputs), modes, implied, gears, inputs, w0, float(slip_tol),
+                   sorted(float(p) for p in points if math.isfinite(p)), source)
+
+
+def _start(signal) -> float:
+    return 0.0 if signal is None else float(signal.value(0.0))

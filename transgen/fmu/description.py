@@ -1,0 +1,208 @@
+"""``modelDescription.xml`` of a transgen FMU, FMI 2.0 or 3.0, from :class:`~.data.FmuData`.
+
+The variables are named as the simulator's CSV columns: the states ``w_<link>`` [rad/s] (every
+link speed: a fixed state vector over all modes), ``slip_<element>``, ``t_<element>`` [N*m],
+``locked_<element>``, the inputs ``T_in``, ``T_out`` and ``apply_<element>``, the integer
+outputs ``mode`` and ``gear`` (their names in the description), ``lockedElements`` (a bit mask),
+and the tunable parameters ``static_<element>``, ``dynamic_<element>`` [N*m]. No timestamp: the
+same model gives the same bytes.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from xml.sax.saxutils import quoteattr
+
+from .codegen import value_references
+from .data import CS_STEP, FmuData
+
+__all__ = ["Variable", "variables", "model_description"]
+
+UNITS = {"rad/s": ("rad/s", {"s": -1, "rad": 1}), "rad/s2": ("rad/s2", {"s": -2, "rad": 1}),
+         "N.m": ("N.m", {"kg": 1, "m": 2, "s": -2}), "kg.m2": ("kg.m2", {"kg": 1, "m": 2}), "s": ("s", {"s": 1})}
+
+
+@dataclass(frozen=True)
+class Variable:
+    """One variable: ``type`` Real/Integer/Boolean; ``causality``, ``variability``, ``initial``
+    as FMI spells them (None: not written); ``derivative_of``: the value reference of the state
+    this is the derivative of."""
+
+    name: str
+    vr: int
+    type: str
+    causality: str
+    variability: str
+    initial: str | None
+    start: float | int | bool | None
+    unit: str | None
+    description: str
+    derivative_of: int | None = None
+
+
+def variables(d: FmuData) -> list[Variable]:
+    """Every variable of the FMU, in the order of the model description."""
+    vr = value_references(d)
+    out: list[Variable] = []
+    for k, link in enumerate(d.links):
+        out.append(Variable(f"w_{link}", vr["W"] + k, "Real", "output", "continuous", "exact", d.w0[k], "rad/s",
+                            f"speed of link {link} (a state; its start value is the initial speed)"))
+    for k, link in enumerate(d.links):
+        out.append(Variable(f"der(w_{link})", vr["DER"] + k, "Real", "local", "continuous", "calculated", None,
+                            "rad/s2", f"acceleration of link {link}", vr["W"] + k))
+    for i, e in enumerate(d.elements):
+        out.append(Variable(f"slip_{e['name']}", vr["SLIP"] + i, "Real", "output", "continuous", "calculated", None,
+                            "rad/s", f"slip speed of {e['kind_name']} {e['name']} (link1 - link2)"))
+    for i, e in enumerate(d.elements):
+        out.append(Variable(f"t_{e['name']}", vr["TORQUE"] + i, "Real", "output", "continuous", "calculated", None,
+                            "N.m", f"torque of {e['kind_name']} {e['name']} (from link1 to link2)"))
+    for k, inp in enumerate(d.inputs):
+        text = inp.description + ("; unconnected, it follows the scenario's signal" if inp.signal is not None else "")
+        out.append(Variable(inp.name, vr["IN"] + k, "Real", "input", "continuous", None, inp.start,
+                            None if inp.unit == "1" else inp.unit, text))
+    for i, e in enumerate(d.elements):
+        if e["kind_name"] == "oneway":
+            continue
+        out.append(Variable(f"static_{e['name']}", vr["STATIC"] + i, "Real", "parameter", "tunable", "exact",
+                            e["static"], "N.m", f"static capacity of {e['name']} at full apply (holding limit)"))
+        if e["kind_name"] != "dog":
+            out.append(Variable(f"dynamic_{e['name']}", vr["DYNAMIC"] + i, "Real", "parameter", "tunable", "exact",
+                                e["dynamic"], "N.m", f"dynamic capacity of {e['name']} at full apply (slipping)"))
+    for k, link in enumerate(d.links):
+        out.append(Variable(f"J_{link}", vr["J"] + k, "Real", "local", "constant", "exact", d.inertias[k], "kg.m2",
+                            f"inertia of link {link} (the mode matrices are generated for it: not tunable)"))
+    out.append(Variable("slip_tolerance", vr["SLIPTOL"], "Real", "parameter", "fixed", "exact", d.slip_tol, None,
+                        "relative slip speed below which an element is at zero slip at an event (transgen "
+                        "simulate's slip_tol)"))
+    out.append(Variable("cs_max_step", vr["CSSTEP"], "Real", "parameter", "fixed", "exact", CS_STEP, "s",
+                        "largest internal step of the co-simulation integrator (events are located inside it)"))
+    labels = "; ".join(f"{k} = {d.mode_label(mask)}" for k, mask in enumerate(d.mode_masks))
+    out.append(Variable("mode", vr["INT"], "Integer", "output", "discrete", "calculated", None, None,
+                        f"current mode: {labels}"))
+    gears = "; ".join(f"{k + 1} = {name}" for k, (name, _) in enumerate(d.gears))
+    out.append(Variable("gear", vr["INT"] + 1, "Integer", "output", "discrete", "calculated", None, None,
+                        "gear of the table the locked elements make: 0 = none" + (f"; {gears}" if gears else "")))
+    bits = ", ".join(f"bit {i} = {e['name']}" for i, e in enumerate(d.elements))
+    out.append(Variable("lockedElements", vr["INT"] + 2, "Integer", "output", "discrete", "calculated", None, None,
+                        f"locked elements as a bit mask: {bits}"))
+    for i, e in enumerate(d.elements):
+        out.append(Variable(f"locked_{e['name']}", vr["BOOL"] + i, "Boolean", "output", "discrete", "calculated",
+                            None, None, f"{e['name']} is locked"))
+    return out
+
+
+def _indicators(d: FmuData) -> str:
+    names = []
+    for e in d.elements:
+        names += [f"slip/holding margin of {e['name']}", f"apply of {e['name']}"]
+    return "; ".join(f"{k}: {n}" for k, n in enumerate(names))
+
+
+def _units(vs: list[Variable], fmi: int) -> str:
+    used = sorted({v.unit for v in vs if v.unit})
+    lines = ["  <UnitDefinitions>\n"]
+    for u in used:
+        name, base = UNITS[u]
+        attrs = " ".join(f'{k}="{v}"' for k, v in base.items())
+        lines.append(f'    <Unit name="{name}">\n      <BaseUnit {attrs}/>\n    </Unit>\n')
+    lines.append("  </UnitDefinitions>\n")
+    return "".join(lines)
+
+
+def _fmt(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    return repr(float(v)) if isinstance(v, float) else str(v)
+
+
+def model_description(d: FmuData, fmi: int, interfaces: tuple[str, ...], guid: str) -> str:
+    """The ``modelDescription.xml`` text for FMI ``fmi`` (2 or 3) with ``interfaces`` (``"me"``,
+    ``"cs"``)."""
+    vs = variables(d)
+    ident = d.model_name
+    desc = (f"{d.title}: transgen transmission model (modes switched by transgen's own decision). "
+            f"Event indicators: {_indicators(d)}")
+    return (_fmi2 if fmi == 2 else _fmi3)(d, vs, ident, desc, interfaces, guid)
+
+
+def _fmi2(d, vs, ident, desc, interfaces, guid) -> str:
+    nl, ne = len(d.links), len(d.elements)
+    head = ['<?xml version="1.0" encoding="UTF-8"?>\n',
+            f'<fmiModelDescription fmiVersion="2.0" modelName={quoteattr(ident)} guid="{guid}"\n'
+            f'  description={quoteattr(desc)}\n  generationTool="transgen" variableNamingConvention="flat"\n'
+            f'  numberOfEventIndicators="{2 * ne}">\n']
+    if "me" in interfaces:
+        head.append(f'  <ModelExchange modelIdentifier="{ident}" canGetAndSetFMUstate="true" '
+                    f'canSerializeFMUstate="true"/>\n')
+    if "cs" in interfaces:
+        head.append(f'  <CoSimulation modelIdentifier="{ident}" canHandleVariableCommunicationStepSize="true" '
+                    f'canGetAndSetFMUstate="true" canSerializeFMUstate="true"/>\n')
+    head.append(_units(vs, 2))
+    head.append('  <DefaultExperiment startTime="0.0"/>\n')
+    body = ["  <ModelVariables>\n"]
+    index = {}
+    for k, v in enumerate(vs, 1):
+        index[v.vr] = k
+        attrs = f'name={quoteattr(v.name)} valueReference="{v.vr}" description={quoteattr(v.description)} ' \
+                f'causality="{v.causality}" variability="{v.variability}"'
+        if v.initial and v.causality != "input":
+            attrs += f' initial="{v.initial}"'
+        inner = ""
+        if v.type == "Real":
+            if v.unit:
+                inner += f' unit="{v.unit}"'
+            if v.derivative_of is not None:
+                inner += f' derivative="{index[v.derivative_of]}"'
+        if v.start is not None:
+            inner += f' start="{_fmt(v.start)}"'
+        body.append(f"    <ScalarVariable {attrs}>\n      <{v.type}{inner}/>\n    </ScalarVariable>\n")
+    body.append("  </ModelVariables>\n  <ModelStructure>\n    <Outputs>\n")
+    body += [f'      <Unknown index="{index[v.vr]}"/>\n' for v in vs if v.causality == "output"]
+    body.append("    </Outputs>\n    <Derivatives>\n")
+    body += [f'      <Unknown index="{index[v.vr]}"/>\n' for v in vs if v.derivative_of is not None]
+    body.append("    </Derivatives>\n    <InitialUnknowns>\n")
+    initial = sorted(index[v.vr] for v in vs if (v.causality == "output" and v.initial == "calculated")
+                     or v.derivative_of is not None)
+    body += [f'      <Unknown index="{k}"/>\n' for k in initial]
+    body.append("    </InitialUnknowns>\n  </ModelStructure>\n</fmiModelDescription>\n")
+    del nl
+    return "".join(head + body)
+
+
+def _fmi3(d, vs, ident, desc, interfaces, guid) -> str:
+    ne = len(d.elements)
+    vr = value_references(d)
+    head = ['<?xml version="1.0" encoding="UTF-8"?>\n',
+            f'<fmiModelDescription fmiVersion="3.0" modelName={quoteattr(ident)} instantiationToken="{guid}"\n'
+            f'  description={quoteattr(desc)}\n  generationTool="transgen" variableNamingConvention="flat">\n']
+    if "me" in interfaces:
+        head.append(f'  <ModelExchange modelIdentifier="{ident}" canGetAndSetFMUState="true" '
+                    f'canSerializeFMUState="true"/>\n')
+    if "cs" in interfaces:
+        head.append(f'  <CoSimulation modelIdentifier="{ident}" canHandleVariableCommunicationStepSize="true" '
+                    f'canGetAndSetFMUState="true" canSerializeFMUState="true" hasEventMode="false"/>\n')
+    head.append(_units(vs, 3))
+    head.append('  <DefaultExperiment startTime="0.0"/>\n')
+    body = ["  <ModelVariables>\n",
+            f'    <Float64 name="time" valueReference="{vr["TIME"]}" causality="independent" variability="continuous" '
+            f'description="simulation time" unit="s"/>\n']
+    types = {"Real": "Float64", "Integer": "Int32", "Boolean": "Boolean"}
+    for v in vs:
+        attrs = f'name={quoteattr(v.name)} valueReference="{v.vr}" description={quoteattr(v.description)} ' \
+                f'causality="{v.causality}" variability="{v.variability}"'
+        if v.initial and v.causality != "input":
+            attrs += f' initial="{v.initial}"'
+        if v.type == "Real" and v.unit:
+            attrs += f' unit="{v.unit}"'
+        if v.derivative_of is not None:
+            attrs += f' derivative="{v.derivative_of}"'
+        if v.start is not None:
+            attrs += f' start="{_fmt(v.start)}"'
+        body.append(f"    <{types[v.type]} {attrs}/>\n")
+    body.append("  </ModelVariables>\n  <ModelStructure>\n")
+    body += [f'    <Output valueReference="{v.vr}"/>\n' for v in vs if v.causality == "output"]
+    body += [f'    <ContinuousStateDerivative valueReference="{v.vr}"/>\n' for v in vs if v.derivative_of is not None]
+    body += [f'    <InitialUnknown valueReference="{v.vr}"/>\n' for v in vs
+             if (v.causality == "output" and v.initial == "calculated") or v.derivative_of is not None]
+    body += [f'    <EventIndicator valueReference="{vr["BOOL"] + ne + k}"/>\n' for k in range(0)]
+    body.append("  </ModelStructure>\n</fmiModelDescription>\n")
+    return "".join(head + body)
