@@ -14,8 +14,9 @@ __all__ = ["value_references", "model_data_h", "model_signals_h"]
 def value_references(d: FmuData) -> dict[str, int]:
     """The first value reference of each kind of variable (one numbering over all types, as FMI
     3.0 requires): speeds (the states), their derivatives, slips, element torques, inputs,
-    static and dynamic capacities, inertias, the slip tolerance, the co-simulation step, time,
-    the integers ``mode``, ``gear``, ``lockedElements``, and the booleans ``locked_<element>``."""
+    static and dynamic capacities, inertias, the slip tolerance, the co-simulation step, time, the
+    time of the last change of mode,
+    the integers ``mode``, ``gear``, ``lockedElements``, the booleans ``locked_<element>``, and the event indicators (two per element)."""
     nl, ne, nin = len(d.links), len(d.elements), len(d.inputs)
     out = {"W": 0, "DER": nl, "SLIP": 2 * nl, "TORQUE": 2 * nl + ne, "IN": 2 * nl + 2 * ne}
     out["STATIC"] = out["IN"] + nin
@@ -24,8 +25,10 @@ def value_references(d: FmuData) -> dict[str, int]:
     out["SLIPTOL"] = out["J"] + nl
     out["CSSTEP"] = out["SLIPTOL"] + 1
     out["TIME"] = out["CSSTEP"] + 1
-    out["INT"] = out["TIME"] + 1
+    out["TEVENT"] = out["TIME"] + 1
+    out["INT"] = out["TEVENT"] + 1
     out["BOOL"] = out["INT"] + 3
+    out["Z"] = out["BOOL"] + ne
     return out
 
 

@@ -75,6 +75,8 @@ def variables(d: FmuData) -> list[Variable]:
                         "simulate's slip_tol)"))
     out.append(Variable("cs_max_step", vr["CSSTEP"], "Real", "parameter", "fixed", "exact", CS_STEP, "s",
                         "largest internal step of the co-simulation integrator (events are located inside it)"))
+    out.append(Variable("t_mode_change", vr["TEVENT"], "Real", "output", "discrete", "calculated", None, "s",
+                        "time of the last change of the locked elements (located inside the step in co-simulation)"))
     labels = "; ".join(f"{k} = {d.mode_label(mask)}" for k, mask in enumerate(d.mode_masks))
     out.append(Variable("mode", vr["INT"], "Integer", "output", "discrete", "calculated", None, None,
                         f"current mode: {labels}"))
@@ -87,14 +89,22 @@ def variables(d: FmuData) -> list[Variable]:
     for i, e in enumerate(d.elements):
         out.append(Variable(f"locked_{e['name']}", vr["BOOL"] + i, "Boolean", "output", "discrete", "calculated",
                             None, None, f"{e['name']} is locked"))
+    for i, e in enumerate(d.elements):
+        out.append(Variable(f"indicator_slip_{e['name']}", vr["Z"] + 2 * i, "Real", "local", "continuous",
+                            "calculated", None, None,
+                            f"event indicator {2 * i}: slipping, direction x slip of {e['name']} + 1e-3 x slip "
+                            f"tolerance (crosses zero: may lock); locked, its row's holding margin (unlocks)"))
+        out.append(Variable(f"indicator_apply_{e['name']}", vr["Z"] + 2 * i + 1, "Real", "local", "continuous",
+                            "calculated", None, None,
+                            f"event indicator {2 * i + 1}: the apply of {e['name']} crossing zero while it slips"))
     return out
 
 
 def _indicators(d: FmuData) -> str:
     names = []
     for e in d.elements:
-        names += [f"slip/holding margin of {e['name']}", f"apply of {e['name']}"]
-    return "; ".join(f"{k}: {n}" for k, n in enumerate(names))
+        names += [f"indicator_slip_{e['name']}", f"indicator_apply_{e['name']}"]
+    return ", ".join(f"{k} = {n}" for k, n in enumerate(names))
 
 
 def _units(vs: list[Variable], fmi: int) -> str:
@@ -111,6 +121,8 @@ def _units(vs: list[Variable], fmi: int) -> str:
 def _fmt(v) -> str:
     if isinstance(v, bool):
         return "true" if v else "false"
+    if isinstance(v, float) and v in (float("inf"), float("-inf")):
+        return "INF" if v > 0 else "-INF"  # xs:double
     return repr(float(v)) if isinstance(v, float) else str(v)
 
 
@@ -203,6 +215,6 @@ def _fmi3(d, vs, ident, desc, interfaces, guid) -> str:
     body += [f'    <ContinuousStateDerivative valueReference="{v.vr}"/>\n' for v in vs if v.derivative_of is not None]
     body += [f'    <InitialUnknown valueReference="{v.vr}"/>\n' for v in vs
              if (v.causality == "output" and v.initial == "calculated") or v.derivative_of is not None]
-    body += [f'    <EventIndicator valueReference="{vr["BOOL"] + ne + k}"/>\n' for k in range(0)]
+    body += [f'    <EventIndicator valueReference="{vr["Z"] + k}"/>\n' for k in range(2 * ne)]
     body.append("  </ModelStructure>\n</fmiModelDescription>\n")
     return "".join(head + body)

@@ -72,9 +72,10 @@ def _scenario_data(source: str, model_name: str, overrides) -> FmuData:
         elif isinstance(c, LinkLoad) and form[2] == (0.0, 0.0, 0.0) and c.input_name == "T_out":
             signals["T_out"] = c.signal
         else:
-            kind = form[0] if form else type(c).__name__
-            what = {"turbodiesel": "the turbodiesel engine model (its air path is not exported)",
-                    "driveline": "a driveline with a vehicle"}.get(kind, f"the component {kind}")
+            kind = type(c).__name__
+            what = {"TurbodieselSource": "the turbodiesel engine (its air path and turbocharger)",
+                    "Driveline": "a driveline with a vehicle", "ConverterComponent": "a torque converter",
+                    "EngineOnLink": "an engine map", "EngineWithConverter": "an engine map with a torque converter"}.get(kind, f"the component {form[0] if form else kind}")
             raise FmuError(f"{where}: {what} cannot be exported to an FMU by this version; supported: an input "
                            f"torque signal and an output torque signal (export the mechanism NAME.mech and "
                            f"connect the rest in the importing tool)")

@@ -44,6 +44,7 @@ typedef struct {
     int fresh;                  /* decided at this time and state, nothing integrated since */
     double tol;                 /* slip tolerance of the segment [rad/s] */
     double t_sig, t_stop;       /* where the segment evaluates its signals: [t_sig, left_of(t_stop)] */
+    double t_change;            /* time of the last change of the locked elements [s] */
     double same_time;
     int same_count;
     long n_events;
@@ -674,6 +675,7 @@ static int tg_event(TG *m) {
         for (int r = 0; r < dof; r++) s += C[k * dof + r] * q[r];
         m->w[k] = s;
     }
+    if (!m->started || locked != m->locked) m->t_change = t;
     m->locked = locked;
     for (int e = 0; e < TG_NE; e++) {
         m->dirs[e] = dirs[e];
@@ -859,6 +861,13 @@ static int tg_get_real(TG *m, unsigned vr, double *value) {
     if (vr == TG_VR_SLIPTOL) { *value = m->slip_tol_rel; return 0; }
     if (vr == TG_VR_CSSTEP) { *value = m->cs_step; return 0; }
     if (vr == TG_VR_TIME) { *value = m->t; return 0; }
+    if (vr == TG_VR_TEVENT) { *value = m->t_change; return 0; }
+    if (vr >= TG_VR_Z && vr < TG_VR_Z + 2 * TG_NE) {
+        double z[2 * TG_NE + 1];
+        tg_indicators(m, m->t, m->w, z);
+        *value = z[vr - TG_VR_Z];
+        return 0;
+    }
     snprintf(m->msg, sizeof m->msg, "unknown value reference %u", vr);
     return 1;
 }
