@@ -45,6 +45,8 @@ typedef struct {
     double tol;                 /* slip tolerance of the segment [rad/s] */
     double t_sig, t_stop;       /* where the segment evaluates its signals: [t_sig, left_of(t_stop)] */
     double t_change;            /* time of the last change of the locked elements [s] */
+    double t_decided;           /* time of the last decision [s] */
+    int last_forced[TG_NE + 1]; /* the forced slip directions of that decision */
     double same_time;
     int same_count;
     long n_events;
@@ -613,6 +615,11 @@ static int tg_event(TG *m) {
         }
     }
     double t = m->t;
+    /* decided again at the same instant (an input changed; the importer's time may differ from the
+     * located event's by round-off): the torque events that fired then still decide their elements */
+    if (m->started && fabs(t - m->t_decided) <= 1e-12 * fmax(1.0, fabs(t)))
+        for (int e = 0; e < TG_NE; e++)
+            if (!forced[e]) forced[e] = m->last_forced[e];
     if (fabs(t - m->same_time) < 1e-9 * fmax(1.0, fabs(t))) {
         if (++m->same_count > TG_MAX_SAME_TIME) {
             char names[256];
@@ -676,6 +683,8 @@ static int tg_event(TG *m) {
         m->w[k] = s;
     }
     if (!m->started || locked != m->locked) m->t_change = t;
+    m->t_decided = t;
+    memcpy(m->last_forced, forced, sizeof m->last_forced);
     m->locked = locked;
     for (int e = 0; e < TG_NE; e++) {
         m->dirs[e] = dirs[e];
@@ -692,6 +701,23 @@ static int tg_event(TG *m) {
 }
 
 static int tg_start(TG *m) { return m->started ? 0 : tg_event(m); }
+
+/* After the importer changed an input or a parameter between steps: whether the current mode
+ * must be decided anew (as at an event), i.e. whether a locked row's torque is now outside its
+ * holding range or a slipping element's apply crossed zero. Otherwise the segment goes on, as the
+ * simulator's does between breakpoints (the speeds, hence the slips, do not jump). */
+static int tg_input_event_needed(const TG *m) {
+    double u[TG_NU + 1], rows[TG_NE + 1];
+    double ts = tg_seg_time(m, m->t);
+    tg_inputs(m, m->t, m->w, u);
+    tg_mode_torques(m->locked, u, rows);
+    for (int r = 0; r < TG_MODE_NROW[m->locked]; r++)
+        if (tg_holding_margin(m, m->locked, r, ts, rows[r]) <= 0.0) return 1;
+    for (int e = 0; e < TG_NE; e++)
+        if (!((m->locked >> e) & 1u) && TG_KIND[e] != TG_ONEWAY
+            && (tg_apply_raw(m, e, ts) > TG_APPLY_THRESHOLD) != (m->apply_dir[e] > 0)) return 1;
+    return 0;
+}
 
 /* ----------------------------------------------------------------------- outputs */
 
@@ -768,7 +794,10 @@ static int tg_crossed(const double *z0, const double *z1) {
  * event and breakpoint the mode decision. Returns 0, or nonzero with m->msg. */
 static int tg_cs_step(TG *m, double t_end) {
     if (tg_start(m)) return 1;
-    if (m->in_changed && tg_event(m)) return 1;
+    if (m->in_changed) {
+        m->in_changed = 0;
+        if (tg_input_event_needed(m) && tg_event(m)) return 1;
+    }
     while (m->t < t_end - 1e-13 * fmax(1.0, fabs(t_end))) {
         double t1 = fmin(t_end, m->t_stop);
         int at_stop = m->t_stop <= t_end;
