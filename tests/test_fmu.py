@@ -31,7 +31,7 @@ except FmuError:  # pragma: no cover - CI has gcc
 #: acceptance (issue 24): events within 1 ms, speeds within 0.1 % of their range
 EVENT_TOL = 1e-3
 SPEED_TOL = 1e-3
-SCENARIOS = ["coupled_clutches", "freewheel_clutch"]
+SCENARIOS = ["coupled_clutches", "freewheel_clutch", "zf3hp22_manual_first_coast"]
 
 
 @pytest.fixture(scope="module")

@@ -16,9 +16,10 @@ def value_references(d: FmuData) -> dict[str, int]:
     3.0 requires): speeds (the states), their derivatives, slips, element torques, inputs,
     static and dynamic capacities, inertias, the slip tolerance, the co-simulation step, time, the
     time of the last change of mode,
-    the integers ``mode``, ``gear``, ``lockedElements``, the booleans ``locked_<element>``, and the event indicators (two per element)."""
-    nl, ne, nin = len(d.links), len(d.elements), len(d.inputs)
-    out = {"W": 0, "DER": nl, "SLIP": 2 * nl, "TORQUE": 2 * nl + ne, "IN": 2 * nl + 2 * ne}
+    the integers ``mode``, ``gear``, ``lockedElements``, the booleans ``locked_<element>``, the event indicators (two per element), and the
+    driveline's shaft torque ``T_out`` and ``vehicle_speed``."""
+    nl, ne, nin, nx = len(d.links), len(d.elements), len(d.inputs), d.n_states
+    out = {"W": 0, "DER": nx, "SLIP": 2 * nx, "TORQUE": 2 * nx + ne, "IN": 2 * nx + 2 * ne}
     out["STATIC"] = out["IN"] + nin
     out["DYNAMIC"] = out["STATIC"] + ne
     out["J"] = out["DYNAMIC"] + ne
@@ -29,6 +30,7 @@ def value_references(d: FmuData) -> dict[str, int]:
     out["INT"] = out["TEVENT"] + 1
     out["BOOL"] = out["INT"] + 3
     out["Z"] = out["BOOL"] + ne
+    out["DL"] = out["Z"] + 2 * ne
     return out
 
 
@@ -61,7 +63,15 @@ def model_data_h(d: FmuData, guid: str) -> str:
            f"#define TG_GUID {_string(guid)}\n", f"#define TG_NL {nl}\n", f"#define TG_NE {ne}\n",
            f"#define TG_NU {nu}\n", f"#define TG_NG {ng}\n", f"#define TG_NIN {len(d.inputs)}\n",
            f"#define TG_NBP {len(d.breakpoints)}\n", f"#define TG_SLIP_TOL {_num(d.slip_tol)}\n",
-           f"#define TG_CS_STEP {_num(CS_STEP)}\n"]
+           f"#define TG_CS_STEP {_num(CS_STEP)}\n", f"#define TG_NX {d.n_states}\n",
+           f"#define TG_DRIVELINE {1 if d.driveline else 0}\n"]
+    if d.driveline:
+        dl = d.driveline
+        out += [f"#define TG_DL_OUTPUT {dl['output']}\n", f"#define TG_DL_UCOL {dl['column']}\n"]
+        out += [f"#define TG_DL_{key} {_num(dl[name])}\n" for key, name in
+                (("STIFFNESS", "stiffness"), ("DAMPING", "damping"), ("JV", "J_v"), ("MASS", "mass"),
+                 ("ROLLING", "rolling"), ("GRADE", "grade"), ("AIR", "air_density"), ("CDA", "cd_a"),
+                 ("RADIUS", "wheel_radius"), ("FINAL", "final_drive"))]
     out += [f"#define TG_VR_{k} {v}\n" for k, v in vr.items()]
     out.append("static const char *TG_ELEMENT_NAMES[%d] = {%s};\n"
                % (max(1, ne), ", ".join(_string(e["name"]) for e in d.elements) or "0"))

@@ -70,6 +70,12 @@ class FmuData:
     slip_tol: float
     breakpoints: list[float] = field(default_factory=list)
     source: str = ""
+    driveline: dict | None = None
+
+    @property
+    def n_states(self) -> int:
+        """The continuous states: every link speed, then the driveline's twist and vehicle-side speed."""
+        return len(self.links) + (2 if self.driveline else 0)
 
     @property
     def mode_masks(self) -> list[int]:
@@ -99,18 +105,20 @@ class FmuData:
         h.update(repr((self.title, self.links, self.inertias, self.elements, self.P.tolist(), self.groups,
                        [None if m is None else (m[0], m[1], m[2].tolist(), m[3].tolist(), m[4].tolist(), m[5])
                         for m in self.modes], [(i.name, i.start, repr(i.signal)) for i in self.inputs],
-                       self.w0, self.slip_tol, self.breakpoints, extra)).encode())
+                       self.w0, self.slip_tol, self.breakpoints, self.driveline, extra)).encode())
         d = h.hexdigest()
         return "{" + f"{d[:8]}-{d[8:12]}-{d[12:16]}-{d[16:20]}-{d[20:32]}" + "}"
 
 
 def fmu_data(tr, model_name: str, title: str, signals: dict | None = None, w0=None, slip_tol: float = 1e-7,
-             t_end: float | None = None, source: str = "") -> FmuData:
+             t_end: float | None = None, source: str = "", driveline=None) -> FmuData:
     """The FMU tables of the transmission ``tr`` (:class:`~transgen.sim.transmission.Transmission`).
 
     ``signals``: built-in signals by input name (``T_in``, ``T_out``, ``apply_<element>``): the
     input follows it while the importer leaves it unset; ``w0``: initial link speeds [rad/s];
-    ``t_end``: the end of the breakpoint window for periodic signals [s]."""
+    ``t_end``: the end of the breakpoint window for periodic signals [s]; ``driveline``: a
+    :class:`~transgen.sim.components.Driveline` on the output (its shaft torque is ``T_out``, its
+    twist and vehicle-side speed are states)."""
     signals = dict(signals or {})
     n = len(tr.elements)
     if n > MAX_ELEMENTS:
@@ -154,6 +162,8 @@ def fmu_data(tr, model_name: str, title: str, signals: dict | None = None, w0=No
     for col, name in enumerate(tr.inputs):
         if name.startswith("t_") and name[2:] in tr.element_index:
             continue
+        if name == "T_out" and driveline is not None:
+            continue
         what = {"T_in": "input torque on the input link (drives)",
                 "T_out": "load torque delivered by the output link (acts -T_out on it)"}.get(name, "external torque")
         sig = signals.pop(name, None)
@@ -177,10 +187,19 @@ def fmu_data(tr, model_name: str, title: str, signals: dict | None = None, w0=No
                     raise FmuError(f"{model_name}: input {inp.name}: a periodic signal needs the scenario's end time")
                 points.update(inp.signal.breakpoints(0.0, t_end))
     w0 = [0.0] * len(tr.links) if w0 is None else [float(x) for x in w0]
+    dl = None
+    if driveline is not None:
+        dl = {"output": int(driveline.output), "stiffness": float(driveline.stiffness),
+              "damping": float(driveline.damping), "J_v": float(driveline.J_v), "mass": float(driveline.mass),
+              "rolling": float(driveline.rolling), "grade": float(driveline.grade),
+              "air_density": float(driveline.air_density), "cd_a": float(driveline.cd_a),
+              "wheel_radius": float(driveline.wheel_radius), "final_drive": float(driveline.final_drive),
+              "column": int(tr.input_index["T_out"])}
+        w0 = w0 + [float(x) for x in driveline.initial_state(np.asarray(w0))]
     gears = [(g.name, tuple(g.engaged)) for g in tr.mech.gears if g.kind == "gear"]
     return FmuData(title, model_name, list(tr.links), [float(x) for x in tr.inertia], elements, np.asarray(tr.P, float),
                    groups, len(tr.inputs), modes, implied, gears, inputs, w0, float(slip_tol),
-                   sorted(float(p) for p in points if math.isfinite(p)), source)
+                   sorted(float(p) for p in points if math.isfinite(p)), source, dl)
 
 
 def _start(signal) -> float:

@@ -17,7 +17,7 @@ from .data import CS_STEP, FmuData
 
 __all__ = ["Variable", "variables", "model_description"]
 
-UNITS = {"rad/s": ("rad/s", {"s": -1, "rad": 1}), "rad/s2": ("rad/s2", {"s": -2, "rad": 1}),
+UNITS = {"rad": ("rad", {"rad": 1}), "m/s": ("m/s", {"m": 1, "s": -1}), "rad/s": ("rad/s", {"s": -1, "rad": 1}), "rad/s2": ("rad/s2", {"s": -2, "rad": 1}),
          "N.m": ("N.m", {"kg": 1, "m": 2, "s": -2}), "kg.m2": ("kg.m2", {"kg": 1, "m": 2}), "s": ("s", {"s": 1})}
 
 
@@ -46,9 +46,24 @@ def variables(d: FmuData) -> list[Variable]:
     for k, link in enumerate(d.links):
         out.append(Variable(f"w_{link}", vr["W"] + k, "Real", "output", "continuous", "exact", d.w0[k], "rad/s",
                             f"speed of link {link} (a state; its start value is the initial speed)"))
+    nl = len(d.links)
+    if d.driveline:
+        out.append(Variable("theta_ds", vr["W"] + nl, "Real", "output", "continuous", "exact", d.w0[nl], "rad",
+                            "driveshaft twist, output side minus vehicle side (a state)"))
+        out.append(Variable("omega_v", vr["W"] + nl + 1, "Real", "output", "continuous", "exact", d.w0[nl + 1],
+                            "rad/s", "vehicle-side speed referred to the driveshaft (a state)"))
     for k, link in enumerate(d.links):
         out.append(Variable(f"der(w_{link})", vr["DER"] + k, "Real", "local", "continuous", "calculated", None,
                             "rad/s2", f"acceleration of link {link}", vr["W"] + k))
+    if d.driveline:
+        out.append(Variable("der(theta_ds)", vr["DER"] + nl, "Real", "local", "continuous", "calculated", None,
+                            "rad/s", "twist rate of the driveshaft", vr["W"] + nl))
+        out.append(Variable("der(omega_v)", vr["DER"] + nl + 1, "Real", "local", "continuous", "calculated", None,
+                            "rad/s2", "vehicle-side acceleration referred to the driveshaft", vr["W"] + nl + 1))
+        out.append(Variable("T_out", vr["DL"], "Real", "output", "continuous", "calculated", None, "N.m",
+                            "driveshaft torque delivered by the output link (k*theta + c*(w_out - omega_v))"))
+        out.append(Variable("vehicle_speed", vr["DL"] + 1, "Real", "output", "continuous", "calculated", None,
+                            "m/s", "vehicle speed"))
     for i, e in enumerate(d.elements):
         out.append(Variable(f"slip_{e['name']}", vr["SLIP"] + i, "Real", "output", "continuous", "calculated", None,
                             "rad/s", f"slip speed of {e['kind_name']} {e['name']} (link1 - link2)"))

@@ -223,7 +223,7 @@ fmi2Status fmi2SetTime(fmi2Component c, fmi2Real time) {
 
 fmi2Status fmi2SetContinuousStates(fmi2Component c, const fmi2Real states[], size_t nx) {
     Instance *x = (Instance *)c;
-    for (size_t k = 0; k < nx && k < TG_NL; k++) {
+    for (size_t k = 0; k < nx && k < TG_NX; k++) {
         if (x->m.w[k] != states[k]) x->m.fresh = 0;
         x->m.w[k] = states[k];
     }
@@ -232,10 +232,10 @@ fmi2Status fmi2SetContinuousStates(fmi2Component c, const fmi2Real states[], siz
 
 fmi2Status fmi2GetDerivatives(fmi2Component c, fmi2Real derivatives[], size_t nx) {
     Instance *x = (Instance *)c;
-    double dw[TG_NL + 1];
+    double dw[TG_NX + 1];
     if (tg_start(&x->m)) return tg_fail(x);
     tg_derivatives(&x->m, x->m.t, x->m.w, dw);
-    for (size_t k = 0; k < nx && k < TG_NL; k++) derivatives[k] = dw[k];
+    for (size_t k = 0; k < nx && k < TG_NX; k++) derivatives[k] = dw[k];
     return fmi2OK;
 }
 
@@ -250,7 +250,7 @@ fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real indicators[], size_t
 
 fmi2Status fmi2GetContinuousStates(fmi2Component c, fmi2Real states[], size_t nx) {
     Instance *x = (Instance *)c;
-    for (size_t k = 0; k < nx && k < TG_NL; k++) states[k] = x->m.w[k];
+    for (size_t k = 0; k < nx && k < TG_NX; k++) states[k] = x->m.w[k];
     return fmi2OK;
 }
 

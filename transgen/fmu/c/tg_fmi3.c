@@ -336,7 +336,7 @@ fmi3Status fmi3SetTime(fmi3Instance c, fmi3Float64 time) {
 
 fmi3Status fmi3SetContinuousStates(fmi3Instance c, const fmi3Float64 states[], size_t nx) {
     Instance *x = (Instance *)c;
-    for (size_t k = 0; k < nx && k < TG_NL; k++) {
+    for (size_t k = 0; k < nx && k < TG_NX; k++) {
         if (x->m.w[k] != states[k]) x->m.fresh = 0;
         x->m.w[k] = states[k];
     }
@@ -345,10 +345,10 @@ fmi3Status fmi3SetContinuousStates(fmi3Instance c, const fmi3Float64 states[], s
 
 fmi3Status fmi3GetContinuousStateDerivatives(fmi3Instance c, fmi3Float64 derivatives[], size_t nx) {
     Instance *x = (Instance *)c;
-    double dw[TG_NL + 1];
+    double dw[TG_NX + 1];
     if (tg_start(&x->m)) return tg_fail(x);
     tg_derivatives(&x->m, x->m.t, x->m.w, dw);
-    for (size_t k = 0; k < nx && k < TG_NL; k++) derivatives[k] = dw[k];
+    for (size_t k = 0; k < nx && k < TG_NX; k++) derivatives[k] = dw[k];
     return fmi3OK;
 }
 
@@ -363,7 +363,7 @@ fmi3Status fmi3GetEventIndicators(fmi3Instance c, fmi3Float64 indicators[], size
 
 fmi3Status fmi3GetContinuousStates(fmi3Instance c, fmi3Float64 states[], size_t nx) {
     Instance *x = (Instance *)c;
-    for (size_t k = 0; k < nx && k < TG_NL; k++) states[k] = x->m.w[k];
+    for (size_t k = 0; k < nx && k < TG_NX; k++) states[k] = x->m.w[k];
     return fmi3OK;
 }
 
@@ -381,7 +381,7 @@ fmi3Status fmi3GetNumberOfEventIndicators(fmi3Instance c, size_t *n) {
 
 fmi3Status fmi3GetNumberOfContinuousStates(fmi3Instance c, size_t *n) {
     (void)c;
-    *n = TG_NL;
+    *n = TG_NX;
     return fmi3OK;
 }
 

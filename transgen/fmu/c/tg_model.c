@@ -29,7 +29,7 @@
 
 typedef struct {
     double t;
-    double w[TG_NL];
+    double w[TG_NX];            /* link speeds, then the driveline's twist and vehicle-side speed */
     double in[TG_NIN];          /* the inputs as set by the importer */
     int in_set[TG_NIN];         /* set at least once: the built-in signal is no longer used */
     int in_changed;             /* an input changed since the last decision (co-simulation) */
@@ -139,10 +139,31 @@ static void tg_slips(const double *w, double *slips) {
     }
 }
 
-static void tg_external(const TG *m, double t, double *u) {
+#if TG_DRIVELINE
+/* the driveline (simulator: components.driveline_rates, road_torque): shaft torque [N*m] */
+static double tg_shaft_torque(const double *w) {
+    return TG_DL_STIFFNESS * w[TG_NL] + TG_DL_DAMPING * (w[TG_DL_OUTPUT] - w[TG_NL + 1]);
+}
+
+static double tg_road_torque(double omega_v) {
+    double v = omega_v * TG_DL_RADIUS / TG_DL_FINAL;
+    double mg = TG_DL_MASS * 9.81;
+    double rolling = TG_DL_ROLLING * mg * cos(TG_DL_GRADE) * tanh(v / 0.1);
+    double force = rolling + 0.5 * TG_DL_AIR * TG_DL_CDA * v * fabs(v) + mg * sin(TG_DL_GRADE);
+    return force * TG_DL_RADIUS / TG_DL_FINAL;
+}
+#endif
+
+/* the external torques at (t, w): the inputs, and the driveline's shaft torque as T_out */
+static void tg_external(const TG *m, double t, const double *w, double *u) {
     for (int j = 0; j < TG_NU; j++) u[j] = 0.0;
     for (int k = 0; k < TG_NIN; k++)
         if (TG_IN_UCOL[k] >= 0) u[TG_IN_UCOL[k]] += tg_input(m, k, t);
+#if TG_DRIVELINE
+    u[TG_DL_UCOL] += tg_shaft_torque(w);
+#else
+    (void)w;
+#endif
 }
 
 /* ----------------------------------------------------------------------- modes */
@@ -556,8 +577,7 @@ static double tg_seg_time(const TG *m, double t) {
 /* the input vector of the current mode at (t, w): external torques plus slipping elements */
 static void tg_inputs(const TG *m, double t, const double *w, double *u) {
     double ts = tg_seg_time(m, t);
-    tg_external(m, ts, u);
-    (void)w;
+    tg_external(m, ts, w, u);
     for (int e = 0; e < TG_NE; e++)
         if (!((m->locked >> e) & 1u) && TG_KIND[e] == TG_FRICTION && m->dirs[e] != 0)
             u[TG_UCOL[e]] += tg_slip_torque(m, e, ts, m->dirs[e], 0);
@@ -567,6 +587,10 @@ static void tg_derivatives(const TG *m, double t, const double *w, double *dw) {
     double u[TG_NU + 1];
     tg_inputs(m, t, w, u);
     tg_mode_rates(m->locked, u, dw);
+#if TG_DRIVELINE
+    dw[TG_NL] = w[TG_DL_OUTPUT] - w[TG_NL + 1];
+    dw[TG_NL + 1] = (tg_shaft_torque(w) - tg_road_torque(w[TG_NL + 1])) / TG_DL_JV;
+#endif
 }
 
 /* two indicators per element: [2e] slip (slipping) or holding margin (locked, the row's
@@ -633,7 +657,7 @@ static int tg_event(TG *m) {
     }
     double t_sig = tg_signal_time(t);
     double u_ext[TG_NU + 1];
-    tg_external(m, t_sig, u_ext);
+    tg_external(m, t_sig, m->w, u_ext);
     double tol = fmax(1e-9, m->slip_tol_rel * fmax(1.0, tg_max_abs(m->w, TG_NL)));
     unsigned locked;
     int dirs[TG_NE + 1];
@@ -772,15 +796,15 @@ static void tg_element_torques(const TG *m, double *out) {
 /* ----------------------------------------------------------------------- co-simulation */
 
 static void tg_rk4(const TG *m, double t, const double *w, double h, double *out) {
-    double k1[TG_NL + 1], k2[TG_NL + 1], k3[TG_NL + 1], k4[TG_NL + 1], y[TG_NL + 1];
+    double k1[TG_NX + 1], k2[TG_NX + 1], k3[TG_NX + 1], k4[TG_NX + 1], y[TG_NX + 1];
     tg_derivatives(m, t, w, k1);
-    for (int k = 0; k < TG_NL; k++) y[k] = w[k] + 0.5 * h * k1[k];
+    for (int k = 0; k < TG_NX; k++) y[k] = w[k] + 0.5 * h * k1[k];
     tg_derivatives(m, t + 0.5 * h, y, k2);
-    for (int k = 0; k < TG_NL; k++) y[k] = w[k] + 0.5 * h * k2[k];
+    for (int k = 0; k < TG_NX; k++) y[k] = w[k] + 0.5 * h * k2[k];
     tg_derivatives(m, t + 0.5 * h, y, k3);
-    for (int k = 0; k < TG_NL; k++) y[k] = w[k] + h * k3[k];
+    for (int k = 0; k < TG_NX; k++) y[k] = w[k] + h * k3[k];
     tg_derivatives(m, t + h, y, k4);
-    for (int k = 0; k < TG_NL; k++) out[k] = w[k] + h / 6.0 * (k1[k] + 2 * k2[k] + 2 * k3[k] + k4[k]);
+    for (int k = 0; k < TG_NX; k++) out[k] = w[k] + h / 6.0 * (k1[k] + 2 * k2[k] + 2 * k3[k] + k4[k]);
 }
 
 static int tg_crossed(const double *z0, const double *z1) {
@@ -805,17 +829,17 @@ static int tg_cs_step(TG *m, double t_end) {
         while (m->t < t1 && !event) {
             double h = fmin(m->cs_step, t1 - m->t);
             if (t1 - (m->t + h) < 1e-12 * fmax(1.0, fabs(t1))) h = t1 - m->t;
-            double z0[2 * TG_NE + 1], z1[2 * TG_NE + 1], w1[TG_NL + 1];
+            double z0[2 * TG_NE + 1], z1[2 * TG_NE + 1], w1[TG_NX + 1];
             tg_indicators(m, m->t, m->w, z0);
             tg_rk4(m, m->t, m->w, h, w1);
             double tn = m->t + h >= t1 ? t1 : m->t + h;
             tg_indicators(m, tn, w1, z1);
             if (tg_crossed(z0, z1)) {
                 double lo = 0.0, hi = h;
-                double wh[TG_NL + 1];
+                double wh[TG_NX + 1];
                 memcpy(wh, w1, sizeof wh);
                 for (int it = 0; it < 200 && hi - lo > 1e-14 * fmax(1.0, fabs(m->t)); it++) {
-                    double mid = 0.5 * (lo + hi), wm[TG_NL + 1], zm[2 * TG_NE + 1];
+                    double mid = 0.5 * (lo + hi), wm[TG_NX + 1], zm[2 * TG_NE + 1];
                     tg_rk4(m, m->t, m->w, mid, wm);
                     tg_indicators(m, m->t + mid, wm, zm);
                     if (tg_crossed(z0, zm)) {
@@ -845,7 +869,7 @@ static int tg_cs_step(TG *m, double t_end) {
 
 static void tg_reset(TG *m) {
     memset(m, 0, sizeof *m);
-    for (int k = 0; k < TG_NL; k++) m->w[k] = TG_W0[k];
+    for (int k = 0; k < TG_NX; k++) m->w[k] = TG_W0[k];
     for (int k = 0; k < TG_NIN; k++) m->in[k] = TG_IN_START[k];
     for (int e = 0; e < TG_NE; e++) {
         m->stat[e] = TG_STATIC0[e];
@@ -866,7 +890,7 @@ static int tg_get_real(TG *m, unsigned vr, double *value) {
     if (vr < TG_VR_DER) { *value = m->w[vr]; return 0; }
     if (tg_start(m)) return 1;
     if (vr < TG_VR_SLIP) {
-        double dw[TG_NL + 1];
+        double dw[TG_NX + 1];
         tg_derivatives(m, m->t, m->w, dw);
         *value = dw[vr - TG_VR_DER];
         return 0;
@@ -891,6 +915,10 @@ static int tg_get_real(TG *m, unsigned vr, double *value) {
     if (vr == TG_VR_CSSTEP) { *value = m->cs_step; return 0; }
     if (vr == TG_VR_TIME) { *value = m->t; return 0; }
     if (vr == TG_VR_TEVENT) { *value = m->t_change; return 0; }
+#if TG_DRIVELINE
+    if (vr == TG_VR_DL) { *value = tg_shaft_torque(m->w); return 0; }
+    if (vr == TG_VR_DL + 1) { *value = m->w[TG_NL + 1] * TG_DL_RADIUS / TG_DL_FINAL; return 0; }
+#endif
     if (vr >= TG_VR_Z && vr < TG_VR_Z + 2 * TG_NE) {
         double z[2 * TG_NE + 1];
         tg_indicators(m, m->t, m->w, z);
@@ -964,7 +992,8 @@ int tg_test_decide(double t, const double *w, const double *inputs, int previous
         m.in_set[k] = 1;
     }
     double u_ext[TG_NU + 1];
-    tg_external(&m, t, u_ext);
+    for (int k = 0; k < TG_NL; k++) m.w[k] = w[k];
+    tg_external(&m, t, m.w, u_ext);
     return tg_decide(&m, t, w, u_ext, slip_tol, forced, previous < 0 ? 0u : (unsigned)previous,
                      previous < 0 ? NULL : sliding, locked, dirs);
 }
