@@ -17,7 +17,7 @@ def value_references(d: FmuData) -> dict[str, int]:
     static and dynamic capacities, inertias, the slip tolerance, the co-simulation step, time, the
     time of the last change of mode,
     the integers ``mode``, ``gear``, ``lockedElements``, the booleans ``locked_<element>``, the event indicators (two per element), and the
-    driveline's shaft torque ``T_out`` and ``vehicle_speed``."""
+    driveline's shaft torque ``T_out`` and ``vehicle_speed``, the engine's ``T_in`` and ``T_engine``."""
     nl, ne, nin, nx = len(d.links), len(d.elements), len(d.inputs), d.n_states
     out = {"W": 0, "DER": nx, "SLIP": 2 * nx, "TORQUE": 2 * nx + ne, "IN": 2 * nx + 2 * ne}
     out["STATIC"] = out["IN"] + nin
@@ -31,6 +31,7 @@ def value_references(d: FmuData) -> dict[str, int]:
     out["BOOL"] = out["INT"] + 3
     out["Z"] = out["BOOL"] + ne
     out["DL"] = out["Z"] + 2 * ne
+    out["ENG"] = out["DL"] + 2
     return out
 
 
@@ -65,9 +66,23 @@ def model_data_h(d: FmuData, guid: str) -> str:
            f"#define TG_NBP {len(d.breakpoints)}\n", f"#define TG_SLIP_TOL {_num(d.slip_tol)}\n",
            f"#define TG_CS_STEP {_num(CS_STEP)}\n", f"#define TG_NX {d.n_states}\n",
            f"#define TG_DRIVELINE {1 if d.driveline else 0}\n"]
+    eng = d.engine
+    out.append(f"#define TG_ENGINE {0 if not eng else (2 if eng['kind'] == 'converter' else 1)}\n")
+    if eng:
+        out += [f"#define TG_ENG_X {len(d.links)}\n", f"#define TG_ENG_LINK {eng['link']}\n",
+                f"#define TG_ENG_UCOL {eng['column']}\n", f"#define TG_ENG_NS {len(eng['speeds'])}\n",
+                f"#define TG_ENG_NT {len(eng['throttles'])}\n", f"#define TG_ENG_IDLE {_num(eng['idle'])}\n",
+                f"#define TG_ENG_J {_num(eng['J'])}\n", f"#define TG_ENG_THROTTLE_IN {eng['throttle_input']}\n",
+                f"#define TG_ENG_REQUEST_IN {eng['request_input']}\n",
+                _array("double", "TG_ENG_SPEEDS", eng["speeds"]), _array("double", "TG_ENG_THROTTLES", eng["throttles"]),
+                _array("double", "TG_ENG_TABLE", eng["table"])]
+        if eng["kind"] == "converter":
+            out += [f"#define TG_TC_N {len(eng['sr'])}\n", f"#define TG_TC_NC {len(eng['csr'])}\n"]
+            out += [_array("double", f"TG_TC_{k.upper()}", eng[k]) for k in ("sr", "c", "tr", "csr", "cc")]
     if d.driveline:
         dl = d.driveline
-        out += [f"#define TG_DL_OUTPUT {dl['output']}\n", f"#define TG_DL_UCOL {dl['column']}\n"]
+        out += [f"#define TG_DL_OUTPUT {dl['output']}\n", f"#define TG_DL_UCOL {dl['column']}\n",
+                f"#define TG_DL_X {d.driveline_state}\n"]
         out += [f"#define TG_DL_{key} {_num(dl[name])}\n" for key, name in
                 (("STIFFNESS", "stiffness"), ("DAMPING", "damping"), ("JV", "J_v"), ("MASS", "mass"),
                  ("ROLLING", "rolling"), ("GRADE", "grade"), ("AIR", "air_density"), ("CDA", "cd_a"),

@@ -71,11 +71,23 @@ class FmuData:
     breakpoints: list[float] = field(default_factory=list)
     source: str = ""
     driveline: dict | None = None
+    engine: dict | None = None
+
+    @property
+    def engine_state(self) -> bool:
+        """Whether the engine speed is a state (an engine behind a torque converter)."""
+        return bool(self.engine) and self.engine["kind"] == "converter"
 
     @property
     def n_states(self) -> int:
-        """The continuous states: every link speed, then the driveline's twist and vehicle-side speed."""
-        return len(self.links) + (2 if self.driveline else 0)
+        """The continuous states: every link speed, then the engine speed (behind a converter),
+        then the driveline's twist and vehicle-side speed."""
+        return len(self.links) + self.engine_state + (2 if self.driveline else 0)
+
+    @property
+    def driveline_state(self) -> int:
+        """The index of the driveshaft twist in the state vector."""
+        return len(self.links) + self.engine_state
 
     @property
     def mode_masks(self) -> list[int]:
@@ -105,20 +117,23 @@ class FmuData:
         h.update(repr((self.title, self.links, self.inertias, self.elements, self.P.tolist(), self.groups,
                        [None if m is None else (m[0], m[1], m[2].tolist(), m[3].tolist(), m[4].tolist(), m[5])
                         for m in self.modes], [(i.name, i.start, repr(i.signal)) for i in self.inputs],
-                       self.w0, self.slip_tol, self.breakpoints, self.driveline, extra)).encode())
+                       self.w0, self.slip_tol, self.breakpoints, self.driveline, self.engine, extra)).encode())
         d = h.hexdigest()
         return "{" + f"{d[:8]}-{d[8:12]}-{d[12:16]}-{d[16:20]}-{d[20:32]}" + "}"
 
 
 def fmu_data(tr, model_name: str, title: str, signals: dict | None = None, w0=None, slip_tol: float = 1e-7,
-             t_end: float | None = None, source: str = "", driveline=None) -> FmuData:
+             t_end: float | None = None, source: str = "", driveline=None, engine=None) -> FmuData:
     """The FMU tables of the transmission ``tr`` (:class:`~transgen.sim.transmission.Transmission`).
 
     ``signals``: built-in signals by input name (``T_in``, ``T_out``, ``apply_<element>``): the
     input follows it while the importer leaves it unset; ``w0``: initial link speeds [rad/s];
     ``t_end``: the end of the breakpoint window for periodic signals [s]; ``driveline``: a
     :class:`~transgen.sim.components.Driveline` on the output (its shaft torque is ``T_out``, its
-    twist and vehicle-side speed are states)."""
+    twist and vehicle-side speed are states); ``engine``: an
+    :class:`~transgen.sim.components.EngineOnLink` or
+    :class:`~transgen.sim.components.EngineWithConverter` on the input (``T_in``; its throttle and
+    torque request are inputs, with their signals as defaults)."""
     signals = dict(signals or {})
     n = len(tr.elements)
     if n > MAX_ELEMENTS:
@@ -164,6 +179,8 @@ def fmu_data(tr, model_name: str, title: str, signals: dict | None = None, w0=No
             continue
         if name == "T_out" and driveline is not None:
             continue
+        if name == "T_in" and engine is not None:
+            continue
         what = {"T_in": "input torque on the input link (drives)",
                 "T_out": "load torque delivered by the output link (acts -T_out on it)"}.get(name, "external torque")
         sig = signals.pop(name, None)
@@ -175,6 +192,17 @@ def fmu_data(tr, model_name: str, title: str, signals: dict | None = None, w0=No
         sig = signals.pop(name, None)
         inputs.append(FmuInput(name, None, i, _start(sig), sig, "1",
                                f"apply fraction of {e.kind} {e.name} (capacity = apply x capacity); <= 0: released"))
+    eng = None
+    if engine is not None:
+        eng = _engine(engine, tr)
+        eng["throttle_input"] = len(inputs)
+        inputs.append(FmuInput("throttle", None, None, _start(engine.throttle), engine.throttle, "1",
+                               "throttle demand [0-1] of the engine map (before the idle governor)"))
+        eng["request_input"] = -1
+        if engine.request is not None:
+            eng["request_input"] = len(inputs)
+            inputs.append(FmuInput("torque_request", None, None, _start(engine.request), engine.request, "1",
+                                   "torque-request factor of the shifts (1: none)"))
     if signals:
         raise FmuError(f"{model_name}: no input for the signal(s) {', '.join(sorted(signals))}")
     points = set()
@@ -195,11 +223,33 @@ def fmu_data(tr, model_name: str, title: str, signals: dict | None = None, w0=No
               "air_density": float(driveline.air_density), "cd_a": float(driveline.cd_a),
               "wheel_radius": float(driveline.wheel_radius), "final_drive": float(driveline.final_drive),
               "column": int(tr.input_index["T_out"])}
-        w0 = w0 + [float(x) for x in driveline.initial_state(np.asarray(w0))]
+    if eng is not None and eng["kind"] == "converter":
+        w0 = w0 + [float(x) for x in engine.initial_state(np.asarray(w0))]
+    if driveline is not None:
+        w0 = w0 + [float(x) for x in driveline.initial_state(np.asarray(w0[:len(tr.links)]))]
     gears = [(g.name, tuple(g.engaged)) for g in tr.mech.gears if g.kind == "gear"]
     return FmuData(title, model_name, list(tr.links), [float(x) for x in tr.inertia], elements, np.asarray(tr.P, float),
                    groups, len(tr.inputs), modes, implied, gears, inputs, w0, float(slip_tol),
-                   sorted(float(p) for p in points if math.isfinite(p)), source, dl)
+                   sorted(float(p) for p in points if math.isfinite(p)), source, dl, eng)
+
+
+def _engine(engine, tr) -> dict:
+    """The numbers of an engine map (and its converter) for the C code."""
+    from transgen.sim.components import EngineMap, EngineWithConverter
+
+    if type(engine.engine) is not EngineMap:
+        raise FmuError(f"the engine model {type(engine.engine).__name__} cannot be exported (only a torque map)")
+    m = engine.engine
+    out = {"kind": "converter" if isinstance(engine, EngineWithConverter) else "link", "link": int(engine.link),
+           "column": int(tr.input_index["T_in"]), "speeds": list(m.speeds), "throttles": list(m.throttles),
+           "table": [x for row in m.torque for x in row], "idle": 0.0, "J": 0.0}
+    if out["kind"] == "converter":
+        if not hasattr(engine.converter, "tables"):
+            raise FmuError(f"the converter model {type(engine.converter).__name__} cannot be exported")
+        sr, c, ratio, csr, cc = engine.converter.tables()
+        out.update(idle=float(engine.idle), J=float(engine.J_engine), sr=list(sr), c=list(c), tr=list(ratio),
+                   csr=list(csr), cc=list(cc))
+    return out
 
 
 def _start(signal) -> float:

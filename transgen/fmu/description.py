@@ -46,20 +46,31 @@ def variables(d: FmuData) -> list[Variable]:
     for k, link in enumerate(d.links):
         out.append(Variable(f"w_{link}", vr["W"] + k, "Real", "output", "continuous", "exact", d.w0[k], "rad/s",
                             f"speed of link {link} (a state; its start value is the initial speed)"))
-    nl = len(d.links)
+    nl, xd = len(d.links), d.driveline_state
+    if d.engine_state:
+        out.append(Variable("omega_engine", vr["W"] + nl, "Real", "output", "continuous", "exact", d.w0[nl], "rad/s",
+                            "engine speed (a state; the converter's pump)"))
     if d.driveline:
-        out.append(Variable("theta_ds", vr["W"] + nl, "Real", "output", "continuous", "exact", d.w0[nl], "rad",
+        out.append(Variable("theta_ds", vr["W"] + xd, "Real", "output", "continuous", "exact", d.w0[xd], "rad",
                             "driveshaft twist, output side minus vehicle side (a state)"))
-        out.append(Variable("omega_v", vr["W"] + nl + 1, "Real", "output", "continuous", "exact", d.w0[nl + 1],
+        out.append(Variable("omega_v", vr["W"] + xd + 1, "Real", "output", "continuous", "exact", d.w0[xd + 1],
                             "rad/s", "vehicle-side speed referred to the driveshaft (a state)"))
     for k, link in enumerate(d.links):
         out.append(Variable(f"der(w_{link})", vr["DER"] + k, "Real", "local", "continuous", "calculated", None,
                             "rad/s2", f"acceleration of link {link}", vr["W"] + k))
+    if d.engine_state:
+        out.append(Variable("der(omega_engine)", vr["DER"] + nl, "Real", "local", "continuous", "calculated", None,
+                            "rad/s2", "engine acceleration", vr["W"] + nl))
+    if d.engine:
+        out.append(Variable("T_in", vr["ENG"], "Real", "output", "continuous", "calculated", None, "N.m",
+                            "torque on the input link: the engine's, or the converter turbine's"))
+        out.append(Variable("T_engine", vr["ENG"] + 1, "Real", "output", "continuous", "calculated", None, "N.m",
+                            "engine torque from the map (with the idle governor and the torque request)"))
     if d.driveline:
-        out.append(Variable("der(theta_ds)", vr["DER"] + nl, "Real", "local", "continuous", "calculated", None,
-                            "rad/s", "twist rate of the driveshaft", vr["W"] + nl))
-        out.append(Variable("der(omega_v)", vr["DER"] + nl + 1, "Real", "local", "continuous", "calculated", None,
-                            "rad/s2", "vehicle-side acceleration referred to the driveshaft", vr["W"] + nl + 1))
+        out.append(Variable("der(theta_ds)", vr["DER"] + xd, "Real", "local", "continuous", "calculated", None,
+                            "rad/s", "twist rate of the driveshaft", vr["W"] + xd))
+        out.append(Variable("der(omega_v)", vr["DER"] + xd + 1, "Real", "local", "continuous", "calculated", None,
+                            "rad/s2", "vehicle-side acceleration referred to the driveshaft", vr["W"] + xd + 1))
         out.append(Variable("T_out", vr["DL"], "Real", "output", "continuous", "calculated", None, "N.m",
                             "driveshaft torque delivered by the output link (k*theta + c*(w_out - omega_v))"))
         out.append(Variable("vehicle_speed", vr["DL"] + 1, "Real", "output", "continuous", "calculated", None,

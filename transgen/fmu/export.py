@@ -6,9 +6,9 @@ From a ``.mech`` file: the transmission alone; inputs ``T_in`` (input torque), `
 From a scenario: its mechanism with the scenario's element data and initial speeds, and its
 time signals built in as the inputs' defaults (an input the importer never sets follows the
 scenario's signal, so the FMU alone reproduces ``transgen simulate``) and its driveline
-(driveshaft spring-damper and vehicle) where it has one. Scenarios with other components (an
-engine map, a torque converter, the turbodiesel, an automatic schedule) are refused with a
-message naming what is not supported yet.
+(driveshaft spring-damper and vehicle) and its engine map (on the input link or behind the torque
+converter) where it has them. Scenarios with other components (the turbodiesel, an automatic
+schedule) are refused with a message naming what is not supported yet.
 """
 from __future__ import annotations
 
@@ -51,7 +51,7 @@ def load_source(source: str | Path, model_name: str, overrides=None) -> FmuData:
 
 
 def _scenario_data(source: str, model_name: str, overrides) -> FmuData:
-    from transgen.sim.components import Driveline, InputTorque, LinkLoad
+    from transgen.sim.components import Driveline, EngineOnLink, EngineWithConverter, InputTorque, LinkLoad
     from transgen.sim.scenario import load_scenario
 
     sc = load_scenario(source, overrides)
@@ -64,7 +64,7 @@ def _scenario_data(source: str, model_name: str, overrides) -> FmuData:
     if pt.controllers:
         raise FmuError(f"{where}: an automatic shift schedule (a controller) cannot be exported yet; "
                        f"export the mechanism (NAME.mech) and drive its applies from the importer")
-    signals, driveline = {}, None
+    signals, driveline, engine = {}, None, None
     for c in pt.components:
         form = c.kernel_form()
         if isinstance(c, InputTorque):
@@ -73,19 +73,21 @@ def _scenario_data(source: str, model_name: str, overrides) -> FmuData:
             signals["T_out"] = c.signal
         elif isinstance(c, Driveline):
             driveline = c
+        elif isinstance(c, (EngineOnLink, EngineWithConverter)) and form is not None:
+            engine = c
         else:
             kind = type(c).__name__
             what = {"TurbodieselSource": "the turbodiesel engine (its air path and turbocharger)",
                     "ConverterComponent": "a torque converter",
                     "EngineOnLink": "an engine map", "EngineWithConverter": "an engine map with a torque converter"}.get(kind, f"the component {form[0] if form else kind}")
             raise FmuError(f"{where}: {what} cannot be exported to an FMU by this version; supported: an input "
-                           f"torque signal, an output torque signal and a driveline with a vehicle (export the mechanism NAME.mech and "
+                           f"torque signal or an engine map (with a converter), an output torque signal or a driveline (export the mechanism NAME.mech and "
                            f"connect the rest in the importing tool)")
     for e in tr.elements:
         if e.kind != "oneway":
             signals[f"apply_{e.name}"] = e.apply
     return fmu_data(tr, model_name, sc.title, signals, pt.initial_speeds, sc.options.slip_tol, sc.options.t_end,
-                    source=sc.path.name, driveline=driveline)
+                    source=sc.path.name, driveline=driveline, engine=engine)
 
 
 def fmu_files(d: FmuData, fmi: int = 2, interface: str = "both") -> dict[str, bytes]:
