@@ -23,6 +23,9 @@ from .description import model_description
 __all__ = ["export_fmu", "load_source", "fmu_files", "INTERFACES"]
 
 INTERFACES = {"me": ("me",), "cs": ("cs",), "both": ("me", "cs")}
+#: the model-independent runtime (``c/``): the FMI glue file of the version includes tg_model.c,
+#: which includes the other two
+RUNTIME_FILES = ("tg_model.c", "tg_decide.c", "tg_components.c")
 
 
 def model_identifier(name: str) -> str:
@@ -98,8 +101,8 @@ def fmu_files(d: FmuData, fmi: int = 2, interface: str = "both") -> dict[str, by
         raise FmuError(f"--interface must be me, cs or both, not {interface}")
     guid = d.guid(f"fmi{fmi}")
     glue = f"tg_fmi{fmi}.c"
-    sources = {"model_data.h": model_data_h(d, guid), "model_signals.h": model_signals_h(d),
-               "tg_model.c": (RUNTIME / "tg_model.c").read_text(), glue: (RUNTIME / glue).read_text()}
+    sources = {"model_data.h": model_data_h(d, guid), "model_signals.h": model_signals_h(d)}
+    sources.update({name: (RUNTIME / name).read_text() for name in RUNTIME_FILES + (glue,)})
     folder, suffix = platform_folder(fmi)
     import tempfile
 
