@@ -39,7 +39,7 @@ def cmd_fmu(args) -> int:
     info = {"path": str(out), "fmi": args.fmi, "interfaces": list(INTERFACES[args.interface]),
             "model_identifier": d.model_name, "source": d.source, "bytes": len(data),
             "sha256": hashlib.sha256(data).hexdigest(), "states": len(d.links),
-            "event_indicators": 2 * len(d.elements), "modes": [d.mode_label(m) for m in d.mode_masks],
+            "event_indicators": d.n_indicators, "modes": [d.mode_label(m) for m in d.mode_masks],
             "inputs": [{"name": i.name, "built_in_signal": i.signal is not None} for i in d.inputs],
             "outputs": [v.name for v in vs if v.causality == "output"],
             "parameters": [v.name for v in vs if v.causality == "parameter"]}
@@ -48,7 +48,7 @@ def cmd_fmu(args) -> int:
         return 0
     kind = " + ".join({"me": "Model Exchange", "cs": "Co-Simulation"}[i] for i in INTERFACES[args.interface])
     print(f"wrote {out}: FMI {args.fmi}.0 {kind}, {len(d.links)} states, {len(d.mode_masks)} modes, "
-          f"{2 * len(d.elements)} event indicators, {len(data)} bytes")
+          f"{d.n_indicators} event indicators, {len(data)} bytes")
     builtin = [i.name for i in d.inputs if i.signal is not None]
     if builtin:
         print(f"  inputs with the scenario's signals as defaults: {', '.join(builtin)}")

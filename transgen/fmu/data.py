@@ -72,6 +72,14 @@ class FmuData:
     source: str = ""
     driveline: dict | None = None
     engine: dict | None = None
+    schedule: dict | None = None
+    stop_time: float | None = None  # the scenario's t_end [s]: the FMU's default experiment
+    rtol: float | None = None  # the scenario's relative tolerance: the default experiment's
+
+    @property
+    def n_indicators(self) -> int:
+        """Two event indicators per element, and an upshift and a downshift one with a schedule."""
+        return 2 * len(self.elements) + (2 if self.schedule else 0)
 
     @property
     def engine_state(self) -> bool:
@@ -117,13 +125,14 @@ class FmuData:
         h.update(repr((self.title, self.links, self.inertias, self.elements, self.P.tolist(), self.groups,
                        [None if m is None else (m[0], m[1], m[2].tolist(), m[3].tolist(), m[4].tolist(), m[5])
                         for m in self.modes], [(i.name, i.start, repr(i.signal)) for i in self.inputs],
-                       self.w0, self.slip_tol, self.breakpoints, self.driveline, self.engine, extra)).encode())
+                       self.w0, self.slip_tol, self.breakpoints, self.driveline, self.engine, repr(self.schedule), extra)).encode())
         d = h.hexdigest()
         return "{" + f"{d[:8]}-{d[8:12]}-{d[12:16]}-{d[16:20]}-{d[20:32]}" + "}"
 
 
 def fmu_data(tr, model_name: str, title: str, signals: dict | None = None, w0=None, slip_tol: float = 1e-7,
-             t_end: float | None = None, source: str = "", driveline=None, engine=None) -> FmuData:
+             t_end: float | None = None, source: str = "", driveline=None, engine=None,
+             schedule=None, rtol: float | None = None) -> FmuData:
     """The FMU tables of the transmission ``tr`` (:class:`~transgen.sim.transmission.Transmission`).
 
     ``signals``: built-in signals by input name (``T_in``, ``T_out``, ``apply_<element>``): the
@@ -133,7 +142,8 @@ def fmu_data(tr, model_name: str, title: str, signals: dict | None = None, w0=No
     twist and vehicle-side speed are states); ``engine``: an
     :class:`~transgen.sim.components.EngineOnLink` or
     :class:`~transgen.sim.components.EngineWithConverter` on the input (``T_in``; its throttle and
-    torque request are inputs, with their signals as defaults)."""
+    torque request are inputs, with their signals as defaults); ``schedule``: an
+    :class:`~transgen.sim.schedule.AutoShift` (its shift lines, templates and gear sequence)."""
     signals = dict(signals or {})
     n = len(tr.elements)
     if n > MAX_ELEMENTS:
@@ -203,6 +213,7 @@ def fmu_data(tr, model_name: str, title: str, signals: dict | None = None, w0=No
             eng["request_input"] = len(inputs)
             inputs.append(FmuInput("torque_request", None, None, _start(engine.request), engine.request, "1",
                                    "torque-request factor of the shifts (1: none)"))
+    sched = None if schedule is None else _schedule(schedule, tr, engine, inputs)
     if signals:
         raise FmuError(f"{model_name}: no input for the signal(s) {', '.join(sorted(signals))}")
     points = set()
@@ -230,7 +241,8 @@ def fmu_data(tr, model_name: str, title: str, signals: dict | None = None, w0=No
     gears = [(g.name, tuple(g.engaged)) for g in tr.mech.gears if g.kind == "gear"]
     return FmuData(title, model_name, list(tr.links), [float(x) for x in tr.inertia], elements, np.asarray(tr.P, float),
                    groups, len(tr.inputs), modes, implied, gears, inputs, w0, float(slip_tol),
-                   sorted(float(p) for p in points if math.isfinite(p)), source, dl, eng)
+                   sorted(float(p) for p in points if math.isfinite(p)), source, dl, eng, sched,
+                   None if t_end is None else float(t_end), None if rtol is None else float(rtol))
 
 
 def _engine(engine, tr) -> dict:
@@ -250,6 +262,38 @@ def _engine(engine, tr) -> dict:
         out.update(idle=float(engine.idle), J=float(engine.J_engine), sr=list(sr), c=list(c), tr=list(ratio),
                    csr=list(csr), cc=list(cc))
     return out
+
+
+def _schedule(auto, tr, engine, inputs) -> dict:
+    """The numbers of an automatic shift schedule (:class:`~transgen.sim.schedule.AutoShift`) for
+    the C code: the shifts up the order, then down, each with its oncoming and offgoing elements
+    (bit masks, one-way clutches left out) and its template's apply numbers."""
+    from transgen.sim.schedule import ShiftTemplate, gear_swap
+
+    oneway = frozenset(e.name for e in tr.elements if e.kind == "oneway")
+    fields = ("fill_time", "fill_level", "ramp_time", "ramp_end", "hold_time", "final_time", "offgoing_delay",
+              "offgoing_level", "offgoing_ramp")
+    templates, shifts = [], []
+    pairs = list(zip(auto.order, auto.order[1:])) + [(b, a) for a, b in zip(auto.order, auto.order[1:])]
+    for source, target in pairs:
+        template = auto.templates.get(f"{source}-{target}", auto.template)
+        if not isinstance(template, ShiftTemplate) or template.torque_intervention:
+            raise FmuError(f"shift {source}-{target}: an automatic schedule's engine torque intervention cannot be "
+                           f"exported yet")
+        numbers = [float(getattr(template, f)) for f in fields]
+        if numbers not in templates:
+            templates.append(numbers)
+        on, off = gear_swap(auto.gears, source, target, oneway)
+        shifts.append((sum(1 << tr.element_index[n] for n in on), sum(1 << tr.element_index[n] for n in off),
+                       templates.index(numbers)))
+    throttle_in = -1
+    if engine is not None and auto.throttle == engine.throttle:
+        throttle_in = next(k for k, i in enumerate(inputs) if i.name == "throttle")
+    return {"order": list(auto.order), "gear0": auto.order.index(auto.gear), "output": int(auto.output),
+            "throttle_points": [float(x) for x in auto.throttle_points],
+            "up": [float(x) for row in auto.upshift for x in row], "down": [float(x) for row in auto.downshift for x in row],
+            "min_interval": float(auto.min_interval), "templates": templates, "shifts": shifts,
+            "throttle_input": throttle_in, "throttle": auto.throttle}
 
 
 def _start(signal) -> float:

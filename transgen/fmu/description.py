@@ -123,6 +123,12 @@ def variables(d: FmuData) -> list[Variable]:
         out.append(Variable(f"indicator_apply_{e['name']}", vr["Z"] + 2 * i + 1, "Real", "local", "continuous",
                             "calculated", None, None,
                             f"event indicator {2 * i + 1}: the apply of {e['name']} crossing zero while it slips"))
+    if d.schedule:
+        for k, kind in enumerate(("upshift", "downshift")):
+            out.append(Variable(f"indicator_{kind}", vr["Z"] + 2 * len(d.elements) + k, "Real", "local",
+                                "continuous", "calculated", None, None,
+                                f"event indicator {2 * len(d.elements) + k}: the automatic schedule's {kind} line "
+                                f"crossed (and min_interval passed)"))
     return out
 
 
@@ -142,6 +148,18 @@ def _units(vs: list[Variable], fmi: int) -> str:
         lines.append(f'    <Unit name="{name}">\n      <BaseUnit {attrs}/>\n    </Unit>\n')
     lines.append("  </UnitDefinitions>\n")
     return "".join(lines)
+
+
+#: the relative tolerance a transmission alone recommends to a Model Exchange importer (its default
+#: experiment; a scenario's is its own ``rtol``, at most this): at FMPy's own default (1e-4)
+#: CVode's error over a 50 s launch moves a slow unlock by 2 ms
+TOLERANCE = 1e-6
+
+
+def _experiment(d: FmuData) -> str:
+    stop = "" if d.stop_time is None else f' stopTime="{d.stop_time!r}"'
+    tol = TOLERANCE if d.rtol is None else min(TOLERANCE, d.rtol)
+    return f'  <DefaultExperiment startTime="0.0"{stop} tolerance="{tol!r}"/>\n'
 
 
 def _fmt(v) -> str:
@@ -167,7 +185,7 @@ def _fmi2(d, vs, ident, desc, interfaces, guid) -> str:
     head = ['<?xml version="1.0" encoding="UTF-8"?>\n',
             f'<fmiModelDescription fmiVersion="2.0" modelName={quoteattr(ident)} guid="{guid}"\n'
             f'  description={quoteattr(desc)}\n  generationTool="transgen" variableNamingConvention="flat"\n'
-            f'  numberOfEventIndicators="{2 * ne}">\n']
+            f'  numberOfEventIndicators="{d.n_indicators}">\n']
     if "me" in interfaces:
         head.append(f'  <ModelExchange modelIdentifier="{ident}" canGetAndSetFMUstate="true" '
                     f'canSerializeFMUstate="true"/>\n')
@@ -175,7 +193,7 @@ def _fmi2(d, vs, ident, desc, interfaces, guid) -> str:
         head.append(f'  <CoSimulation modelIdentifier="{ident}" canHandleVariableCommunicationStepSize="true" '
                     f'canGetAndSetFMUstate="true" canSerializeFMUstate="true"/>\n')
     head.append(_units(vs, 2))
-    head.append('  <DefaultExperiment startTime="0.0"/>\n')
+    head.append(_experiment(d))
     body = ["  <ModelVariables>\n"]
     index = {}
     for k, v in enumerate(vs, 1):
@@ -219,7 +237,7 @@ def _fmi3(d, vs, ident, desc, interfaces, guid) -> str:
         head.append(f'  <CoSimulation modelIdentifier="{ident}" canHandleVariableCommunicationStepSize="true" '
                     f'canGetAndSetFMUState="true" canSerializeFMUState="true" hasEventMode="false"/>\n')
     head.append(_units(vs, 3))
-    head.append('  <DefaultExperiment startTime="0.0"/>\n')
+    head.append(_experiment(d))
     body = ["  <ModelVariables>\n",
             f'    <Float64 name="time" valueReference="{vr["TIME"]}" causality="independent" variability="continuous" '
             f'description="simulation time" unit="s"/>\n']
@@ -241,6 +259,6 @@ def _fmi3(d, vs, ident, desc, interfaces, guid) -> str:
     body += [f'    <ContinuousStateDerivative valueReference="{v.vr}"/>\n' for v in vs if v.derivative_of is not None]
     body += [f'    <InitialUnknown valueReference="{v.vr}"/>\n' for v in vs
              if (v.causality == "output" and v.initial == "calculated") or v.derivative_of is not None]
-    body += [f'    <EventIndicator valueReference="{vr["Z"] + k}"/>\n' for k in range(2 * ne)]
+    body += [f'    <EventIndicator valueReference="{vr["Z"] + k}"/>\n' for k in range(d.n_indicators)]
     body.append("  </ModelStructure>\n</fmiModelDescription>\n")
     return "".join(head + body)

@@ -25,7 +25,7 @@ __all__ = ["export_fmu", "load_source", "fmu_files", "INTERFACES"]
 INTERFACES = {"me": ("me",), "cs": ("cs",), "both": ("me", "cs")}
 #: the model-independent runtime (``c/``): the FMI glue file of the version includes tg_model.c,
 #: which includes the other two
-RUNTIME_FILES = ("tg_model.c", "tg_decide.c", "tg_components.c")
+RUNTIME_FILES = ("tg_model.c", "tg_decide.c", "tg_components.c", "tg_schedule.c")
 
 
 def model_identifier(name: str) -> str:
@@ -64,9 +64,10 @@ def _scenario_data(source: str, model_name: str, overrides) -> FmuData:
     if sc.options.model != "switching":
         raise FmuError(f"{where}: the FMU export follows the switching model; this scenario uses the "
                        f"{sc.options.model} model")
-    if pt.controllers:
-        raise FmuError(f"{where}: an automatic shift schedule (a controller) cannot be exported yet; "
-                       f"export the mechanism (NAME.mech) and drive its applies from the importer")
+    from transgen.sim.schedule import AutoShift
+
+    if len(pt.controllers) > 1 or any(not isinstance(c, AutoShift) for c in pt.controllers):
+        raise FmuError(f"{where}: only one automatic shift schedule ([auto_shift]) can be exported")
     signals, driveline, engine = {}, None, None
     for c in pt.components:
         form = c.kernel_form()
@@ -90,7 +91,8 @@ def _scenario_data(source: str, model_name: str, overrides) -> FmuData:
         if e.kind != "oneway":
             signals[f"apply_{e.name}"] = e.apply
     return fmu_data(tr, model_name, sc.title, signals, pt.initial_speeds, sc.options.slip_tol, sc.options.t_end,
-                    source=sc.path.name, driveline=driveline, engine=engine)
+                    source=sc.path.name, driveline=driveline, engine=engine,
+                    schedule=pt.controllers[0] if pt.controllers else None, rtol=sc.options.rtol)
 
 
 def fmu_files(d: FmuData, fmi: int = 2, interface: str = "both") -> dict[str, bytes]:

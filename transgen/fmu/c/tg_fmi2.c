@@ -241,10 +241,10 @@ fmi2Status fmi2GetDerivatives(fmi2Component c, fmi2Real derivatives[], size_t nx
 
 fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real indicators[], size_t ni) {
     Instance *x = (Instance *)c;
-    double z[2 * TG_NE + 1];
+    double z[TG_NZ + 1];
     if (tg_start(&x->m)) return tg_fail(x);
     tg_indicators(&x->m, x->m.t, x->m.w, z);
-    for (size_t k = 0; k < ni && k < 2 * TG_NE; k++) indicators[k] = z[k];
+    for (size_t k = 0; k < ni && k < TG_NZ; k++) indicators[k] = z[k];
     return fmi2OK;
 }
 

@@ -354,10 +354,10 @@ fmi3Status fmi3GetContinuousStateDerivatives(fmi3Instance c, fmi3Float64 derivat
 
 fmi3Status fmi3GetEventIndicators(fmi3Instance c, fmi3Float64 indicators[], size_t ni) {
     Instance *x = (Instance *)c;
-    double z[2 * TG_NE + 1];
+    double z[TG_NZ + 1];
     if (tg_start(&x->m)) return tg_fail(x);
     tg_indicators(&x->m, x->m.t, x->m.w, z);
-    for (size_t k = 0; k < ni && k < 2 * TG_NE; k++) indicators[k] = z[k];
+    for (size_t k = 0; k < ni && k < TG_NZ; k++) indicators[k] = z[k];
     return fmi3OK;
 }
 
@@ -375,7 +375,7 @@ fmi3Status fmi3GetNominalsOfContinuousStates(fmi3Instance c, fmi3Float64 nominal
 
 fmi3Status fmi3GetNumberOfEventIndicators(fmi3Instance c, size_t *n) {
     (void)c;
-    *n = 2 * TG_NE;
+    *n = TG_NZ;
     return fmi3OK;
 }
 

@@ -26,6 +26,11 @@
 #define TG_DOG 2
 #define TG_MAX_CANDIDATES 64
 #define TG_MAX_SAME_TIME 50
+#define TG_SPLICE_MAX 8
+#ifndef TG_SCHEDULE
+#define TG_SCHEDULE 0
+#endif
+#define TG_NZ (2 * TG_NE + 2 * TG_SCHEDULE) /* event indicators */
 
 typedef struct {
     double t;
@@ -50,6 +55,11 @@ typedef struct {
     double same_time;
     int same_count;
     long n_events;
+    int gear_k;                 /* the schedule's gear (position in its order) */
+    double last_shift;          /* when it commanded the last shift [s] */
+    double ov_t0[TG_NE + 1];    /* an element's apply replaced by a shift from this time on */
+    int ov_n[TG_NE + 1];
+    double ov_t[TG_NE + 1][TG_SPLICE_MAX], ov_v[TG_NE + 1][TG_SPLICE_MAX];
     char msg[1024];
 } TG;
 
@@ -95,7 +105,9 @@ static double tg_input(const TG *m, int k, double t) {
 
 static double tg_apply_raw(const TG *m, int e, double t) {
     int k = TG_APPLY_IN[e];
-    return k < 0 ? 0.0 : tg_input(m, k, t);
+    if (k < 0) return 0.0;
+    if (m->ov_n[e] && t >= m->ov_t0[e] && !m->in_set[k]) return tg_table(t, m->ov_t[e], m->ov_v[e], m->ov_n[e]);
+    return tg_input(m, k, t);
 }
 
 static double tg_apply_at(const TG *m, int e, double t) {
@@ -141,6 +153,7 @@ static void tg_slips(const double *w, double *slips) {
 
 /* the driveline and the engine map with its converter */
 #include "tg_components.c"
+#include "tg_schedule.c"
 
 /* the external torques at (t, w): the inputs, and the driveline's shaft torque as T_out */
 static void tg_external(const TG *m, double t, const double *w, double *u) {
@@ -232,18 +245,24 @@ static double tg_holding_margin(const TG *m, unsigned mask, int row, double t, d
 /* ----------------------------------------------------------------------- segments */
 
 /* where a segment starting at t evaluates its signals at its start (simulator: signal_time) */
-static double tg_signal_time(double t) {
+static double tg_signal_time(const TG *m, double t) {
     double after = t + 1e-12 * fmax(1.0, fabs(t)), best = t;
     for (int k = 0; k < TG_NBP; k++)
         if (TG_BP[k] > t && TG_BP[k] <= after) best = TG_BP[k];
+    for (int e = 0; e < TG_NE; e++) /* the breakpoints of the applies a shift replaced */
+        for (int k = 0; k < m->ov_n[e]; k++)
+            if (m->ov_t[e][k] > t && m->ov_t[e][k] <= after) best = fmax(best, m->ov_t[e][k]);
     return best;
 }
 
-static double tg_next_stop(double t) {
-    double after = t + 1e-12 * fmax(1.0, fabs(t));
+static double tg_next_stop(const TG *m, double t) {
+    double after = t + 1e-12 * fmax(1.0, fabs(t)), stop = INFINITY;
     for (int k = 0; k < TG_NBP; k++)
-        if (TG_BP[k] > after) return TG_BP[k];
-    return INFINITY;
+        if (TG_BP[k] > after) { stop = TG_BP[k]; break; }
+    for (int e = 0; e < TG_NE; e++)
+        for (int k = 0; k < m->ov_n[e]; k++)
+            if (m->ov_t[e][k] > after && m->ov_t[e][k] < stop) stop = m->ov_t[e][k];
+    return stop;
 }
 
 /* the signals' time of a point of the current segment */
@@ -301,6 +320,9 @@ static void tg_indicators(const TG *m, double t, const double *w, double *z) {
                 z[2 * e + 1] = m->apply_dir[e] * (tg_apply_raw(m, e, ts) - TG_APPLY_THRESHOLD) + TG_APPLY_HYSTERESIS;
         }
     }
+#if TG_SCHEDULE
+    tg_sched_indicators(m, t, w, z + 2 * TG_NE);
+#endif
 }
 
 /* The decision at an event or a breakpoint at time m->t (simulate_switching's loop body): the
@@ -325,6 +347,9 @@ static int tg_event(TG *m) {
                 forced[TG_ROW_MEMBERS[TG_ROW_START[o] + k]] = side * TG_ROW_SIGNS[TG_ROW_START[o] + k];
         }
     }
+#if TG_SCHEDULE
+    if (m->started) tg_sched_event(m);
+#endif
     double t = m->t;
     /* decided again at the same instant (an input changed; the importer's time may differ from the
      * located event's by round-off): the torque events that fired then still decide their elements */
@@ -342,7 +367,7 @@ static int tg_event(TG *m) {
         m->same_time = t;
         m->same_count = 0;
     }
-    double t_sig = tg_signal_time(t);
+    double t_sig = tg_signal_time(m, t);
     double u_ext[TG_NU + 1];
     tg_external(m, t_sig, m->w, u_ext);
     double tol = fmax(1e-9, m->slip_tol_rel * fmax(1.0, tg_max_abs(m->w, TG_NL)));
@@ -403,7 +428,7 @@ static int tg_event(TG *m) {
     }
     m->tol = tol;
     m->t_sig = t_sig;
-    m->t_stop = tg_next_stop(t);
+    m->t_stop = tg_next_stop(m, t);
     m->started = 1;
     m->fresh = 1;
     m->in_changed = 0;
@@ -495,7 +520,7 @@ static void tg_rk4(const TG *m, double t, const double *w, double h, double *out
 }
 
 static int tg_crossed(const double *z0, const double *z1) {
-    for (int k = 0; k < 2 * TG_NE; k++)
+    for (int k = 0; k < TG_NZ; k++)
         if (z0[k] > 0.0 && z1[k] <= 0.0) return 1;
     return 0;
 }
@@ -516,7 +541,7 @@ static int tg_cs_step(TG *m, double t_end) {
         while (m->t < t1 && !event) {
             double h = fmin(m->cs_step, t1 - m->t);
             if (t1 - (m->t + h) < 1e-12 * fmax(1.0, fabs(t1))) h = t1 - m->t;
-            double z0[2 * TG_NE + 1], z1[2 * TG_NE + 1], w1[TG_NX + 1];
+            double z0[TG_NZ + 1], z1[TG_NZ + 1], w1[TG_NX + 1];
             tg_indicators(m, m->t, m->w, z0);
             tg_rk4(m, m->t, m->w, h, w1);
             double tn = m->t + h >= t1 ? t1 : m->t + h;
@@ -526,7 +551,7 @@ static int tg_cs_step(TG *m, double t_end) {
                 double wh[TG_NX + 1];
                 memcpy(wh, w1, sizeof wh);
                 for (int it = 0; it < 200 && hi - lo > 1e-14 * fmax(1.0, fabs(m->t)); it++) {
-                    double mid = 0.5 * (lo + hi), wm[TG_NX + 1], zm[2 * TG_NE + 1];
+                    double mid = 0.5 * (lo + hi), wm[TG_NX + 1], zm[TG_NZ + 1];
                     tg_rk4(m, m->t, m->w, mid, wm);
                     tg_indicators(m, m->t + mid, wm, zm);
                     if (tg_crossed(z0, zm)) {
@@ -566,6 +591,10 @@ static void tg_reset(TG *m) {
     m->cs_step = TG_CS_STEP;
     m->t_stop = INFINITY;
     m->same_time = -INFINITY;
+#if TG_SCHEDULE
+    m->gear_k = TG_SCHED_GEAR0;
+#endif
+    m->last_shift = -1e9;
 }
 
 static int tg_mode_index(const TG *m) { return TG_MODE_INDEX[m->locked]; }
@@ -613,8 +642,8 @@ static int tg_get_real(TG *m, unsigned vr, double *value) {
     if (vr == TG_VR_DL) { *value = tg_shaft_torque(m->w); return 0; }
     if (vr == TG_VR_DL + 1) { *value = m->w[TG_DL_X + 1] * TG_DL_RADIUS / TG_DL_FINAL; return 0; }
 #endif
-    if (vr >= TG_VR_Z && vr < TG_VR_Z + 2 * TG_NE) {
-        double z[2 * TG_NE + 1];
+    if (vr >= TG_VR_Z && vr < TG_VR_Z + TG_NZ) {
+        double z[TG_NZ + 1];
         tg_indicators(m, m->t, m->w, z);
         *value = z[vr - TG_VR_Z];
         return 0;
