@@ -180,20 +180,25 @@ def model_description(d: FmuData, fmi: int, interfaces: tuple[str, ...], guid: s
     return (_fmi2 if fmi == 2 else _fmi3)(d, vs, ident, desc, interfaces, guid)
 
 
+def _interfaces(ident: str, interfaces, state: str, cs_extra: str) -> str:
+    """The ModelExchange and CoSimulation elements (``state``: FMI 2 spells ``FMUstate``, FMI 3
+    ``FMUState``)."""
+    flags = f'canGetAndSet{state}="true" canSerialize{state}="true"'
+    out = ""
+    if "me" in interfaces:
+        out += f'  <ModelExchange modelIdentifier="{ident}" {flags}/>\n'
+    if "cs" in interfaces:
+        out += (f'  <CoSimulation modelIdentifier="{ident}" canHandleVariableCommunicationStepSize="true" '
+                f'{flags}{cs_extra}/>\n')
+    return out
+
+
 def _fmi2(d, vs, ident, desc, interfaces, guid) -> str:
-    nl, ne = len(d.links), len(d.elements)
     head = ['<?xml version="1.0" encoding="UTF-8"?>\n',
             f'<fmiModelDescription fmiVersion="2.0" modelName={quoteattr(ident)} guid="{guid}"\n'
             f'  description={quoteattr(desc)}\n  generationTool="transgen" variableNamingConvention="flat"\n'
             f'  numberOfEventIndicators="{d.n_indicators}">\n']
-    if "me" in interfaces:
-        head.append(f'  <ModelExchange modelIdentifier="{ident}" canGetAndSetFMUstate="true" '
-                    f'canSerializeFMUstate="true"/>\n')
-    if "cs" in interfaces:
-        head.append(f'  <CoSimulation modelIdentifier="{ident}" canHandleVariableCommunicationStepSize="true" '
-                    f'canGetAndSetFMUstate="true" canSerializeFMUstate="true"/>\n')
-    head.append(_units(vs, 2))
-    head.append(_experiment(d))
+    head += [_interfaces(ident, interfaces, "FMUstate", ""), _units(vs, 2), _experiment(d)]
     body = ["  <ModelVariables>\n"]
     index = {}
     for k, v in enumerate(vs, 1):
@@ -220,7 +225,6 @@ def _fmi2(d, vs, ident, desc, interfaces, guid) -> str:
                      or v.derivative_of is not None)
     body += [f'      <Unknown index="{k}"/>\n' for k in initial]
     body.append("    </InitialUnknowns>\n  </ModelStructure>\n</fmiModelDescription>\n")
-    del nl
     return "".join(head + body)
 
 
@@ -230,14 +234,7 @@ def _fmi3(d, vs, ident, desc, interfaces, guid) -> str:
     head = ['<?xml version="1.0" encoding="UTF-8"?>\n',
             f'<fmiModelDescription fmiVersion="3.0" modelName={quoteattr(ident)} instantiationToken="{guid}"\n'
             f'  description={quoteattr(desc)}\n  generationTool="transgen" variableNamingConvention="flat">\n']
-    if "me" in interfaces:
-        head.append(f'  <ModelExchange modelIdentifier="{ident}" canGetAndSetFMUState="true" '
-                    f'canSerializeFMUState="true"/>\n')
-    if "cs" in interfaces:
-        head.append(f'  <CoSimulation modelIdentifier="{ident}" canHandleVariableCommunicationStepSize="true" '
-                    f'canGetAndSetFMUState="true" canSerializeFMUState="true" hasEventMode="false"/>\n')
-    head.append(_units(vs, 3))
-    head.append(_experiment(d))
+    head += [_interfaces(ident, interfaces, "FMUState", ' hasEventMode="false"'), _units(vs, 3), _experiment(d)]
     body = ["  <ModelVariables>\n",
             f'    <Float64 name="time" valueReference="{vr["TIME"]}" causality="independent" variability="continuous" '
             f'description="simulation time" unit="s"/>\n']

@@ -21,12 +21,8 @@ static double tg_road_torque(double omega_v) {
 static int tg_locate(const double *grid, int n, double v, double *frac) {
     if (v <= grid[0]) { *frac = 0.0; return 0; }
     if (v >= grid[n - 1]) { *frac = 1.0; return n - 2; }
-    int lo = 0, hi = n;
-    while (lo < hi) {
-        int mid = (lo + hi) / 2;
-        if (v < grid[mid]) hi = mid; else lo = mid + 1;
-    }
-    int i = lo - 1 < n - 2 ? lo - 1 : n - 2;
+    int i = tg_bisect_right(grid, n, v) - 1;
+    if (i > n - 2) i = n - 2;
     *frac = (v - grid[i]) / (grid[i + 1] - grid[i]);
     return i;
 }
@@ -59,12 +55,7 @@ static double tg_engine_torque(const TG *m, double t, double omega) {
 static double tg_interp1(double x, const double *xs, const double *ys, int n) {
     if (x <= xs[0]) return ys[0];
     if (x >= xs[n - 1]) return ys[n - 1];
-    int lo = 0, hi = n;
-    while (lo < hi) {
-        int mid = (lo + hi) / 2;
-        if (x < xs[mid]) hi = mid; else lo = mid + 1;
-    }
-    int i = lo - 1;
+    int i = tg_bisect_right(xs, n, x) - 1;
     return ys[i] + (ys[i + 1] - ys[i]) * (x - xs[i]) / (xs[i + 1] - xs[i]);
 }
 
@@ -78,12 +69,7 @@ static void tg_converter(double omega_pump, double omega_turbine, double *pump, 
         if (x <= TG_TC_SR[0]) { capacity = TG_TC_C[0]; ratio = TG_TC_TR[0]; }
         else if (x >= TG_TC_SR[TG_TC_N - 1]) { capacity = TG_TC_C[TG_TC_N - 1]; ratio = TG_TC_TR[TG_TC_N - 1]; }
         else {
-            int lo = 0, hi = TG_TC_N;
-            while (lo < hi) {
-                int mid = (lo + hi) / 2;
-                if (x < TG_TC_SR[mid]) hi = mid; else lo = mid + 1;
-            }
-            int i = lo - 1;
+            int i = tg_bisect_right(TG_TC_SR, TG_TC_N, x) - 1;
             double dx = x - TG_TC_SR[i], span = TG_TC_SR[i + 1] - TG_TC_SR[i];
             capacity = TG_TC_C[i] + (TG_TC_C[i + 1] - TG_TC_C[i]) * dx / span;
             ratio = TG_TC_TR[i] + (TG_TC_TR[i + 1] - TG_TC_TR[i]) * dx / span;
@@ -103,7 +89,7 @@ static void tg_converter(double omega_pump, double omega_turbine, double *pump, 
 static double tg_engine_input(const TG *m, double t, const double *w) {
 #if TG_ENGINE == 2
     double pump, turbine;
-    (void)t;
+    (void)t; (void)m;
     tg_converter(w[TG_ENG_X], w[TG_ENG_LINK], &pump, &turbine);
     return turbine;
 #else

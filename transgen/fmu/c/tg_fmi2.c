@@ -135,11 +135,8 @@ fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t 
 
 /* the state of an instance is the plain struct TG: saved, restored and serialized as bytes */
 fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *state) {
-    TG *copy = *state ? (TG *)*state : (TG *)malloc(sizeof(TG));
-    if (!copy) return fmi2Error;
-    *copy = ((Instance *)c)->m;
-    *state = copy;
-    return fmi2OK;
+    *state = tg_state_save(&((Instance *)c)->m, *state);
+    return *state ? fmi2OK : fmi2Error;
 }
 
 fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state) {
@@ -170,12 +167,8 @@ fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate state, fmi2Byte b
 
 fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte bytes[], size_t size, fmi2FMUstate *state) {
     (void)c;
-    if (size != sizeof(TG)) return fmi2Error;
-    TG *copy = (TG *)malloc(sizeof(TG));
-    if (!copy) return fmi2Error;
-    memcpy(copy, bytes, sizeof(TG));
-    *state = copy;
-    return fmi2OK;
+    *state = tg_state_from_bytes(bytes, size);
+    return *state ? fmi2OK : fmi2Error;
 }
 
 fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference vUnknown[], size_t nUnknown,

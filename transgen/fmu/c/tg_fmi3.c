@@ -190,12 +190,10 @@ fmi3Status fmi3GetVariableDependencies(fmi3Instance c, fmi3ValueReference depend
     return tg_refuse(c, "variable dependencies are not provided");
 }
 
+/* the state of an instance is the plain struct TG: saved, restored and serialized as bytes */
 fmi3Status fmi3GetFMUState(fmi3Instance c, fmi3FMUState *state) {
-    TG *copy = *state ? (TG *)*state : (TG *)malloc(sizeof(TG));
-    if (!copy) return fmi3Error;
-    *copy = ((Instance *)c)->m;
-    *state = copy;
-    return fmi3OK;
+    *state = tg_state_save(&((Instance *)c)->m, *state);
+    return *state ? fmi3OK : fmi3Error;
 }
 
 fmi3Status fmi3SetFMUState(fmi3Instance c, fmi3FMUState state) {
@@ -226,12 +224,8 @@ fmi3Status fmi3SerializeFMUState(fmi3Instance c, fmi3FMUState state, fmi3Byte by
 
 fmi3Status fmi3DeserializeFMUState(fmi3Instance c, const fmi3Byte bytes[], size_t size, fmi3FMUState *state) {
     (void)c;
-    if (size != sizeof(TG)) return fmi3Error;
-    TG *copy = (TG *)malloc(sizeof(TG));
-    if (!copy) return fmi3Error;
-    memcpy(copy, bytes, sizeof(TG));
-    *state = copy;
-    return fmi3OK;
+    *state = tg_state_from_bytes(bytes, size);
+    return *state ? fmi3OK : fmi3Error;
 }
 
 fmi3Status fmi3GetDirectionalDerivative(fmi3Instance c, const fmi3ValueReference unknowns[], size_t nUnknowns,

@@ -75,15 +75,20 @@ static double tg_max_abs(const double *x, int n) {
 
 static int tg_sign(double x) { return (x > 0) - (x < 0); }
 
+/* Python's bisect_right: the first index with xs[i] > x */
+static int tg_bisect_right(const double *xs, int n, double x) {
+    int lo = 0, hi = n;
+    while (lo < hi) {
+        int mid = (lo + hi) / 2;
+        if (x < xs[mid]) hi = mid; else lo = mid + 1;
+    }
+    return lo;
+}
+
 static double tg_table(double t, const double *ts, const double *vs, int n) {
     if (t < ts[0]) return vs[0];
     if (t >= ts[n - 1]) return vs[n - 1];
-    int lo = 0, hi = n; /* bisect_right: first index with ts[i] > t */
-    while (lo < hi) {
-        int mid = (lo + hi) / 2;
-        if (t < ts[mid]) hi = mid; else lo = mid + 1;
-    }
-    int i = lo - 1;
+    int i = tg_bisect_right(ts, n, t) - 1;
     return vs[i] + (vs[i + 1] - vs[i]) * (t - ts[i]) / (ts[i + 1] - ts[i]);
 }
 
@@ -437,6 +442,19 @@ static int tg_event(TG *m) {
 }
 
 static int tg_start(TG *m) { return m->started ? 0 : tg_event(m); }
+
+/* a saved state (FMI's get/set/serialize FMU state) is the plain struct TG, copied */
+static void *tg_state_save(const TG *m, void *old) {
+    TG *copy = old ? (TG *)old : (TG *)malloc(sizeof(TG));
+    if (copy) *copy = *m;
+    return copy;
+}
+
+static void *tg_state_from_bytes(const void *bytes, size_t size) {
+    TG *copy = size == sizeof(TG) ? (TG *)malloc(sizeof(TG)) : NULL;
+    if (copy) memcpy(copy, bytes, sizeof(TG));
+    return copy;
+}
 
 /* After the importer changed an input or a parameter between steps: whether the current mode
  * must be decided anew (as at an event), i.e. whether a locked row's torque is now outside its

@@ -10,12 +10,7 @@ static double tg_interp_numpy(double x, const double *xs, const double *ys, int 
     if (x != x) return x;
     if (x < xs[0]) return ys[0];
     if (x >= xs[n - 1]) return ys[n - 1];
-    int lo = 0, hi = n;
-    while (lo < hi) {
-        int mid = (lo + hi) / 2;
-        if (x < xs[mid]) hi = mid; else lo = mid + 1;
-    }
-    int i = lo - 1;
+    int i = tg_bisect_right(xs, n, x) - 1;
     if (xs[i] == x) return ys[i];
     double slope = (ys[i + 1] - ys[i]) / (xs[i + 1] - xs[i]);
     return slope * (x - xs[i]) + ys[i];
