@@ -47,7 +47,7 @@ def test_command_examples_parse_and_name_bundled_things():
             assert target in bundled_mechanisms() or target in bundled_scenarios(), target
 
 
-@pytest.mark.parametrize("command", ["check", "ratios", "graph", "modes", "matrices", "std", "lever", "simulate", "scenario new", "maps", "list", "sweep", "optimize"])
+@pytest.mark.parametrize("command", ["check", "ratios", "graph", "modes", "matrices", "std", "lever", "simulate", "scenario new", "maps", "list", "sweep", "optimize", "fmu"])
 def test_every_command_is_documented(command):
     assert f"transgen {command}" in README
 

@@ -438,6 +438,9 @@ def build_parser() -> argparse.ArgumentParser:
     from .synthesis.cli import add_commands as add_synthesis_commands
 
     add_synthesis_commands(sub)
+    from .fmu.cli import add_commands as add_fmu_commands
+
+    add_fmu_commands(sub)
     _add_sim_commands(sub)
     return p
 
