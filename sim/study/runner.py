@@ -202,9 +202,13 @@ class _ResultsWriter:
     for every row), and always at the end."""
 
     def __init__(self, path):
+        from transgen.outputs import is_stream
+
         self.path = path
         self.next_time = 0.0
         self.dirty = False
+        #: a FIFO, device or standard output is written through once, at the end (not a file to resume from)
+        self.only_final = path is not None and is_stream(path)
 
     def write(self, table: Callable[[], SweepTable], final: bool) -> None:
         """``final=False``: a row completed; ``final=True``: the sweep ends (write what is pending)."""
@@ -212,7 +216,7 @@ class _ResultsWriter:
             return
         self.dirty = self.dirty or not final
         now = time.perf_counter()
-        if not self.dirty or (not final and now < self.next_time):
+        if not self.dirty or (not final and (now < self.next_time or self.only_final)):
             return
         table().to_csv(self.path)
         self.dirty = False
