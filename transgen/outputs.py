@@ -274,11 +274,19 @@ def _copy_to_fd(tmp: str, fd: int) -> None:
 
 def _write_stream(tmp: str, user: str, real: str, fd_number: int | None) -> None:
     """Write the finished temporary file through the stream ``real`` (or the descriptor)."""
+    if fd_number in (1, 2):  # through sys.stdout (sys.stderr), which may be replaced (pytest, a notebook)
+        stream = sys.stdout if fd_number == 1 else sys.stderr
+        stream.flush()
+        buffer = getattr(stream, "buffer", None)
+        with open(tmp, "rb") as src:
+            while chunk := src.read(1 << 20):
+                if buffer is not None:
+                    buffer.write(chunk)
+                else:
+                    stream.write(chunk.decode("utf-8", "replace"))
+        (buffer or stream).flush()
+        return
     if fd_number is not None:
-        if fd_number == 1:
-            sys.stdout.flush()
-        elif fd_number == 2:
-            sys.stderr.flush()
         try:
             fd = os.dup(fd_number)
         except OSError as exc:

@@ -1,7 +1,8 @@
 """Where the runs of a study execute: in this process, in local processes, or on a Dask cluster.
 
-An executor has one method, ``run(fn, shared, tasks)``: it calls ``fn(shared, task)`` for every
-task and yields the results as they complete (in any order). ``shared`` (the scenario's texts)
+An executor has one method, ``run(fn, shared, tasks, on_crash=None)``: it calls ``fn(shared, task)``
+for every task and yields the results as they complete (in any order); a local worker process that
+dies makes its task's result ``on_crash(task, reason)`` (see :meth:`LocalExecutor.run`). ``shared`` (the scenario's texts)
 is the same for every task and sent to each worker once where the engine allows it. ``fn`` must
 be an importable module-level function (it is sent by name). Stopping the iteration early (an
 error, Ctrl-C) cancels the runs not started.
@@ -43,7 +44,7 @@ class SerialExecutor:
 
     workers = 1
 
-    def run(self, fn: Callable, shared, tasks: Iterable) -> Iterator:
+    def run(self, fn: Callable, shared, tasks: Iterable, on_crash: Callable | None = None) -> Iterator:
         for task in tasks:
             yield fn(shared, task)
 
@@ -229,7 +230,9 @@ class DaskExecutor:
         client = self.client
         return len(client.scheduler_info().get("workers", {})) if client is not None else 0
 
-    def run(self, fn: Callable, shared, tasks: Iterable) -> Iterator:
+    def run(self, fn: Callable, shared, tasks: Iterable, on_crash: Callable | None = None) -> Iterator:
+        """As :meth:`LocalExecutor.run`; the cluster retries the tasks of a dead worker itself
+        (``on_crash`` is not used)."""
         distributed = _distributed()
         if self.client is not None:
             client = self.client

@@ -184,7 +184,7 @@ def _run(executor, path: str, files: dict, keys: list, unique: list, rows: list,
         progress(SweepProgress(done, failed, len(keys), resumed, 0.0))
     try:
         if todo:
-            for index, row in executor.run(run_task, {"path": path, "files": files}, todo):
+            for index, row in executor.run(run_task, {"path": path, "files": files}, todo, on_crash=_crashed_row):
                 rows[index] = {"key": keys[index], **unique[index], **row}
                 done += 1
                 failed += not row.get("success")
@@ -194,6 +194,12 @@ def _run(executor, path: str, files: dict, keys: list, unique: list, rows: list,
     finally:
         writer.write(table, final=True)
     return table()
+
+
+def _crashed_row(task: tuple, reason: str) -> tuple[int, dict]:
+    """The row of a run whose worker process died (twice: :meth:`~.executors.LocalExecutor.run`)."""
+    index, _ = task
+    return index, {"success": False, "message": reason, "wall_time": None}
 
 
 class _ResultsWriter:
