@@ -359,7 +359,10 @@ def _death_reason(processes) -> str:
     """How the worker that broke a pool ended (the others were terminated by the pool)."""
     import signal
 
-    codes = [p.exitcode for p in processes if p.exitcode not in (None, 0, -signal.SIGTERM)]
+    end = time.monotonic() + 1.0  # the pool's thread may be reaping it right now
+    while not (codes := [p.exitcode for p in processes if p.exitcode not in (None, 0, -signal.SIGTERM)]) \
+            and time.monotonic() < end:
+        time.sleep(0.02)
     if not codes:
         return "killed"
     code = codes[0]
