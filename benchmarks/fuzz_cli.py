@@ -40,27 +40,28 @@ TEMP_PREFIX = ".transgen~"
 ROOT = hasattr(os, "geteuid") and os.geteuid() == 0
 
 #: (name, weight, arguments with {IN}, {MECH}, {SC}, {OUT}, {OUT2}, {DIR}, suffixes of OUT)
+#: (the weights favour the commands that draw no figure: a figure costs 5-20 s on a loaded machine)
+OPTIMIZE = ["optimize", "{SC}", "--set", "simulation.t_end=6", "--evaluations", "2", "--population", "2",
+            "--workers", "1", "--quiet"]
 COMMANDS = [
-    ("graph", 6, ["graph", "{MECH}", "-o", "{OUT}"], [".dot", ".graphml", ".png", ".svg", ""]),
-    ("std", 4, ["std", "{MECH}", "-o", "{OUT}"], [".dot", ".svg", ""]),
-    ("matrices", 6, ["matrices", "{MECH}", "-o", "{OUT}"], [".json", ".npz", ".mat", ".tex", ""]),
-    ("lever", 3, ["lever", "{MECH}", "-o", "{OUT}"], [".svg", ".png"]),
-    ("lever-chart", 2, ["lever", "{MECH}", "--chart", "{OUT}"], [".png"]),
-    ("scenario-new", 6, ["scenario", "new", "{MECH}", "-o", "{OUT}"], [".toml", ""]),
-    ("synthesize", 3, ["synthesize", "teeth", "{UNKNOWN}", "-o", "{OUT}"], [".mech", ""]),
-    ("simulate", 5, ["simulate", "{SC}", "--quiet", "--set", "simulation.t_end=4.3", "-o", "{OUT}"],
+    ("graph", 6, ["graph", "{MECH}", "-o", "{OUT}"], [".dot", ".graphml", ".dot", ".svg", ""]),
+    ("std", 4, ["std", "{MECH}", "-o", "{OUT}"], [".dot", ".dot", ".svg", ""]),
+    ("matrices", 8, ["matrices", "{MECH}", "-o", "{OUT}"], [".json", ".npz", ".mat", ".tex", ""]),
+    ("lever", 1, ["lever", "{MECH}", "-o", "{OUT}"], [".svg", ".png"]),
+    ("lever-chart", 1, ["lever", "{MECH}", "--chart", "{OUT}"], [".png"]),
+    ("scenario-new", 8, ["scenario", "new", "{MECH}", "-o", "{OUT}"], [".toml", ""]),
+    ("synthesize", 1, ["synthesize", "teeth", "{UNKNOWN}", "-o", "{OUT}"], [".mech", ""]),
+    ("simulate", 6, ["simulate", "{SC}", "--quiet", "--set", "simulation.t_end=4.3", "-o", "{OUT}"],
      [".csv", ".json", ".npz", ".mat", ""]),
-    ("simulate-plot", 2, ["simulate", "{SC}", "--quiet", "--set", "simulation.t_end=4.3", "--plot", "{DIR}"], []),
-    ("sweep", 3, ["sweep", "{SC}", "--grid", "simulation.t_end=4.3,4.35", "--workers", "1", "--quiet", "-o", "{OUT}"],
+    ("simulate-plot", 1, ["simulate", "{SC}", "--quiet", "--set", "simulation.t_end=4.3", "--plot", "{DIR}"], []),
+    ("sweep", 4, ["sweep", "{SC}", "--grid", "simulation.t_end=4.3,4.35", "--workers", "1", "--quiet", "-o", "{OUT}"],
      [".csv", ""]),
     ("sweep-2", 1, ["sweep", "{SC}", "--grid", "simulation.t_end=4.3,4.35", "--workers", "2", "--quiet", "-o", "{OUT}"],
      [".csv"]),
-    ("optimize", 1, ["optimize", "{SC}", "--evaluations", "2", "--population", "2", "--workers", "1", "--quiet",
-                     "-o", "{OUT}", "--history", "{OUT2}"], [".toml"]),
-    ("optimize-history", 1, ["optimize", "{SC}", "--evaluations", "2", "--population", "2", "--workers", "1",
-                             "--quiet", "-o", "{OUT2}", "--history", "{OUT}"], [".csv", ""]),
+    ("optimize", 1, [*OPTIMIZE, "-o", "{OUT}", "--history", "{OUT2}"], [".toml"]),
+    ("optimize-history", 1, [*OPTIMIZE, "-o", "{OUT2}", "--history", "{OUT}"], [".csv", ""]),
     ("maps", 1, ["maps", "we_compressor", "--plot", "{DIR}"], []),
-    ("scenario-copy", 2, ["scenario", "copy", "{SC}", "{DIR}"], []),
+    ("scenario-copy", 4, ["scenario", "copy", "{SC}", "{DIR}"], []),
 ]
 
 #: kinds of output target, with what each needs
@@ -356,10 +357,14 @@ def main(argv=None) -> int:
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--json", action="store_true")
     parser.add_argument("--python", default=sys.executable)
+    parser.add_argument("--timeout", type=float, default=TIMEOUT,
+                        help=f"seconds after which an invocation counts as a hang (default {TIMEOUT:g})")
     parser.add_argument("--log", help="append every invocation's result to this JSON-lines file as it ends")
     parser.add_argument("--subprocess", action="store_true",
                         help="start a new interpreter per invocation (slower) instead of forking a warm one")
     args = parser.parse_args(argv)
+    global TIMEOUT
+    TIMEOUT = args.timeout
     base = Path(tempfile.mkdtemp(prefix="transgen-fuzz-cli-"))
     sandbox = Sandbox(base, args.python)
     if not args.subprocess:  # what every invocation would import and load: once, here
@@ -395,7 +400,7 @@ def main(argv=None) -> int:
                         "problems": [f"temporaries left {left[:3]}"], "stderr": ""})
     bad = [r for r in results if r["problems"]]
     summary = {
-        "invocations": len(results), "seed": args.seed, "root": ROOT,
+        "invocations": len(results), "seed": args.seed, "root": ROOT, "timeout": TIMEOUT,
         "mode": "subprocess" if args.subprocess else "fork", "full_filesystem": sandbox.full is not None,
         "wall_time": round(time.monotonic() - start, 1),
         "tracebacks": sum("traceback" in r["problems"] for r in results),

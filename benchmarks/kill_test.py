@@ -37,7 +37,7 @@ def commands(folder: Path, grid: list[str]) -> dict[str, list[str]]:
     return {
         "sweep": ["sweep", "simple2_upshift", "--grid", "simulation.t_end=" + ",".join(grid), "--workers", "2",
                   "--quiet", "-o", str(folder / "r.csv")],
-        "simulate": ["simulate", "simple2_upshift", "--quiet", "--set", "simulation.output_dt=1e-4",
+        "simulate": ["simulate", "simple2_upshift", "--quiet", "--set", "simulation.output_dt=2e-4",
                      "-o", str(folder / "big.csv"), "--plot", str(folder / "plots")],
         "optimize": ["optimize", "simple2_upshift", "--evaluations", "8", "--population", "4", "--workers", "2",
                      "--quiet", "-o", str(folder / "tuned.toml")],
@@ -169,9 +169,11 @@ def main(argv=None) -> int:
     rng = random.Random(args.seed)
     grid = [f"{4.3 + 0.02 * k:.2f}" for k in range(args.grid)]
     start = time.monotonic()
-    results = [test_command(name, args.kills, rng, base, args.python, grid,
-                            complete_each=name == "simulate" and not args.no_complete_each)
-               for name in args.commands.split(",")]
+    results = []
+    for name in args.commands.split(","):
+        results.append(test_command(name, args.kills, rng, base, args.python, grid,
+                                    complete_each=name == "simulate" and not args.no_complete_each))
+        print(json.dumps({k: v for k, v in results[-1].items() if k != "records"}), file=sys.stderr, flush=True)
     summary = {"kills_per_command": args.kills, "seed": args.seed, "wall_time": round(time.monotonic() - start, 1),
                "results": results}
     if args.json:

@@ -106,3 +106,27 @@ def test_the_workers_of_a_killed_sweep_end_with_it_and_it_resumes(tmp_path):
     keys = [r["key"] for r in SweepTable.from_csv(out).rows]
     assert len(keys) == 8 and len(set(keys)) == 8
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".transgen~")]
+
+
+def test_sigterm_stops_a_sweep_with_its_rows_kept(tmp_path):
+    env = dict(os.environ, MPLBACKEND="Agg")
+    out = tmp_path / "r.csv"
+    grid = ["--grid", "simulation.t_end=" + ",".join(f"{4.3 + 0.05 * k:.2f}" for k in range(10))]
+    command = [sys.executable, "-m", "transgen", *SWEEP[:2], *grid, *SWEEP[4:], "-o", str(out)]
+    proc = subprocess.Popen(command, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    from transgen.sim.study import SweepTable
+
+    end = time.monotonic() + 300
+    while not (out.is_file() and SweepTable.from_csv(out).rows) and time.monotonic() < end:
+        time.sleep(0.1)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 143 and "Traceback" not in err, err
+    assert _wait_empty(proc.pid, 5.0) == []
+    kept = SweepTable.from_csv(out).rows
+    assert 1 <= len(kept) <= 10 and not [p for p in tmp_path.iterdir() if p.name.startswith(".transgen~")]
+    again = subprocess.run(command, env=env, capture_output=True, text=True, timeout=600)
+    assert again.returncode == 0, again.stderr
+    keys = [r["key"] for r in SweepTable.from_csv(out).rows]
+    assert len(keys) == len(set(keys)) == 10
