@@ -35,7 +35,8 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-TIMEOUT = 60.0
+TIMEOUT = 60.0  # an invocation over this wall time is reported (a hang by the acceptance's measure)
+KILL_AFTER = 600.0  # one still running after this is killed: it does not end by itself
 TEMP_PREFIX = ".transgen~"
 ROOT = hasattr(os, "geteuid") and os.geteuid() == 0
 
@@ -169,7 +170,7 @@ def _make_target(case: Path, kind: str, suffix: str, sandbox: Sandbox, input_fil
             def read():
                 with contextlib.suppress(OSError):
                     fd = os.open(out, os.O_RDONLY | os.O_NONBLOCK)
-                    end = time.monotonic() + TIMEOUT + 5
+                    end = time.monotonic() + KILL_AFTER + 5
                     while time.monotonic() < end:
                         try:
                             if os.read(fd, 1 << 16) == b"" and stop.is_set():
@@ -203,22 +204,22 @@ def _make_target(case: Path, kind: str, suffix: str, sandbox: Sandbox, input_fil
     return out, allowed, reader
 
 
-def _subprocess(args: list[str], case: Path, python: str, log: Path) -> tuple[int | None, str, bool]:
+def _subprocess(args: list[str], case: Path, python: str, log: Path) -> tuple[int | None, str, bool, float | None]:
     """Run ``transgen ARGS`` as a new interpreter: (exit code, standard error, hung)."""
     env = dict(os.environ, MPLBACKEND="Agg", TMPDIR=str(case / "tmp"))
     try:
-        proc = subprocess.run([python, "-m", "transgen", *args], capture_output=True, text=True, timeout=TIMEOUT,
+        proc = subprocess.run([python, "-m", "transgen", *args], capture_output=True, text=True, timeout=KILL_AFTER,
                               env=env, cwd=case, stdin=subprocess.DEVNULL, start_new_session=True)
-        return proc.returncode, proc.stderr, False
+        return proc.returncode, proc.stderr, False, None
     except subprocess.TimeoutExpired as exc:
         err = exc.stderr.decode(errors="replace") if isinstance(exc.stderr, bytes) else (exc.stderr or "")
-        return None, err, True
+        return None, err, True, None
 
 
 _FORK_LOCK = threading.Lock()
 
 
-def _forked(args: list[str], case: Path, python: str, log: Path) -> tuple[int | None, str, bool]:
+def _forked(args: list[str], case: Path, python: str, log: Path) -> tuple[int | None, str, bool, float | None]:
     """Run the command line's ``main(ARGS)`` in a process forked from this one (transgen imported
     and its compiled code loaded here once: no interpreter start per invocation). The child is a
     process of its own (group, standard streams, working folder, TMPDIR, signal handlers); an
@@ -229,10 +230,10 @@ def _forked(args: list[str], case: Path, python: str, log: Path) -> tuple[int | 
         pid = os.fork()
         if pid == 0:
             _child(args, case, err_path, log.with_suffix(".out"))
-    end = time.monotonic() + TIMEOUT
-    status = None
+    end = time.monotonic() + KILL_AFTER
+    status = usage = None
     while time.monotonic() < end:
-        done, status = os.waitpid(pid, os.WNOHANG)
+        done, status, usage = os.wait4(pid, os.WNOHANG)
         if done:
             break
         time.sleep(0.02)
@@ -240,9 +241,10 @@ def _forked(args: list[str], case: Path, python: str, log: Path) -> tuple[int | 
         with contextlib.suppress(ProcessLookupError):
             os.killpg(pid, 9)
         os.waitpid(pid, 0)
-        return None, err_path.read_text(errors="replace") if err_path.exists() else "", True
+        return None, err_path.read_text(errors="replace") if err_path.exists() else "", True, None
     code = os.waitstatus_to_exitcode(status)
-    return code, err_path.read_text(errors="replace") if err_path.exists() else "", False
+    cpu = usage.ru_utime + usage.ru_stime  # the child's own (its workers are counted when it waits for them)
+    return code, err_path.read_text(errors="replace") if err_path.exists() else "", False, cpu
 
 
 def _child(args: list[str], case: Path, err_path: Path, out_path: Path) -> None:
@@ -311,14 +313,17 @@ def run_one(index: int, rng: random.Random, sandbox: Sandbox, python: str, fork:
     before = _snapshot(case)  # this case's folder only: the other jobs write theirs meanwhile
     inputs_before = {p: _identity(p) for p in inputs.iterdir()}
     start = time.monotonic()
-    code, err, hang = (_forked if fork else _subprocess)(args, case, python, sandbox.base / "logs" / case.name)
+    code, err, killed, cpu = (_forked if fork else _subprocess)(args, case, python, sandbox.base / "logs" / case.name)
     wall = time.monotonic() - start
+    hang = killed or wall > TIMEOUT
     if reader is not None:
         reader[1].set()
-        reader[0].join(TIMEOUT + 10)
+        reader[0].join(KILL_AFTER + 10)
     problems = []
-    if hang:
-        problems.append("hang")
+    if killed:
+        problems.append("hang")  # killed after KILL_AFTER s
+    elif hang:
+        problems.append(f"over {TIMEOUT:g} s")
     if "Traceback" in err:
         problems.append("traceback")
     if code not in (0, 1, 2, None):
@@ -347,10 +352,11 @@ def run_one(index: int, rng: random.Random, sandbox: Sandbox, python: str, fork:
         with contextlib.suppress(OSError):
             out.unlink()
     return {"index": index, "command": name, "kind": kind, "suffix": suffix, "args": args, "exit": code,
-            "wall": round(wall, 2), "problems": problems, "stderr": err[-600:] if problems else ""}
+            "wall": round(wall, 2), "cpu": None if cpu is None else round(cpu, 2), "problems": problems, "stderr": err[-600:] if problems else ""}
 
 
 def main(argv=None) -> int:
+    global TIMEOUT
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--invocations", type=int, default=1000)
     parser.add_argument("--seed", type=int, default=0)
@@ -363,7 +369,6 @@ def main(argv=None) -> int:
     parser.add_argument("--subprocess", action="store_true",
                         help="start a new interpreter per invocation (slower) instead of forking a warm one")
     args = parser.parse_args(argv)
-    global TIMEOUT
     TIMEOUT = args.timeout
     base = Path(tempfile.mkdtemp(prefix="transgen-fuzz-cli-"))
     sandbox = Sandbox(base, args.python)
@@ -405,6 +410,9 @@ def main(argv=None) -> int:
         "wall_time": round(time.monotonic() - start, 1),
         "tracebacks": sum("traceback" in r["problems"] for r in results),
         "hangs": sum("hang" in r["problems"] for r in results),
+        "over_timeout": sum(f"over {TIMEOUT:g} s" in r["problems"] for r in results),
+        "over_timeout_cpu_max": max((r["cpu"] or 0 for r in results if f"over {TIMEOUT:g} s" in r["problems"]),
+                                    default=None),
         "replaced": sum(any(p.startswith(("replaced", "input changed")) for p in r["problems"]) for r in results),
         "temporaries_left": sum(any(p.startswith("temporaries") for p in r["problems"]) for r in results),
         "bad_exit": sum(any(p.startswith("exit code") for p in r["problems"]) for r in results),
@@ -418,7 +426,8 @@ def main(argv=None) -> int:
         print(json.dumps(summary, indent=2))
     else:
         print(f"{summary['invocations']} invocations in {summary['wall_time']} s (root: {ROOT}, full file system: "
-              f"{summary['full_filesystem']}): {summary['tracebacks']} tracebacks, {summary['hangs']} hangs, "
+              f"{summary['full_filesystem']}): {summary['tracebacks']} tracebacks, {summary['hangs']} hangs (killed after {KILL_AFTER:g} s), "
+              f"{summary['over_timeout']} over {TIMEOUT:g} s wall (CPU at most {summary['over_timeout_cpu_max']} s), "
               f"{summary['replaced']} with files replaced, {summary['temporaries_left']} with temporaries left, "
               f"{summary['bad_exit']} other exit codes; exit codes {summary['exit_codes']}")
         for r in bad[:20]:
