@@ -3,6 +3,7 @@ others go on; workers end with their parent, however it ends; a finished sweep l
 behind (workers, multiprocessing's resource tracker)."""
 from __future__ import annotations
 
+import functools
 import os
 import signal
 import subprocess
@@ -51,15 +52,20 @@ def test_a_task_that_kills_its_worker_is_a_failed_result_and_the_others_go_on(tm
         list(LocalExecutor(2).run(_task, str(tmp_path), [("die", 1)]))
 
 
-def _group(pgid: int) -> list[int]:
-    """The live processes of process group ``pgid`` (benchmarks/kill_test.py's, from /proc)."""
+@functools.lru_cache(maxsize=None)
+def _kill_test():
     import importlib.util
 
     spec = importlib.util.spec_from_file_location("_kill_test", Path(__file__).resolve().parents[1] / "benchmarks"
                                                   / "kill_test.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
-    return module.group(pgid)
+    return module
+
+
+def _group(pgid: int) -> list[int]:
+    """The live processes of process group ``pgid`` (benchmarks/kill_test.py's, from /proc)."""
+    return _kill_test().group(pgid)
 
 
 def _wait_empty(pgid: int, timeout: float) -> list[int]:
