@@ -202,6 +202,7 @@ def cmd_simulate(args) -> int:
         other_q = shift_report(other, other_s.shifts or None)
     written = []
     from transgen.export import output_set
+    from transgen.outputs import messages_stream
 
     with output_set():
         if args.output:
@@ -258,7 +259,7 @@ def cmd_simulate(args) -> int:
             print()
             print(_comparison_text(scenario, result, qualities, _labels(scenario, other_s)[1], other, other_q))
         for w in written:
-            print(f"  wrote {w}")
+            print(f"  wrote {w}", file=messages_stream(args.output))
     return 0 if result.success else 1
 
 
@@ -382,7 +383,10 @@ def cmd_scenario_new(args) -> int:
         summary["written"] = [args.output] if args.output else []
         print(dumps(summary))
     elif args.output:
-        print(f"wrote {args.output}: {mech.name}, {args.vehicle}, {args.maneuver}, gears {' '.join(launch.order)}")
+        from transgen.outputs import messages_stream
+
+        print(f"wrote {args.output}: {mech.name}, {args.vehicle}, {args.maneuver}, gears {' '.join(launch.order)}",
+              file=messages_stream(args.output))
     else:
         sys.stdout.write(text)
     return 0

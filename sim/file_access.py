@@ -12,6 +12,8 @@ from __future__ import annotations
 from collections.abc import Mapping
 from pathlib import Path
 
+from transgen.outputs import note_input
+
 __all__ = ["FileAccess", "file_key"]
 
 
@@ -51,6 +53,7 @@ class FileAccess:
         text = self.texts.get(key) if key is not None else None
         if text is None:
             text = Path(path).read_text(encoding="utf-8")
+            note_input(path)  # an output of the running command must not overwrite it
         if key is not None:
             self.read[key] = text
         return text

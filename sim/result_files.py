@@ -50,7 +50,11 @@ SIGNALS_SCHEMA = "transgen.signals/1"
 def result_format(path: str | Path) -> str:
     """The format of the result file ``path`` from its suffix; ValueError for any other suffix
     (checked before a run, so that nothing runs for a file that cannot be written)."""
+    from transgen.outputs import is_stream
+
     fmt = RESULT_FORMATS.get(Path(path).suffix.lower())
+    if fmt is None and not Path(path).suffix and is_stream(path):  # -o -, a FIFO or device without suffix
+        return "csv"
     if fmt is None:
         raise ValueError(f"unknown result file format {Path(path).name!r}: name a "
                          f"{', '.join(RESULT_FORMATS)} file")

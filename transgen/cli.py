@@ -135,16 +135,18 @@ def cmd_graph(args) -> int:
     from .export import write_text
     from .graph import build_graph
 
+    from .outputs import is_stream, messages_stream
+
     mech = load_checked(args.file)
     g = build_graph(mech)
     suffix = Path(args.output).suffix.lower()
-    if suffix == ".dot":
+    if suffix == ".dot" or not suffix and is_stream(args.output):  # -o -: DOT text
         write_text(args.output, graph_to_dot(g))
     elif suffix == ".graphml":
         write_text(args.output, graph_to_graphml(g))
     else:
         save_figure(draw_graph(g), args.output)
-    print(f"wrote {args.output}")
+    print(f"wrote {args.output}", file=messages_stream(args.output))
     return 0
 
 
@@ -254,9 +256,12 @@ def cmd_matrices(args) -> int:
         print(dumps(matrices_document(ss)))
         return 0
     from .export import write_state_space
+    from .outputs import is_stream, messages_stream
 
-    write_state_space(ss, args.output, args.format)
-    print(f"wrote {args.output}: {len(ss.modes)} modes, coordinates {', '.join(ss.coordinates)}")
+    fmt = args.format or ("json" if not Path(args.output).suffix and is_stream(args.output) else None)
+    write_state_space(ss, args.output, fmt)
+    print(f"wrote {args.output}: {len(ss.modes)} modes, coordinates {', '.join(ss.coordinates)}",
+          file=messages_stream(args.output))
     return 0
 
 
@@ -273,13 +278,16 @@ def cmd_std(args) -> int:
     if args.output:
         from .drawing import draw_std, save_figure, std_to_dot
         from .export import write_text
+        from .outputs import is_stream, messages_stream
 
-        if Path(args.output).suffix.lower() == ".dot":
+        suffix = Path(args.output).suffix.lower()
+        if suffix == ".dot" or not suffix and is_stream(args.output):  # -o -: DOT text
             write_text(args.output, std_to_dot(std))
         else:
             save_figure(draw_std(std), args.output)
         if not args.json:
-            print(f"wrote {args.output}: {len(std.modes)} modes, {len(std.internal)} transitions")
+            print(f"wrote {args.output}: {len(std.modes)} modes, {len(std.internal)} transitions",
+                  file=messages_stream(args.output))
     if args.json:
         print_document("transgen.std/1", std.to_dict(), {})
     elif not args.output:
@@ -442,6 +450,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_fmu_commands(sub)
     _add_sim_commands(sub)
+    _add_force_options(p)
     return p
 
 
@@ -458,8 +467,59 @@ def _add_sim_commands(sub) -> None:
 
 
 def _terminate(signum, frame):
-    """SIGTERM ends the run like Ctrl-C: the temporary files of the outputs are removed."""
-    raise KeyboardInterrupt
+    """SIGTERM (SIGHUP) ends the run like Ctrl-C: the temporary files of the outputs are removed,
+    the workers stopped, the rows of a sweep kept; the exit code is 128 + signum."""
+    from .outputs import Terminated
+
+    raise Terminated(signum)
+
+
+#: options that name a file the command writes, and options that name a file it reads
+_OUTPUT_OPTIONS = {"output": "-o", "history": "--history", "chart": "--chart"}
+_INPUT_OPTIONS = {"file": "FILE", "scenario": "SCENARIO", "map": "MAPFILE", "compare": "--compare",
+                  "no_worse_than": "--no-worse-than", "name": "NAME"}
+
+
+def _add_force_options(parser: argparse.ArgumentParser) -> None:
+    """``--force`` on every command that writes a file (``-o``, ``--history``, ``--chart``,
+    ``--plot``): overwrite even one of the command's inputs (:mod:`transgen.outputs`)."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for child in dict.fromkeys(action.choices.values()):
+                _add_force_options(child)
+    dests = {a.dest for a in parser._actions}
+    if dests & {*_OUTPUT_OPTIONS, "plot"} and "force" not in dests:
+        parser.add_argument("--force", action="store_true",
+                            help="write the outputs even where one is an input of the command (it is overwritten)")
+
+
+def _output_is_input(args) -> str | None:
+    """The message refusing an output option that names one of the command's input files (by
+    resolved path or by device and inode), before any work; None where there is none."""
+    import os
+
+    if getattr(args, "force", False):
+        return None
+
+    def identity(path):
+        try:
+            st = os.stat(path)
+        except (OSError, ValueError, TypeError):
+            return None
+        return (st.st_dev, st.st_ino) if not os.path.isdir(path) else None
+
+    inputs = {}
+    for dest, label in _INPUT_OPTIONS.items():
+        value = getattr(args, dest, None)
+        if isinstance(value, str) and identity(value) is not None:
+            inputs.setdefault(identity(value), (label, value))
+    for dest, option in _OUTPUT_OPTIONS.items():
+        value = getattr(args, dest, None)
+        if isinstance(value, str) and identity(value) in inputs:
+            label, name = inputs[identity(value)]
+            return (f"{option} {value}: is the input {label} ({name}): writing it would destroy it; name another "
+                    f"output (or give --force to overwrite it)")
+    return None
 
 
 EXIT_BROKEN_PIPE = 128 + 13
@@ -497,12 +557,19 @@ def main(argv: list[str] | None = None) -> int:
     from .blas import one_thread_from_start
 
     one_thread_from_start()  # small linear algebra: no BLAS thread pool to start (transgen.blas)
-    if signal.getsignal(signal.SIGTERM) is signal.SIG_DFL:
-        with contextlib.suppress(ValueError):  # not the main thread
-            signal.signal(signal.SIGTERM, _terminate)
+    from .outputs import Terminated, command_scope, remove_temporaries
+
+    for signum in (signal.SIGTERM, signal.SIGHUP):
+        if signal.getsignal(signum) is signal.SIG_DFL:
+            with contextlib.suppress(ValueError):  # not the main thread
+                signal.signal(signum, _terminate)
     parser = build_parser()
     args = parser.parse_args(argv)
-    with warnings.catch_warnings():
+    refused = _output_is_input(args)
+    if refused:
+        _error(f"error: {refused}")
+        return 2
+    with warnings.catch_warnings(), command_scope(getattr(args, "force", False)):
         warnings.showwarning = _show_warning
         try:
             code = args.func(args)
@@ -522,9 +589,12 @@ def main(argv: list[str] | None = None) -> int:
         except OSError as exc:
             _error(f"error: {exc.strerror or exc}" + (f": {exc.filename}" if exc.filename else ""))
             return 1
-        except KeyboardInterrupt:
-            _error("interrupted")
-            return 130
+        except KeyboardInterrupt as exc:
+            signum = exc.signum if isinstance(exc, Terminated) else signal.SIGINT
+            _error("interrupted" if signum == signal.SIGINT else f"terminated ({signal.Signals(signum).name})")
+            return 128 + signum
+        finally:
+            remove_temporaries()  # those of outputs left unfinished, whatever ended the command
 
 
 def _located(message: str) -> bool:

@@ -1,20 +1,18 @@
 """Writing results to files: atomically, in JSON, NumPy ``.npz``, MATLAB ``.mat`` and LaTeX.
 
-Every writer goes through :func:`atomic_path`: the data is written to a temporary file in the
-target's folder and renamed over the target only when complete, so a failed run never leaves a
-half-written file.
+Every writer goes through :func:`atomic_path` (the output layer, :mod:`transgen.outputs`): the
+data is written to a temporary file in the target's folder and renamed over the target only when
+complete, so a failed run never leaves a half-written file; a device node or FIFO is written
+through, a symbolic link followed, an input of the command refused.
 """
 from __future__ import annotations
 
-import contextlib
-import contextvars
 import json
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from .outputs import atomic_path, output_set
 from .statespace import StateSpaceSet
 
 __all__ = ["atomic_path", "output_set", "write_text", "write_json", "write_state_space", "state_space_latex",
@@ -43,67 +41,6 @@ def output_format(path: str | Path, fmt: str | None = None, suffixes: dict[str, 
         raise ValueError(f"--format {fmt} and -o {path}: the name says {by_suffix}: name the file {want} "
                          f"(or leave --format out)")
     return fmt
-
-
-#: the files of the innermost :func:`output_set` block: (temporary path, target)
-_PENDING: contextvars.ContextVar[list | None] = contextvars.ContextVar("transgen_pending_outputs", default=None)
-
-
-@contextlib.contextmanager
-def atomic_path(path: str | Path, suffix: str | None = None):
-    """Yield a temporary path next to ``path``; on success rename it to ``path``, else delete it.
-    Inside an :func:`output_set` block the rename waits for the end of the block."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix if suffix is not None else path.suffix, dir=path.parent)
-    os.close(fd)
-    try:
-        yield Path(tmp)
-        os.chmod(tmp, 0o666 & ~_umask())  # the usual permissions, not mkstemp's 0600
-        pending = _PENDING.get()
-        if pending is None:
-            os.replace(tmp, path)
-        else:
-            pending.append((tmp, path))
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
-
-
-@contextlib.contextmanager
-def output_set():
-    """All files written through :func:`atomic_path` inside the block appear together or not at
-    all: each is written to its temporary file, and only when the whole block succeeds are they
-    renamed over their targets; an exception (an error, Ctrl-C, or SIGTERM turned into one by the
-    command line) deletes every one of them."""
-    pending: list = []
-    token = _PENDING.set(pending)
-    try:
-        yield
-    except BaseException:
-        for tmp, _ in pending:
-            with contextlib.suppress(OSError):
-                os.unlink(tmp)
-        raise
-    finally:
-        _PENDING.reset(token)
-    for tmp, target in pending:
-        os.replace(tmp, target)
-
-
-def _umask() -> int:
-    """The process umask, read without changing it (``os.umask`` would set it)."""
-    try:
-        with open("/proc/self/status", encoding="ascii") as fh:
-            for line in fh:
-                if line.startswith("Umask:"):
-                    return int(line.split()[1], 8)
-    except (OSError, ValueError):
-        pass
-    current = os.umask(0o022)
-    os.umask(current)
-    return current
 
 
 def write_text(path: str | Path, text: str) -> None:

@@ -58,6 +58,8 @@ from pathlib import Path
 import numpy as np
 
 from transgen.errors import TransgenError
+from transgen.outputs import note_input
+from transgen.outputs import note_input
 
 from .gas import RPM
 
@@ -245,6 +247,7 @@ def load_map(path: str | Path) -> CompressorMap | TurbineMap:
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")
+        note_input(path)
     except (OSError, UnicodeDecodeError) as exc:
         raise MapError(f"{path}:1:1: error: cannot read map file ({exc})") from None
     return parse_map(text, path)

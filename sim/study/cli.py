@@ -198,17 +198,20 @@ def cmd_sweep(args) -> int:
         }
         print_document("transgen.sweep/1", summary, sweep_units(table))
     else:
+        from transgen.outputs import messages_stream
+
+        out = messages_stream(args.output)  # standard error where the table goes to standard output
         resumed = last[-1].resumed if last else 0
         print(f"{len(rows)} runs: {len(rows) - len(failed)} succeeded, {len(failed)} failed"
               f"{f' ({resumed} finished before, kept from {args.output})' if resumed else ''}, {elapsed:.1f} s "
-              f"({executor!r})")
+              f"({executor!r})", file=out)
         for r in failed[:10]:
             print(f"  failed {r['key']}: {' '.join(f'{p}={r.get(p)}' for p in table.parameters)}: "
-                  f"{str(r.get('message', '')).splitlines()[0] if r.get('message') else ''}")
+                  f"{str(r.get('message', '')).splitlines()[0] if r.get('message') else ''}", file=out)
         if len(failed) > 10:
-            print(f"  ... and {len(failed) - 10} more failed runs (see the message column)")
+            print(f"  ... and {len(failed) - 10} more failed runs (see the message column)", file=out)
         for w in written:
-            print(f"  wrote {w}")
+            print(f"  wrote {w}", file=out)
     return 0
 
 

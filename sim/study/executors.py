@@ -1,7 +1,8 @@
 """Where the runs of a study execute: in this process, in local processes, or on a Dask cluster.
 
-An executor has one method, ``run(fn, shared, tasks)``: it calls ``fn(shared, task)`` for every
-task and yields the results as they complete (in any order). ``shared`` (the scenario's texts)
+An executor has one method, ``run(fn, shared, tasks, on_crash=None)``: it calls ``fn(shared, task)``
+for every task and yields the results as they complete (in any order); a local worker process that
+dies makes its task's result ``on_crash(task, reason)`` (see :meth:`LocalExecutor.run`). ``shared`` (the scenario's texts)
 is the same for every task and sent to each worker once where the engine allows it. ``fn`` must
 be an importable module-level function (it is sent by name). Stopping the iteration early (an
 error, Ctrl-C) cancels the runs not started.
@@ -43,7 +44,7 @@ class SerialExecutor:
 
     workers = 1
 
-    def run(self, fn: Callable, shared, tasks: Iterable) -> Iterator:
+    def run(self, fn: Callable, shared, tasks: Iterable, on_crash: Callable | None = None) -> Iterator:
         for task in tasks:
             yield fn(shared, task)
 
@@ -86,11 +87,12 @@ class LocalExecutor:
         # source checkout) shadows the installed package
         if _can_fork():
             _preload()  # once here, not in every child
-            self.start_method, initializer = "fork", _one_blas_thread
+            self.start_method = "fork"
         else:
-            self.start_method, initializer = "spawn", _start_worker
+            self.start_method = "spawn"
+            _end_tracker_at_exit()
         return ProcessPoolExecutor(max_workers=self.workers, mp_context=multiprocessing.get_context(self.start_method),
-                                   initializer=initializer)
+                                   initializer=_worker_start, initargs=(os.getpid(), self.start_method == "spawn"))
 
     def __enter__(self):
         """Start the workers now (spawned ones import the simulator while the caller goes on, e.g.
@@ -111,9 +113,8 @@ class LocalExecutor:
         pool, self._pool = self._pool, None
         if pool is None:
             return
-        if exc_type is not None:  # not worth finishing their start or their run (3.11 has no public way)
-            for process in list((getattr(pool, "_processes", None) or {}).values()):
-                process.terminate()
+        if exc_type is not None:  # not worth finishing their start or their run
+            _terminate_workers(pool)
         _stop(pool)
 
     def opened(self):
@@ -121,31 +122,75 @@ class LocalExecutor:
         (as ``with executor:``) unless it is open already (then left open)."""
         return contextlib.nullcontext(self) if self._pool is not None else self
 
-    def run(self, fn: Callable, shared, tasks: Iterable) -> Iterator:
+    def run(self, fn: Callable, shared, tasks: Iterable, on_crash: Callable | None = None) -> Iterator:
+        """Yield ``fn(shared, task)`` for every task as they complete. A worker process that dies
+        (killed, out of memory) breaks the pool: a new one takes the unfinished tasks, and those
+        that may have run in the dead worker (the first ``workers + 1`` unfinished ones: the pool
+        hands the tasks out in order) run again, each alone, so that the one that kills its worker
+        is known; with ``on_crash`` its result is ``on_crash(task, reason)`` (a failed row; the
+        others go on), without it a :class:`ClusterError`. Stopping the iteration early (an
+        error, Ctrl-C, SIGTERM) terminates the workers of a pool of this call at once."""
         from concurrent.futures import FIRST_COMPLETED, wait
 
         from concurrent.futures.process import BrokenProcessPool
 
         kept = self._pool is not None
         pool = self._pool if kept else self._new_pool()
-        pending: set = set()
+        todo = dict(enumerate(tasks))  # order -> task, not finished yet
+        suspects: list = []  # orders of tasks that may have killed a worker: each runs alone once more
+        finished = False
+        pending: dict = {}
         try:
-            pending = {pool.submit(fn, shared, task) for task in tasks}
-            while pending:
-                done, pending = wait(pending, return_when=FIRST_COMPLETED)
-                for future in done:
+            while todo:
+                if suspects:  # alone in the pool: a death now is this task's
+                    order = suspects.pop(0)
+                    future = pool.submit(fn, shared, todo[order])
+                    processes = _workers_of(pool)
                     try:
-                        row = future.result()
+                        result = future.result()
                     except BrokenProcessPool:
-                        raise ClusterError("a local worker process died (killed, or out of memory); the rows "
-                                           "finished so far are kept: run the sweep again to resume") from None
-                    yield row
+                        reason = (f"the worker process running it died ({_death_reason(processes)}), also when "
+                                  f"run again alone")
+                        if on_crash is None:
+                            raise ClusterError(f"a local worker process died: {reason}; the rows finished so far "
+                                               f"are kept: run the sweep again to resume") from None
+                        pool = self._replace(pool, kept)
+                        result = on_crash(todo[order], reason)
+                    del todo[order]
+                    yield result
+                    continue
+                pending = {pool.submit(fn, shared, task): order for order, task in todo.items()}
+                broken = False
+                while pending and not broken:
+                    done, _ = wait(pending, return_when=FIRST_COMPLETED)
+                    if any(isinstance(f.exception(), BrokenProcessPool) for f in done):
+                        broken = True  # the results that arrived before the death are still taken
+                        done = [f for f in pending if f.done() and not isinstance(f.exception(), BrokenProcessPool)]
+                    for future in sorted(done, key=pending.get):
+                        order = pending.pop(future)
+                        result = future.result()
+                        del todo[order]
+                        yield result
+                if broken:  # a new pool for the unfinished tasks; the first ones (those that may have run) alone
+                    pending = {}
+                    suspects = sorted(todo)[:self.workers + 1]
+                    pool = self._replace(pool, kept)
+            finished = True
         finally:
+            for future in pending:
+                future.cancel()
+            if not finished:  # stopped early: not worth finishing their runs
+                _terminate_workers(pool)
             if not kept:  # the finished workers exit in the background (as in __exit__)
                 _stop(pool)
-            else:
-                for future in pending:
-                    future.cancel()
+
+    def _replace(self, pool, kept: bool):
+        """A new pool in place of the broken ``pool`` (kept open as ``pool`` was)."""
+        _stop(pool)
+        new = self._new_pool()
+        if kept:
+            self._pool = new
+        return new
 
     def __repr__(self) -> str:
         return f"LocalExecutor(workers={self.workers})"
@@ -187,7 +232,9 @@ class DaskExecutor:
         client = self.client
         return len(client.scheduler_info().get("workers", {})) if client is not None else 0
 
-    def run(self, fn: Callable, shared, tasks: Iterable) -> Iterator:
+    def run(self, fn: Callable, shared, tasks: Iterable, on_crash: Callable | None = None) -> Iterator:
+        """As :meth:`LocalExecutor.run`; the cluster retries the tasks of a dead worker itself
+        (``on_crash`` is not used)."""
         distributed = _distributed()
         if self.client is not None:
             client = self.client
@@ -283,6 +330,68 @@ def _stop_profiler(dask_worker) -> None:
             callback.stop()
 
 
+_TRACKER_HOOK = False  # the exit hook of the resource tracker registered (see _end_tracker_at_exit)
+
+
+def _end_tracker_at_exit() -> None:
+    """Once per process: at the interpreter's exit, after the pools' workers have been joined and
+    the semaphores released, end multiprocessing's resource tracker (a process spawned pools
+    start, which exits once every process holding its pipe has closed it) and wait for it (2 s
+    at most), so that it does not outlive the command."""
+    global _TRACKER_HOOK
+    if not _TRACKER_HOOK:
+        from multiprocessing import util
+
+        _TRACKER_HOOK = True
+        util.Finalize(None, _end_tracker, exitpriority=-100)  # after the semaphores' finalizers (priority 0)
+
+
+def _end_tracker() -> None:
+    from multiprocessing import resource_tracker
+
+    tracker = resource_tracker._resource_tracker
+    fd, pid = getattr(tracker, "_fd", None), getattr(tracker, "_pid", None)
+    if fd is None or pid is None:
+        return
+    with contextlib.suppress(OSError):
+        os.close(fd)
+    tracker._fd = None
+    end = time.monotonic() + 2.0
+    with contextlib.suppress(OSError):
+        while os.waitpid(pid, os.WNOHANG)[0] == 0 and time.monotonic() < end:
+            time.sleep(0.01)
+    tracker._pid = None
+
+
+def _workers_of(pool) -> list:
+    """The worker processes of a local pool (3.11 has no public way)."""
+    return list((getattr(pool, "_processes", None) or {}).values())
+
+
+def _terminate_workers(pool) -> None:
+    """SIGTERM to the workers of a local pool (they exit at once: a worker's SIGTERM is the default)."""
+    for process in _workers_of(pool):
+        with contextlib.suppress(OSError, AttributeError, ValueError):
+            process.terminate()
+
+
+def _death_reason(processes) -> str:
+    """How the worker that broke a pool ended (the others were terminated by the pool)."""
+    import signal
+
+    end = time.monotonic() + 1.0  # the pool's thread may be reaping it right now
+    while not (codes := [p.exitcode for p in processes if p.exitcode not in (None, 0, -signal.SIGTERM)]) \
+            and time.monotonic() < end:
+        time.sleep(0.02)
+    if not codes:
+        return "killed"
+    code = codes[0]
+    if code < 0:
+        name = signal.Signals(-code).name if -code in signal.Signals._value2member_map_ else f"signal {-code}"
+        return f"killed by {name}" + (" (kill -9, or the out-of-memory killer)" if -code == signal.SIGKILL else "")
+    return f"exit code {code}"
+
+
 _STOPPING: list = []  # the manager threads of the pools stopped and not yet found ended (see _stop)
 _EXIT_HOOK = False  # the exit hook registered (see _wait_at_exit)
 
@@ -363,6 +472,54 @@ def _preload() -> None:
 
     for name in PRELOAD:
         importlib.import_module(name)
+
+
+def _worker_start(parent: int, spawned: bool) -> None:
+    """A local worker's start: it ends with its parent (:func:`_die_with_parent`), leaves Ctrl-C
+    to the parent (which stops the pool) and ends at SIGTERM; then one BLAS thread and, for a
+    spawned worker, the simulator loaded (:func:`_start_worker`)."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the terminal's Ctrl-C reaches the whole group: the parent decides
+    for signum in (signal.SIGTERM, signal.SIGHUP):  # not the command line's handlers a forked worker inherits
+        signal.signal(signum, signal.SIG_DFL)
+    _die_with_parent(parent)
+    if spawned:
+        _start_worker()
+    else:
+        _one_blas_thread()
+
+
+def _die_with_parent(parent: int) -> None:
+    """Make this worker process end when ``parent`` (the process that started the pool) ends,
+    however it ends (SIGKILL included): on Linux the kernel sends SIGKILL at the parent's death
+    (``prctl(PR_SET_PDEATHSIG)``); everywhere a thread watches the pipe multiprocessing keeps
+    open from the parent (it reads end-of-file when the parent is gone) and exits. Without this
+    the workers of a killed sweep stayed idle for ever (issue 22)."""
+    import multiprocessing
+    import signal
+    import sys
+    import threading
+
+    if sys.platform.startswith("linux"):
+        with contextlib.suppress(OSError, AttributeError):
+            import ctypes
+
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(1, signal.SIGKILL, 0, 0, 0)  # PR_SET_PDEATHSIG = 1
+    if os.getppid() != parent:  # the parent died before the line above
+        os._exit(1)
+    sentinel = getattr(multiprocessing.parent_process(), "sentinel", None)
+    if sentinel is None:
+        return
+
+    def watch() -> None:
+        from multiprocessing.connection import wait
+
+        wait([sentinel])  # readable at the parent's death (end of file)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="transgen-parent-watch", daemon=True).start()
 
 
 def _start_worker() -> None:

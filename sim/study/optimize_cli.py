@@ -130,6 +130,11 @@ def cmd_optimize(args) -> int:
         history_path = Path(args.history) if args.history else output.with_suffix(".history.csv")
     except (ScenarioError, ValueError, ImportError) as exc:
         return _fail(exc)
+    try:  # the tuned scenario includes the original by a path relative to its folder, which must exist
+        output.resolve().parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        print(f"error: cannot write {output}: {exc.strerror}", file=sys.stderr)
+        return 1
     from transgen.progress import ProgressLine
 
     line = ProgressLine(not (args.quiet or args.json), args.progress)

@@ -192,7 +192,7 @@ def _run(executor, path: str, files: dict, keys: list, unique: list, rows: list,
         progress(SweepProgress(done, failed, len(keys), resumed, 0.0))
     try:
         if todo:
-            for index, row in executor.run(run_task, {"path": path, "files": files}, todo):
+            for index, row in executor.run(run_task, {"path": path, "files": files}, todo, on_crash=_crashed_row):
                 rows[index] = {"key": keys[index], **unique[index], **row}
                 done += 1
                 failed += not row.get("success")
@@ -204,15 +204,25 @@ def _run(executor, path: str, files: dict, keys: list, unique: list, rows: list,
     return table()
 
 
+def _crashed_row(task: tuple, reason: str) -> tuple[int, dict]:
+    """The row of a run whose worker process died (twice: :meth:`~.executors.LocalExecutor.run`)."""
+    index, _ = task
+    return index, {"success": False, "message": reason, "wall_time": None}
+
+
 class _ResultsWriter:
     """Rewrites the results file atomically after rows complete: after every row while writing
     takes little time, else at most once per four write durations (a big file is not rewritten
     for every row), and always at the end."""
 
     def __init__(self, path):
+        from transgen.outputs import is_stream
+
         self.path = path
         self.next_time = 0.0
         self.dirty = False
+        #: a FIFO, device or standard output is written through once, at the end (not a file to resume from)
+        self.only_final = path is not None and is_stream(path)
 
     def write(self, table: Callable[[], SweepTable], final: bool) -> None:
         """``final=False``: a row completed; ``final=True``: the sweep ends (write what is pending)."""
@@ -220,7 +230,7 @@ class _ResultsWriter:
             return
         self.dirty = self.dirty or not final
         now = time.perf_counter()
-        if not self.dirty or (not final and now < self.next_time):
+        if not self.dirty or (not final and (now < self.next_time or self.only_final)):
             return
         table().to_csv(self.path)
         self.dirty = False

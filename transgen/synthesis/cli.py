@@ -79,7 +79,9 @@ def cmd_teeth(args) -> int:
         print(f"  {i:>3}. {teeth}   max error {s.max_error:.2e}")
         print("       errors: " + ", ".join(f"{g} {e:+.1e}" for g, e in s.errors.items()))
     if result.solutions and args.output:
-        print(f"\nwrote {args.output}: the .mech completed with the best solution")
+        from ..outputs import messages_stream
+
+        print(f"\nwrote {args.output}: the .mech completed with the best solution", file=messages_stream(args.output))
     elif result.solutions:
         print("\ncompleted .mech (best solution):")
         print(completed_text(mech, result.solutions[0]).rstrip("\n"))

@@ -1,0 +1,194 @@
+"""Kill running commands with SIGKILL and check that they leave nothing behind (issue 22).
+
+For each command (``sweep --workers 2``, ``simulate -o ... --plot ...``, ``optimize --workers 2``)
+the test starts it N times in its own session (its own process group, as a shell starts a job),
+sends SIGKILL to the command after a random delay (seeded: during the start, the runs or the
+writing) and checks:
+
+* no process of the command's group alive 5 s after the kill (workers, resource tracker);
+* no temporary file (``.transgen~*``) after the next complete run of the command (the stale
+  files of the killed writers are removed by it);
+* sweep: every row of the design exactly once in the results file after the final resume, and
+  no row twice in the file after any kill.
+
+Usage::
+
+    python benchmarks/kill_test.py --kills 20 --seed 0 [--commands sweep,simulate,optimize] [--json]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import random
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+TEMP_PREFIX = ".transgen~"
+GRID = [f"{4.3 + 0.02 * k:.2f}" for k in range(24)]
+
+
+def commands(folder: Path, grid: list[str]) -> dict[str, list[str]]:
+    return {
+        "sweep": ["sweep", "simple2_upshift", "--grid", "simulation.t_end=" + ",".join(grid), "--workers", "2",
+                  "--quiet", "-o", str(folder / "r.csv")],
+        "simulate": ["simulate", "simple2_upshift", "--quiet", "--set", "simulation.output_dt=2e-4",
+                     "-o", str(folder / "big.csv"), "--plot", str(folder / "plots")],
+        "optimize": ["optimize", "simple2_upshift", "--evaluations", "8", "--population", "4", "--workers", "2",
+                     "--quiet", "-o", str(folder / "tuned.toml")],
+    }
+
+
+#: the delays [s] before the kill are drawn from 0.2 s to this
+DELAY = {"sweep": 14.0, "simulate": 12.0, "optimize": 16.0}
+
+
+def group(pgid: int) -> list[int]:
+    """The live (not zombie) processes of process group ``pgid``, from /proc."""
+    out = []
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                text = Path(f"/proc/{entry}/stat").read_text()
+            except OSError:
+                continue
+            fields = text[text.rfind(")") + 2:].split()
+            if int(fields[2]) == pgid and fields[0] != "Z":
+                out.append(int(entry))
+    return out
+
+
+def temporaries(folder: Path) -> list[str]:
+    return [str(p.relative_to(folder)) for p in folder.rglob(f"{TEMP_PREFIX}*")]
+
+
+def sweep_keys(path: Path) -> list[str]:
+    import csv
+
+    if not path.is_file():
+        return []
+    with open(path, newline="", encoding="utf-8") as fh:
+        return [row["key"] for row in csv.DictReader(fh)]
+
+
+def run(argv: list[str], folder: Path, python: str, timeout: float = 900) -> subprocess.CompletedProcess:
+    env = dict(os.environ, MPLBACKEND="Agg", TMPDIR=str(folder / "tmp"))
+    return subprocess.run([python, "-m", "transgen", *argv], capture_output=True, text=True, timeout=timeout,
+                          env=env, cwd=folder)
+
+
+def kill_once(argv: list[str], folder: Path, python: str, delay: float) -> dict:
+    env = dict(os.environ, MPLBACKEND="Agg", TMPDIR=str(folder / "tmp"))
+    proc = subprocess.Popen([python, "-m", "transgen", *argv], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            env=env, cwd=folder, start_new_session=True)
+    end = time.monotonic() + delay
+    peak = 1
+    while time.monotonic() < end and proc.poll() is None:
+        peak = max(peak, len(group(proc.pid)))
+        time.sleep(0.05)
+    finished = proc.poll() is not None
+    if not finished:
+        os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    deadline = time.monotonic() + 5.0
+    while (alive := group(proc.pid)) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    alive = group(proc.pid)
+    for pid in alive:  # do not leave them for the next kill (counted as a failure)
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+    return {"delay": round(delay, 2), "finished_before_kill": finished, "peak_group": peak,
+            "alive_after_5s": len(alive), "temporaries_after_kill": len(temporaries(folder))}
+
+
+def test_command(name: str, kills: int, rng: random.Random, base: Path, python: str, grid: list[str],
+                 complete_each: bool) -> dict:
+    folder = base / name
+    (folder / "tmp").mkdir(parents=True)
+    argv = commands(folder, grid)[name]
+    records, problems = [], []
+    for k in range(kills):
+        record = kill_once(argv, folder, python, rng.uniform(0.2, DELAY[name]))
+        if name == "sweep":
+            keys = sweep_keys(folder / "r.csv")
+            record["rows"] = len(keys)
+            if len(keys) != len(set(keys)):
+                problems.append(f"kill {k}: a row twice in the results file")
+        if complete_each:  # the next run, to its end: no temporary file after it
+            done = run(argv, folder, python)
+            record["next_run_exit"] = done.returncode
+            record["temporaries_after_next_run"] = len(temporaries(folder))
+            if "Traceback" in done.stderr or done.returncode not in (0, 1):
+                problems.append(f"kill {k}: the next run exited {done.returncode}: {done.stderr[-300:]}")
+            if record["temporaries_after_next_run"]:
+                problems.append(f"kill {k}: temporaries after the next run: {temporaries(folder)[:3]}")
+        if record["alive_after_5s"]:
+            problems.append(f"kill {k}: {record['alive_after_5s']} process(es) of the group alive 5 s after the kill")
+        records.append(record)
+    final = run(argv, folder, python)
+    left = temporaries(folder)
+    result = {"command": name, "kills": kills, "killed_while_running": sum(not r["finished_before_kill"] for r in records),
+              "alive_after_5s": sum(r["alive_after_5s"] for r in records),
+              "stale_temporaries_after_kills": sum(r["temporaries_after_kill"] > 0 for r in records),
+              "final_exit": final.returncode, "temporaries_after_final_run": len(left), "records": records}
+    if final.returncode not in (0, 1) or "Traceback" in final.stderr:
+        problems.append(f"final run exited {final.returncode}: {final.stderr[-300:]}")
+    if left:
+        problems.append(f"temporaries after the final run: {left[:3]}")
+    if name == "sweep":
+        keys = sweep_keys(folder / "r.csv")
+        result["rows"], result["unique_rows"], result["design_rows"] = len(keys), len(set(keys)), len(grid)
+        if not (len(keys) == len(set(keys)) == len(grid)):
+            problems.append(f"rows after resume: {len(keys)} ({len(set(keys))} distinct) of {len(grid)}")
+    result["problems"] = problems
+    return result
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--kills", type=int, default=20)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--commands", default="sweep,simulate,optimize")
+    parser.add_argument("--grid", type=int, default=len(GRID), help="sweep design size (default 24)")
+    parser.add_argument("--no-complete-each", action="store_true",
+                        help="simulate: no complete run after every kill (only the final one)")
+    parser.add_argument("--json", action="store_true")
+    parser.add_argument("--python", default=sys.executable)
+    args = parser.parse_args(argv)
+    if sys.platform != "linux":
+        print("kill_test: needs Linux (/proc, process groups)", file=sys.stderr)
+        return 0
+    base = Path(tempfile.mkdtemp(prefix="transgen-kill-"))
+    rng = random.Random(args.seed)
+    grid = [f"{4.3 + 0.02 * k:.2f}" for k in range(args.grid)]
+    start = time.monotonic()
+    results = []
+    for name in args.commands.split(","):
+        results.append(test_command(name, args.kills, rng, base, args.python, grid,
+                                    complete_each=name == "simulate" and not args.no_complete_each))
+        print(json.dumps({k: v for k, v in results[-1].items() if k != "records"}), file=sys.stderr, flush=True)
+    summary = {"kills_per_command": args.kills, "seed": args.seed, "wall_time": round(time.monotonic() - start, 1),
+               "results": results}
+    if args.json:
+        print(json.dumps(summary, indent=2))
+    else:
+        for r in results:
+            extra = f", rows {r['rows']} ({r['unique_rows']} distinct) of {r['design_rows']}" if "rows" in r else ""
+            print(f"{r['command']}: {r['kills']} kills ({r['killed_while_running']} while running): "
+                  f"{r['alive_after_5s']} processes alive 5 s after, stale temporaries after {r['stale_temporaries_after_kills']} "
+                  f"kills, {r['temporaries_after_final_run']} after the final run{extra}")
+            for p in r["problems"]:
+                print(f"  PROBLEM {p}")
+    shutil.rmtree(base, ignore_errors=True)
+    return 1 if any(r["problems"] for r in results) else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
