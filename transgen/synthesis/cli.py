@@ -1,4 +1,4 @@
-"""``transgen synthesize teeth|table``: the command-line layer over :mod:`transgen.synthesis`.
+"""``transgen synthesize teeth|table|topology``: the command-line layer over :mod:`transgen.synthesis`.
 
 Exit codes: 0 solutions found; 1 no solution (``teeth``: the targets cannot be met under the
 rules, the closest candidates are printed; the input was valid, the search ran, the answer is
@@ -119,10 +119,11 @@ def cmd_table(args) -> int:
 
 
 def add_commands(sub) -> None:
-    """Add ``synthesize`` with its ``teeth`` and ``table`` sub-commands to ``sub``."""
-    s = sub.add_parser("synthesize", help="tooth counts from target ratios, or a shift table",
+    """Add ``synthesize`` with its ``teeth``, ``table`` and ``topology`` sub-commands to ``sub``."""
+    s = sub.add_parser("synthesize", help="tooth counts from target ratios, a shift table, or new concepts",
                        description="Design synthesis: 'teeth' finds planetary tooth counts (Ns=? Nr=? in the file) "
-                                   "that reproduce target ratios; 'table' chooses a gear table of shift elements.")
+                                   "that reproduce target ratios; 'table' chooses a gear table of shift elements; 'topology' "
+                                   "proposes whole concepts from target ratios.")
     what = s.add_subparsers(dest="what", metavar="WHAT", required=True)
 
     t = what.add_parser("teeth", help="tooth counts of the sets written Ns=? Nr=? (or ranges Ns=20..60)",
@@ -155,3 +156,7 @@ def add_commands(sub) -> None:
     t.add_argument("--single-only", action="store_true", help="only single swaps between neighbouring gears")
     t.add_argument("--json", action="store_true", help="machine-readable output")
     t.set_defaults(func=cmd_table)
+
+    from .topology_cli import add_topology
+
+    add_topology(what)
