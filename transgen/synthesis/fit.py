@@ -38,6 +38,8 @@ def sample_points(n_sets: int, k_low: float, k_high: float, count: int, seed: in
 
     rng = np.random.default_rng(seed + 12345)
     generic = k_low + (0.2 + 0.6 * rng.random(n_sets)) * (k_high - k_low)
+    if not count:
+        return generic[None], np.zeros((0, n_sets))
     sobol = qmc.Sobol(n_sets, scramble=True, seed=seed).random(count)
     return generic[None], k_low + sobol * (k_high - k_low)
 

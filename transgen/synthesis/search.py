@@ -19,7 +19,7 @@ from .fit import Fit, fit_concept, refine, sample_points, screen
 from .topology import (Concept, Train, count_orbits, feasible_mask, rank_mask, train_automorphisms,
                        train_kinematics)
 
-__all__ = ["SearchSpec", "TrainResult", "FittedConcept", "train_task"]
+__all__ = ["SearchSpec", "TrainResult", "FittedConcept", "train_task", "feasible_placements", "placement_concept"]
 
 
 @dataclass(frozen=True)
@@ -83,18 +83,19 @@ def _is_representative(i, o, bs, cs, autos) -> bool:
     return True
 
 
-def train_task(train: Train, spec: SearchSpec) -> TrainResult:
-    """Every fitted concept on ``train`` and the counts of each stage (see the module docstring)."""
+def feasible_placements(train: Train, spec: SearchSpec):
+    """``(counts, kinematics, feasible)`` of ``train``: ``feasible`` lists ``(input, output,
+    rows)`` with one row of sorted candidate-element indices (brakes, then clutches) per distinct
+    feasible concept (one representative per class of the train's automorphisms)."""
     out = TrainResult()
     autos = train_automorphisms(train)
     factor = math.factorial(train.sets) // len(autos)  # labelled copies of this train
     raw, distinct = count_orbits(train, spec.brakes, spec.clutches, autos)
     out.enumerated = raw * factor
     out.distinct = distinct
-    generic, points = sample_points(train.sets, spec.k_low, spec.k_high, spec.samples, spec.seed)
+    generic, _ = sample_points(train.sets, spec.k_low, spec.k_high, 0, spec.seed)
     kin = train_kinematics(train, spec.engaged, generic)
-    targets = np.array(spec.targets)
-    gears = len(targets)
+    gears = len(spec.targets)
     n = len(train.links)
     bare = train.bare
     index = {c: e for e, c in enumerate(kin.candidates)}
@@ -104,8 +105,9 @@ def train_task(train: Train, spec: SearchSpec) -> TrainResult:
     member_links = [l for l in range(n) if l != bare]
     brake_sets = np.array(list(itertools.combinations([index[(l,)] for l in member_links], spec.brakes)),
                           dtype=np.int64).reshape(-1, spec.brakes)
+    feasible: list[tuple[int, int, np.ndarray]] = []
     if not len(brake_sets) or not len(clutch_sets):
-        return out
+        return out, kin, feasible
     # placements up to the input and output; the rank condition does not depend on them
     elements = np.hstack([np.repeat(brake_sets, len(clutch_sets), axis=0),
                           np.tile(clutch_sets, (len(brake_sets), 1))])
@@ -114,7 +116,6 @@ def train_task(train: Train, spec: SearchSpec) -> TrainResult:
     braked = np.zeros((len(elements), n), dtype=bool)
     for j in range(spec.brakes):
         braked[np.arange(len(elements)), [kin.candidates[e][0] for e in elements[:, j]]] = True
-    found: list[tuple[int, int, np.ndarray]] = []
     for i in ([bare] if bare is not None else range(n)):
         for o in range(n):
             if o == i or o == bare:
@@ -130,11 +131,28 @@ def train_task(train: Train, spec: SearchSpec) -> TrainResult:
                     [kin.candidates[e] for e in rows[r, spec.brakes:]], autos)]
                 rows = rows[reps]
             out.feasible += len(rows)
-            if not len(rows):
-                continue
-            ok, _, best = screen(kin, i, o, rows, targets, spec.screen, points)
-            for r, b in zip(rows[ok], best[ok]):
-                found.append((i, o, r, b))
+            if len(rows):
+                feasible.append((i, o, rows))
+    return out, kin, feasible
+
+
+def placement_concept(kin, spec: SearchSpec, i: int, o: int, row) -> Concept:
+    """The :class:`Concept` of one row of :func:`feasible_placements`."""
+    cands = [kin.candidates[e] for e in row]
+    return Concept(kin.train, i, o, tuple(c[0] for c in cands[:spec.brakes]), tuple(cands[spec.brakes:]))
+
+
+def train_task(train: Train, spec: SearchSpec) -> TrainResult:
+    """Every fitted concept on ``train`` and the counts of each stage (see the module docstring)."""
+    out, kin, feasible = feasible_placements(train, spec)
+    _, points = sample_points(train.sets, spec.k_low, spec.k_high, spec.samples, spec.seed)
+    targets = np.array(spec.targets)
+    n = len(train.links)
+    found = []
+    for i, o, rows in feasible:
+        ok, _, best = screen(kin, i, o, rows, targets, spec.screen, points)
+        for r, b in zip(rows[ok], best[ok]):
+            found.append((i, o, r, b))
     out.screened = len(found)
     if not found:
         return out
@@ -156,7 +174,7 @@ def train_task(train: Train, spec: SearchSpec) -> TrainResult:
         fit = fit_concept(train, i, o, cands, combos, targets, spec.k_low, spec.k_high, k[r][None])
         if fit is None or fit.max_error > spec.tolerance:
             continue
-        concept = Concept(train, i, o, tuple(c[0] for c in cands[:spec.brakes]), tuple(cands[spec.brakes:]))
+        concept = placement_concept(kin, spec, i, o, els)
         names = [name for name, _ in concept.elements]
         gear_elements = tuple(tuple(names[j] for j in combos[a]) for a in fit.assignment)
         out.fitted += 1
