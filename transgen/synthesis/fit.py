@@ -6,13 +6,15 @@ output speed), rational functions of the sets' basic ratios. Fitting assigns eac
 ``g`` (ratio ``t_g``) to a distinct combination ``a(g)`` and chooses ``k`` within the ring/sun
 bounds to minimise the log errors ``ln(r_a(g)(k) / t_g)``:
 
-1. **Screen** (:func:`screen`, vectorised over many concepts): at every point of a fixed Sobol
-   sample of the ``k`` box, each target's error to the nearest ratio of the right sign; the
-   concept's sampled error is the smallest, over the points, of the largest over the targets.
-   This relaxes the assignment (two targets may share a combination), so it never exceeds the
-   true assigned error at that point; a concept goes on when it is below ``screen`` (default
-   0.35 in ``ln``, wide enough for the sample spacing: between sample points a ratio changes by
-   less, see docs/topology.md for the measurement).
+1. **Screen** (:func:`screen`, vectorised over many concepts), exact over the whole box: a
+   gear's ratio is ``P(k)/Q(k)`` with ``P`` and ``Q`` cofactors of the constraint matrix, in which
+   each ``k_p`` appears in one row only, so both are *multi-affine* (affine in each ``k_p``).
+   On a sub-box of a regular grid, ``Q`` keeps one sign iff it has that sign at all corners (a
+   multi-affine function takes its extremes at the corners); then the ratio is linear-fractional,
+   hence monotone, in each ``k_p`` and its range over the sub-box is the range of its corner
+   values (else the range is unbounded). A concept goes on when some sub-box has, for every
+   target, a gear whose range comes within the tolerance: the relaxation (no distinct gears, no
+   common ``k``) keeps every concept that meets the targets somewhere in the bounds.
 2. **Fit** (:func:`fit_concept`): from the best sample points, the assignment by the Hungarian
    method on the squared log errors (scipy ``linear_sum_assignment``), then bounded least
    squares (scipy ``least_squares``) in ``k``, re-assigned at the optimum and refitted once.
@@ -20,13 +22,14 @@ bounds to minimise the log errors ``ln(r_a(g)(k) / t_g)``:
 """
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
 
 from .topology import Train, TrainKinematics, _null_vectors, sample_speeds, speed_basis
 
-__all__ = ["Fit", "screen", "concept_ratios", "batch_ratios", "refine", "fit_concept", "sample_points"]
+__all__ = ["Fit", "grid", "screen", "concept_ratios", "batch_ratios", "refine", "fit_concept", "sample_points"]
 
 BIG = 1e6
 
@@ -50,31 +53,64 @@ def _log_errors(r: np.ndarray, t: float) -> np.ndarray:
         return np.where(q > 0, np.abs(np.log(np.where(q > 0, q, 1.0))), np.inf)
 
 
+def grid(n_sets: int, k_low: float, k_high: float, points: int = 256) -> tuple[np.ndarray, np.ndarray]:
+    """``(vertices, boxes)``: a regular grid of about ``points`` vertices over the box (``g`` per
+    axis, at least 3) and, per sub-box, the indices of its ``2^n`` corners."""
+    g = max(3, int(round(points ** (1.0 / n_sets))))
+    axis = np.linspace(k_low, k_high, g)
+    vertices = np.array(list(itertools.product(axis, repeat=n_sets)))
+    strides = g ** np.arange(n_sets - 1, -1, -1)
+    lower = np.array(list(itertools.product(range(g - 1), repeat=n_sets)))
+    offsets = np.array(list(itertools.product((0, 1), repeat=n_sets)))
+    boxes = (lower[:, None, :] + offsets[None]) @ strides
+    return vertices, boxes
+
+
 def screen(kin: TrainKinematics, i: int, o: int, elements: np.ndarray, targets: np.ndarray,
-           threshold: float, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(keep, error, best)`` for the placements ``elements`` (rows): the sampled relaxed error
-    at the sample ``points`` (see the module docstring), whether it is at most ``threshold``, and
-    the best sample point of each (rows of ``points``)."""
+           tolerance: float, vertices: np.ndarray, boxes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(keep, start)`` for the placements ``elements`` (rows): whether some sub-box of the grid
+    holds, for every target, a gear whose ratio range over the sub-box comes within
+    ``tolerance`` (relative) of it, and the best vertex of such a sub-box (the refinement's
+    start). Exact, not sampled (see the module docstring): no concept that meets the targets
+    anywhere in the bounds is dropped."""
     ids = kin.combo_ids(elements)
     used, inverse = np.unique(ids, return_inverse=True)
     inverse = inverse.reshape(ids.shape)
-    s = sample_speeds(kin, used, points)  # U x P x L
+    s = sample_speeds(kin, used, vertices)  # U x V x L, signs of polynomials in k
+    p_in, q_out = s[:, :, i], s[:, :, o]
+    scale = np.linalg.norm(s, axis=2)
+    qs = np.where(np.abs(q_out) > 1e-12 * np.maximum(scale, 1e-300), np.sign(q_out), 0.0)
+    qc = qs[:, boxes]  # U x B x 2^n
+    pole = ~((qc > 0).all(axis=2) | (qc < 0).all(axis=2))
     with np.errstate(all="ignore"):
-        valid = kin.rank_ok[used][:, None] & (np.abs(s[:, :, o]) > 1e-9) & (np.abs(s[:, :, i]) > 1e-9)
-        ratio = np.where(valid, s[:, :, i] / np.where(valid, s[:, :, o], 1.0), np.nan)
-    errors = np.empty((elements.shape[0], s.shape[1]))
-    chunk = max(1, 400_000 // max(1, ids.shape[1] * s.shape[1]))
-    for a in range(0, elements.shape[0], chunk):
-        r = ratio[inverse[a:a + chunk]]  # rows x S x P
-        worst = np.zeros((r.shape[0], r.shape[2]))
+        r = np.where(qs != 0, p_in / np.where(qs != 0, q_out, 1.0), np.nan)
+    rc = r[:, boxes]
+    lo = np.where(pole, -np.inf, np.nanmin(np.where(pole[..., None], 0.0, rc), axis=2))
+    hi = np.where(pole, np.inf, np.nanmax(np.where(pole[..., None], 0.0, rc), axis=2))
+    low_t = np.minimum(targets * (1 - tolerance), targets * (1 + tolerance))
+    high_t = np.maximum(targets * (1 - tolerance), targets * (1 + tolerance))
+    keep = np.zeros(len(elements), dtype=bool)
+    start = np.zeros(len(elements), dtype=np.int64)
+    # relaxed log error at the vertices, for the start points
+    chunk = max(1, 2_000_000 // max(1, ids.shape[1] * boxes.shape[0]))
+    for a in range(0, len(elements), chunk):
+        inv = inverse[a:a + chunk]
+        ok = np.ones((len(inv), boxes.shape[0]), dtype=bool)
+        for t0, t1 in zip(low_t, high_t):
+            cover = (lo[inv] <= t1) & (hi[inv] >= t0)  # rows x S x B
+            ok &= cover.any(axis=1)
+        keep[a:a + chunk] = ok.any(axis=1)
+        rr = r[inv]  # rows x S x V
+        worst = np.zeros((len(inv), rr.shape[2]))
         for t in targets:
-            e = _log_errors(r, t)
-            e = np.where(np.isnan(e), np.inf, e)
-            worst = np.maximum(worst, e.min(axis=1))
-        errors[a:a + chunk] = worst
-    best = np.argmin(errors, axis=1)
-    err = errors[np.arange(len(best)), best]
-    return err <= threshold, err, best
+            e = _log_errors(rr, t)
+            worst = np.maximum(worst, np.where(np.isnan(e), np.inf, e).min(axis=1))
+        # only vertices of admissible sub-boxes
+        admissible = np.zeros_like(worst, dtype=bool)
+        for row in np.flatnonzero(ok.any(axis=1)):
+            admissible[row, np.unique(boxes[ok[row]])] = True
+        start[a:a + chunk] = np.argmin(np.where(admissible, worst, np.inf), axis=1)
+    return keep, start
 
 
 def concept_ratios(train: Train, i: int, o: int, candidates, combos: np.ndarray, k: np.ndarray) -> np.ndarray:
@@ -217,7 +253,8 @@ def refine(train: Train, io: np.ndarray, vectors: np.ndarray, combos: np.ndarray
             kp = k.copy()
             kp[:, p] += h
             rp, _ = _relaxed(batch_ratios(train, io, vectors, combos, kp), targets, pick)
-            jac[..., p] = (rp - res) / h
+            with np.errstate(all="ignore"):
+                jac[..., p] = (rp - res) / h
         jac = np.where(np.isfinite(jac), jac, 0.0)
         r0 = np.where(np.isfinite(res), res, 0.0)
         jtj = np.einsum("rgp,rgq->rpq", jac, jac)

@@ -10,8 +10,9 @@ Stages (counts reported for each, see :class:`TopologySynthesis`):
 4. **screened** / **refined** / **fitted** - the sampled screen, the batched refinement and the
    exact fit of the basic ratios and the gear table (:mod:`transgen.synthesis.fit`): *fitted*
    concepts meet every target within ``tolerance`` (relative) with ``k`` in the ring/sun bounds;
-5. **ranked** - the best fitted concepts by ratio error get tooth counts
-   (:func:`transgen.synthesis.teeth.synthesize_teeth`, its assembly rules) and the designer's
+5. **ranked** - the best fitted concepts by ratio error get tooth counts near their fitted
+   ``k`` under the assembly rules of ``synthesize teeth``
+   (:func:`transgen.synthesis.teeth.planet_count`) and the designer's
    figures from :func:`transgen.powerflow.power_flow` and
    :func:`transgen.synthesis.table.table_score`, and are ranked (see :data:`RANKING`).
 
@@ -209,23 +210,62 @@ def _task(spec: SearchSpec, train) -> TrainResult:
     return train_task(train, spec)
 
 
-def _teeth(fc: FittedConcept, spec: SearchSpec, rules):
-    """The best tooth counts of a fitted concept under ``rules``, as ``(name, Ns, Nr, planets)``
-    tuples with the exact ratios, or ``None``."""
-    from ..language import parse_mechanism
-    from .teeth import RatioTarget, synthesize_teeth
+def _teeth(fc: FittedConcept, spec: SearchSpec, rules, per_set: int = 8):
+    """Tooth counts near the fitted ``k`` under ``rules`` (the assembly rules of ``synthesize
+    teeth``, :func:`transgen.synthesis.teeth.planet_count`): for each set the ``per_set``
+    admissible ``Nr/Ns`` closest to its ``k`` (smallest sets first among equal fractions), every
+    combination of them, the best by largest relative ratio error then size; ``(teeth, ratios)``
+    with ``teeth`` as ``(name, Ns, Nr, planets)``, or ``(None, None)`` when none is within the
+    tolerance. The ratios are recomputed by :func:`transgen.kinematics.analyze` on the file."""
+    import itertools
 
-    gears = dict(zip(spec.gears, fc.gears))
-    text = concept_text(fc.concept, gears, {g: _text(t) for g, t in zip(spec.gears, spec.targets)})
-    mech = parse_mechanism(text, "<concept>", unknown_teeth=True)
-    targets = tuple(RatioTarget(g, _text(t), Fraction(spec.tolerance * abs(t)).limit_denominator(10**9))
-                    for g, t in zip(spec.gears, spec.targets))
-    result = synthesize_teeth(mech, targets, rules, top=1, starts=16, seed=spec.seed)
-    if not result.solutions:
+    import numpy as np
+
+    from ..kinematics import analyze
+    from ..language import parse_mechanism
+    from .fit import batch_ratios
+    from .teeth import planet_count
+
+    c = fc.concept
+    options = []
+    for p, k in enumerate(fc.fit.k):
+        found: dict = {}
+        top_sun = int(rules.max_teeth / rules.k_min)
+        for ns in range(rules.min_teeth, top_sun + 1):
+            for nr in range(max(ns + 1, int(k * ns) - 2), min(rules.max_teeth, int(k * ns) + 3) + 1):
+                n = planet_count(ns, nr, 1, rules)
+                if n is not None:
+                    f = Fraction(nr, ns)
+                    if f not in found:
+                        found[f] = (ns, nr, n)
+        ranked = sorted(found.items(), key=lambda item: (abs(float(item[0]) - k), item[1][0] + item[1][1]))
+        options.append([v for _, v in ranked[:per_set]])
+        if not options[-1]:
+            return None, None
+    choices = list(itertools.product(*options))
+    ks = np.array([[nr / ns for ns, nr, _ in choice] for choice in choices])
+    n_el = len(c.elements)
+    n_links = len(c.train.links)
+    vectors = np.zeros((len(choices), n_el, n_links))
+    for j, (_, links) in enumerate(c.elements):
+        vectors[:, j, links[0]] = 1.0
+        if len(links) == 2:
+            vectors[:, j, links[1]] = -1.0
+    names = [name for name, _ in c.elements]
+    combos = np.array([[names.index(e) for e in engaged] for engaged in fc.gears], dtype=np.int64)
+    io = np.tile([c.input, c.output], (len(choices), 1))
+    r = batch_ratios(c.train, io, vectors, combos, ks)
+    err = np.max(np.abs(r / np.array(spec.targets) - 1), axis=1)
+    err = np.where(np.isfinite(err), err, np.inf)
+    size = np.array([sum(ns + nr for ns, nr, _ in choice) for choice in choices])
+    best = min(range(len(choices)), key=lambda j: (err[j], size[j]))
+    if not err[best] <= spec.tolerance * (1 + 1e-9):
         return None, None
-    best = result.solutions[0]
-    teeth = tuple((s.name, s.n_sun, s.n_ring, s.planets) for s in best.teeth)
-    return teeth, {g: float(r) for g, r in best.ratios.items()}
+    teeth = tuple((f"P{p + 1}", ns, nr, n) for p, (ns, nr, n) in enumerate(choices[best]))
+    gears = dict(zip(spec.gears, fc.gears))
+    mech = parse_mechanism(concept_text(c, gears, None, teeth), "<candidate>")
+    ratios = {g: analyze(mech, gears[g]).ratio for g in spec.gears}
+    return teeth, ratios
 
 
 def _text(x: float) -> str:

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .fit import Fit, fit_concept, refine, sample_points, screen
+from .fit import Fit, fit_concept, grid, refine, sample_points, screen
 from .topology import (Concept, Train, count_orbits, feasible_mask, rank_mask, train_automorphisms,
                        train_kinematics)
 
@@ -36,8 +36,6 @@ class SearchSpec:
     k_low: float = 1.5
     k_high: float = 4.5
     samples: int = 256
-    screen: float = 0.35
-    starts: int = 2
     seed: int = 0
 
 
@@ -145,12 +143,12 @@ def placement_concept(kin, spec: SearchSpec, i: int, o: int, row) -> Concept:
 def train_task(train: Train, spec: SearchSpec) -> TrainResult:
     """Every fitted concept on ``train`` and the counts of each stage (see the module docstring)."""
     out, kin, feasible = feasible_placements(train, spec)
-    _, points = sample_points(train.sets, spec.k_low, spec.k_high, spec.samples, spec.seed)
+    points, boxes = grid(train.sets, spec.k_low, spec.k_high, spec.samples)
     targets = np.array(spec.targets)
     n = len(train.links)
     found = []
     for i, o, rows in feasible:
-        ok, _, best = screen(kin, i, o, rows, targets, spec.screen, points)
+        ok, best = screen(kin, i, o, rows, targets, spec.tolerance, points, boxes)
         for r, b in zip(rows[ok], best[ok]):
             found.append((i, o, r, b))
     out.screened = len(found)

@@ -323,7 +323,13 @@ def speed_basis(train: Train, k: np.ndarray) -> np.ndarray:
             if m in link_of:
                 a[:, p, link_of[m]] += coeff
     _, _, vt = np.linalg.svd(a)
-    return np.transpose(vt[:, train.sets:, :], (0, 2, 1))
+    basis = np.transpose(vt[:, train.sets:, :], (0, 2, 1)).copy()
+    # orientation: det([A; V^T]) > 0, so that the gear speeds V q (q the cofactors of the element
+    # rows in the basis) are the cofactors of [A; E] times a positive factor: their signs are
+    # those of polynomials in k (what the interval screen of transgen.synthesis.fit relies on)
+    flip = np.linalg.det(np.concatenate([a, np.transpose(basis, (0, 2, 1))], axis=1)) < 0
+    basis[flip, :, -1] *= -1
+    return basis
 
 
 def _null_vectors(e: np.ndarray) -> np.ndarray:
