@@ -219,3 +219,24 @@ def test_bad_input_is_an_error_not_a_traceback(capsys):
     assert "error" in capsys.readouterr().err
     assert main(["synthesize", "topology", "--sets", "9", "--brakes", "2", "--clutches", "2",
                  "--ratios", "1=2,2=1"]) == 2
+
+
+class _Reversed:
+    """An executor that runs the tasks in reverse order (as a pool may finish them)."""
+
+    def run(self, fn, shared, tasks):
+        return (fn(shared, t) for t in reversed(list(tasks)))
+
+
+def test_the_result_does_not_depend_on_the_executor_or_task_order():
+    from transgen.sim.study.executors import LocalExecutor
+
+    gears, targets = zip(*[(g, float(r)) for g, r in (item.split("=") for item in SIMPSON.split(","))])
+    spec = SearchSpec(2, 2, 2, 2, gears, targets)
+    subset = trains(2, 5)[:5] + [Train(2, ((0, 3), (1,), (2, 4), (5,), ()))]
+    runs = [synthesize_topology(spec, top=3, train_list=subset, executor=e)
+            for e in (None, _Reversed(), LocalExecutor(2))]
+    for other in runs[1:]:
+        assert other.counts == runs[0].counts
+        assert [c.mech for c in other.candidates] == [c.mech for c in runs[0].candidates]
+    assert runs[0].candidates

@@ -130,8 +130,8 @@ def estimate_seconds(spec: SearchSpec, n_trains: int | None = None) -> float:
 
 
 def _train_estimate(sets: int, links: int) -> int:
-    """Gear trains up to set permutations (measured: N=2 18, N=3 224 at K=2, N=4 9297 at K=3)."""
-    known = {(2, 5): 18, (3, 6): 224, (4, 8): 9297}
+    """Gear trains up to set permutations (counted by :func:`transgen.synthesis.topology.trains`)."""
+    known = {(2, 4): 17, (2, 5): 18, (3, 6): 386, (3, 7): 209, (4, 8): 9297}
     return known.get((sets, links), int(10 ** (sets + 0.5)))
 
 

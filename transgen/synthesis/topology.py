@@ -98,12 +98,10 @@ def _train_code(links, grounded, perm) -> tuple:
 
 def trains(n_sets: int, n_links: int, bare_input: bool = True, max_grounded: int = 0) -> list[Train]:
     """Every gear train of ``n_sets`` simple sets with ``n_links`` links (the bare input shaft
-    counted when there is one), one per class of set permutations, in a fixed order.
-
-    Each train's links are sorted by their encoding (the canonical order)."""
+    counted when there is one), one per class of set permutations, in a fixed order (links
+    sorted by their member tuples; trains by their canonical code)."""
     n_members = 3 * n_sets
     perms = list(itertools.permutations(range(n_sets)))
-    seen: set = set()
     out: list[Train] = []
     for bare in ((0, 1) if bare_input else (0,)):
         target = n_links - bare
@@ -112,16 +110,53 @@ def trains(n_sets: int, n_links: int, bare_input: bool = True, max_grounded: int
                 if len({m // 3 for m in grounded}) < grounded_count:
                     continue  # two members of one set grounded: the set is locked
                 rest = [m for m in range(n_members) if m not in grounded]
-                for blocks in _partitions(rest, target):
-                    links = tuple(tuple(b) for b in blocks) + (((),) if bare else ())
-                    code = min(_train_code(links, grounded, p) for p in perms)
-                    if code in seen:
-                        continue
-                    seen.add(code)
-                    ordered = tuple(() if m == (BARE,) else m for m in code[0])
-                    out.append(Train(n_sets, ordered, code[1]))
-    out.sort(key=lambda t: (t.grounded, tuple((BARE,) if not m else m for m in t.links)))
-    return out
+                labels = np.array([[next(b for b, block in enumerate(blocks) if m in block) for m in rest]
+                                   for blocks in _partitions(rest, target)], dtype=np.int64).reshape(-1, len(rest))
+                if not len(labels):
+                    continue
+                codes = _canonical_codes(labels, rest, grounded, perms)
+                _, first = np.unique(codes, return_index=True)
+                for row in sorted(first, key=lambda r: codes[r]):
+                    blocks = [tuple(m for m, lab in zip(rest, labels[row]) if lab == b) for b in range(target)]
+                    links = tuple(sorted(blocks)) + (((),) if bare else ())
+                    out.append(Train(n_sets, links, tuple(grounded)))
+    # one representative per class across the grounded choices too (a set permutation may map
+    # one grounded choice onto another)
+    seen, unique = set(), []
+    for t in out:
+        code = min(_train_code(t.links, t.grounded, p) for p in perms) if t.grounded else None
+        if code is not None and code in seen:
+            continue
+        if code is not None:
+            seen.add(code)
+        unique.append(t)
+    return unique
+
+
+def _canonical_codes(labels: np.ndarray, members: list[int], grounded, perms) -> np.ndarray:
+    """Smallest code over the set permutations of each partition (rows: the block of each of
+    ``members``), vectorised: the members are reordered by the permutation, the block labels
+    renumbered by first occurrence, and the label vector read as a base-``b`` integer."""
+    n_blocks = int(labels.max()) + 1
+    position = {m: j for j, m in enumerate(members)}
+    best = None
+    for perm in perms:
+        image = [3 * perm[m // 3] + m % 3 for m in members]
+        if sorted(3 * perm[m // 3] + m % 3 for m in grounded) != sorted(grounded):
+            continue  # this permutation moves the grounded members: another class
+        # column j of the permuted partition is the member that the permutation sends to members[j]
+        inverse = {img: m for m, img in zip(members, image)}
+        cols = [position[inverse[m]] for m in members]
+        lab = labels[:, cols]
+        first = np.stack([np.where(lab == b, np.arange(lab.shape[1]), lab.shape[1]).min(axis=1)
+                          for b in range(n_blocks)], axis=1)
+        rank = np.argsort(np.argsort(first, axis=1), axis=1)
+        renamed = np.take_along_axis(rank, lab, axis=1)
+        code = np.zeros(len(lab), dtype=np.int64)
+        for j in range(lab.shape[1]):
+            code = code * n_blocks + renamed[:, j]
+        best = code if best is None else np.minimum(best, code)
+    return best
 
 
 def _partitions(members: list[int], blocks: int):

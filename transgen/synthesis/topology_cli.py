@@ -77,6 +77,15 @@ def cmd_topology(args) -> int:
         for c in result.candidates:
             name = f"candidate_{c.rank:02d}.mech"
             write_text(out / name, c.mech)
+            if c.teeth and not args.no_levers:
+                from ..drawing import draw_levers, save_figure
+                from ..language import parse_mechanism
+
+                fig = draw_levers(parse_mechanism(c.mech, name))
+                save_figure(fig, out / f"candidate_{c.rank:02d}_levers.svg")
+                import matplotlib.pyplot as plt
+
+                plt.close(fig)
             d = c.to_dict()
             rows.append(",".join([
                 str(c.rank), f"{c.max_ratio_error:.6g}", str(bool(c.teeth)).lower(), d["input"], d["output"],
@@ -144,7 +153,8 @@ def add_topology(what) -> None:
                    help="refuse a search estimated to take longer on one core (default 6)")
     t.add_argument("--workers", type=int, help="local worker processes (default: this process)")
     t.add_argument("--scheduler", help="Dask scheduler address tcp://HOST:PORT")
-    t.add_argument("-o", "--output", metavar="DIR", help="write candidate_NN.mech and summary.csv here")
+    t.add_argument("-o", "--output", metavar="DIR", help="write candidate_NN.mech, its lever diagram and summary.csv here")
+    t.add_argument("--no-levers", action="store_true", help="with -o: no lever diagrams (candidate_NN_levers.svg)")
     t.add_argument("--json", action="store_true", help="machine-readable output")
     t.set_defaults(func=_checked)
 
