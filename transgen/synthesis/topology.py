@@ -368,13 +368,27 @@ def speed_basis(train: Train, k: np.ndarray) -> np.ndarray:
 
 
 def _null_vectors(e: np.ndarray) -> np.ndarray:
-    """Generalised cross product of the rows of ``e`` (..., K, K+1): a vector orthogonal to them,
-    zero when they are dependent (the cofactors of the (K+1)-square matrix)."""
-    d = e.shape[-1]
+    """Generalised cross product of the rows of ``e`` (..., K, K+1): ``q_j = (-1)^j det(e without
+    column j)``, orthogonal to the rows, zero when they are dependent (closed forms for K <= 3)."""
+    k, d = e.shape[-2], e.shape[-1]
+    if k == 1:
+        return np.stack([e[..., 0, 1], -e[..., 0, 0]], axis=-1)
+    if k == 2:
+        return np.cross(e[..., 0, :], e[..., 1, :])
+    if k == 3:
+        a, b, c = e[..., 0, :], e[..., 1, :], e[..., 2, :]
+
+        def m(i, j):
+            return b[..., i] * c[..., j] - b[..., j] * c[..., i]
+
+        m01, m02, m03, m12, m13, m23 = m(0, 1), m(0, 2), m(0, 3), m(1, 2), m(1, 3), m(2, 3)
+        return np.stack([a[..., 1] * m23 - a[..., 2] * m13 + a[..., 3] * m12,
+                         -(a[..., 0] * m23 - a[..., 2] * m03 + a[..., 3] * m02),
+                         a[..., 0] * m13 - a[..., 1] * m03 + a[..., 3] * m01,
+                         -(a[..., 0] * m12 - a[..., 1] * m02 + a[..., 2] * m01)], axis=-1)
     out = np.empty(e.shape[:-2] + (d,))
     for j in range(d):
-        minor = np.delete(e, j, axis=-1)
-        out[..., j] = (-1) ** j * np.linalg.det(minor)
+        out[..., j] = (-1) ** j * np.linalg.det(np.delete(e, j, axis=-1))
     return out
 
 

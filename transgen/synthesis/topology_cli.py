@@ -93,7 +93,7 @@ def cmd_topology(args) -> int:
                 '"' + " ".join(f"{g}:{''.join(e)}" for g, e in c.gears.items()) + '"',
                 '"' + " ".join(f"{v:.4f}" for v in c.k) + '"',
                 '"' + (" ".join(f"{n}:{ns}/{nr}" for n, ns, nr, _ in c.teeth) if c.teeth else "") + '"',
-                f"{c.figures.get('designer_cost', float('nan')):.6g}",
+                f"{c.figures.get('designer_cost') if c.figures.get('designer_cost') is not None else float('nan'):.6g}",
                 f"{c.figures.get('mean_forward_efficiency', float('nan')):.6g}",
                 f"{c.figures.get('max_circulating_power', float('nan')):.6g}", name]))
         write_text(out / "summary.csv", "\n".join(rows) + "\n")
@@ -118,7 +118,7 @@ def cmd_topology(args) -> int:
         print(f"\n{cand.rank:>3}. max error {cand.max_ratio_error:.3%}  in {d['input']} out {d['output']}  {elems}")
         print(f"     table {table}")
         print("     ratios " + " ".join(f"{g} {r:.3f}" for g, r in cand.ratios.items()) + f"   teeth {teeth}")
-        if cand.figures:
+        if cand.figures and "powerflow_error" not in cand.figures:
             f = cand.figures
             print(f"     efficiency {f['mean_forward_efficiency']:.4f} (mean fwd), circulating power "
                   f"{f['max_circulating_power']:.2f}, open slip {f['max_open_slip']:.2f}, element torque "
