@@ -9,12 +9,11 @@ from __future__ import annotations
 import sys
 
 from ..cli_args import number_option
+from .topology_cli import add_topology
+from .topology_cli import progress_line as _progress
+from .topology_cli import ring_sun_range as _k_range
 
 __all__ = ["add_commands"]
-
-
-def _progress(text: str) -> None:
-    print(f"\r  {text}   ", end="", file=sys.stderr, flush=True)
 
 
 def _int_list(text: str) -> tuple[int, ...]:
@@ -25,14 +24,6 @@ def _int_list(text: str) -> tuple[int, ...]:
     if not values or min(values) < 1:
         raise ValueError(f"--planets: positive planet counts, not {text!r}")
     return values
-
-
-def _k_range(text: str) -> tuple[float, float]:
-    try:
-        low, high = (float(x) for x in text.split(","))
-    except ValueError:
-        raise ValueError(f"--ring-sun: two numbers MIN,MAX, e.g. 1.5,4.5, not {text!r}") from None
-    return low, high
 
 
 def cmd_teeth(args) -> int:
@@ -156,7 +147,5 @@ def add_commands(sub) -> None:
     t.add_argument("--single-only", action="store_true", help="only single swaps between neighbouring gears")
     t.add_argument("--json", action="store_true", help="machine-readable output")
     t.set_defaults(func=cmd_table)
-
-    from .topology_cli import add_topology
 
     add_topology(what)

@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 import sys
 
-__all__ = ["add_topology", "parse_targets"]
+__all__ = ["add_topology", "parse_targets", "ring_sun_range", "progress_line"]
 
 
 def parse_targets(text: str) -> tuple[tuple[str, ...], tuple[float, ...]]:
@@ -27,7 +27,8 @@ def parse_targets(text: str) -> tuple[tuple[str, ...], tuple[float, ...]]:
     return tuple(ratios), tuple(values)
 
 
-def _k_range(text: str) -> tuple[float, float]:
+def ring_sun_range(text: str) -> tuple[float, float]:
+    """``--ring-sun MIN,MAX`` as two finite numbers (shared by ``synthesize teeth``)."""
     try:
         low, high = (float(x) for x in text.split(","))
     except ValueError:
@@ -37,7 +38,8 @@ def _k_range(text: str) -> tuple[float, float]:
     return low, high
 
 
-def _progress(text: str) -> None:
+def progress_line(text: str) -> None:
+    """Progress on standard error, rewritten in place (a terminal only)."""
     print(f"\r  {text}   ", end="", file=sys.stderr, flush=True)
 
 
@@ -49,7 +51,7 @@ def cmd_topology(args) -> int:
     from .search import SearchSpec
 
     gears, targets = parse_targets(args.ratios)
-    low, high = _k_range(args.ring_sun)
+    low, high = ring_sun_range(args.ring_sun)
     engaged = args.engaged if args.engaged is not None else max(2, args.sets - 1)
     spec = SearchSpec(args.sets, args.brakes, args.clutches, engaged, gears, targets, args.tolerance, low, high)
     limit = args.max_hours * 3600
@@ -59,7 +61,7 @@ def cmd_topology(args) -> int:
         from ..sim.study.executors import make_executor
 
         executor = make_executor(args.workers, args.scheduler)
-    progress = _progress if sys.stderr.isatty() and not args.json else None
+    progress = progress_line if sys.stderr.isatty() and not args.json else None
     if executor is not None:
         with executor:
             result = synthesize_topology(spec, args.top, executor, progress, max_seconds=limit)
