@@ -158,7 +158,8 @@ def test_documents_only_for_shipped_schemas():
     assert schema_path("transgen.modes/1") == SCHEMA_DIR / "modes.json"
 
 
-SYNTHESIS_SCHEMAS = {"transgen.synthesis_teeth/1", "transgen.synthesis_table/1"}
+SYNTHESIS_SCHEMAS = {"transgen.synthesis_teeth/1", "transgen.synthesis_table/1",
+                     "transgen.synthesize.topology/1"}  # the last validated in tests/test_topology.py
 
 
 def test_synthesis_outputs_are_valid_documents(capsys, tmp_path):

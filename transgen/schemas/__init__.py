@@ -38,7 +38,7 @@ __all__ = ["SCHEMA_DIR", "schema_path", "load_schema", "json_document", "dumps",
 
 SCHEMA_DIR = Path(__file__).resolve().parent
 
-_NAME = re.compile(r"^transgen\.([a-z][a-z0-9_-]*)/(\d+)$")
+_NAME = re.compile(r"^transgen\.([a-z][a-z0-9_-]*(?:\.[a-z][a-z0-9_-]*)*)/(\d+)$")
 
 
 def _parse(name: str) -> tuple[str, int]:

@@ -1,4 +1,4 @@
-"""``transgen synthesize teeth|table``: the command-line layer over :mod:`transgen.synthesis`.
+"""``transgen synthesize teeth|table|topology``: the command-line layer over :mod:`transgen.synthesis`.
 
 Exit codes: 0 solutions found; 1 no solution (``teeth``: the targets cannot be met under the
 rules, the closest candidates are printed; the input was valid, the search ran, the answer is
@@ -6,17 +6,15 @@ rules, the closest candidates are printed; the input was valid, the search ran, 
 """
 from __future__ import annotations
 
-import math
 import sys
 
 from ..cli_args import number_option
 from ..limits import add_force_option
+from .topology_cli import add_topology
+from .topology_cli import progress_line as _progress
+from .topology_cli import ring_sun_range as _k_range
 
 __all__ = ["add_commands"]
-
-
-def _progress(text: str) -> None:
-    print(f"\r  {text}   ", end="", file=sys.stderr, flush=True)
 
 
 def _int_list(text: str) -> tuple[int, ...]:
@@ -27,16 +25,6 @@ def _int_list(text: str) -> tuple[int, ...]:
     if not values or min(values) < 1:
         raise ValueError(f"--planets: positive planet counts, not {text!r}")
     return values
-
-
-def _k_range(text: str) -> tuple[float, float]:
-    try:
-        low, high = (float(x) for x in text.split(","))
-    except ValueError:
-        raise ValueError(f"--ring-sun: two numbers MIN,MAX, e.g. 1.5,4.5, not {text!r}") from None
-    if not (math.isfinite(low) and math.isfinite(high)):
-        raise ValueError(f"--ring-sun: two finite numbers MIN,MAX, e.g. 1.5,4.5, not {text!r}")
-    return low, high
 
 
 def cmd_teeth(args) -> int:
@@ -125,10 +113,11 @@ def cmd_table(args) -> int:
 
 
 def add_commands(sub) -> None:
-    """Add ``synthesize`` with its ``teeth`` and ``table`` sub-commands to ``sub``."""
-    s = sub.add_parser("synthesize", help="tooth counts from target ratios, or a shift table",
+    """Add ``synthesize`` with its ``teeth``, ``table`` and ``topology`` sub-commands to ``sub``."""
+    s = sub.add_parser("synthesize", help="tooth counts from target ratios, a shift table, or new concepts",
                        description="Design synthesis: 'teeth' finds planetary tooth counts (Ns=? Nr=? in the file) "
-                                   "that reproduce target ratios; 'table' chooses a gear table of shift elements.")
+                                   "that reproduce target ratios; 'table' chooses a gear table of shift elements; 'topology' "
+                                   "proposes whole concepts from target ratios.")
     what = s.add_subparsers(dest="what", metavar="WHAT", required=True)
 
     t = what.add_parser("teeth", help="tooth counts of the sets written Ns=? Nr=? (or ranges Ns=20..60)",
@@ -162,3 +151,5 @@ def add_commands(sub) -> None:
     t.add_argument("--single-only", action="store_true", help="only single swaps between neighbouring gears")
     t.add_argument("--json", action="store_true", help="machine-readable output")
     t.set_defaults(func=cmd_table)
+
+    add_topology(what)

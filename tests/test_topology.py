@@ -1,0 +1,242 @@
+"""``transgen synthesize topology``: enumeration against a brute force, the pruning against
+:func:`transgen.kinematics.analyze`, and the Simpson three-speed found from its ratios alone."""
+from __future__ import annotations
+
+import itertools
+import json
+
+import numpy as np
+import pytest
+
+from transgen.kinematics import analyze
+from transgen.language import parse_mechanism
+from transgen.synthesis.fit import sample_points
+from transgen.synthesis.rank import concept_text, synthesize_topology, validate_spec, TopologyInputError
+from transgen.synthesis.search import SearchSpec, feasible_placements, placement_concept
+from transgen.synthesis.topology import (Concept, Train, canonical_key, count_orbits, link_count, placements,
+                                         speed_basis, trains)
+
+
+# ------------------------------------------------------------------ brute force, no symmetry breaking
+
+
+def _labelled_trains(n_sets: int, n_links: int):
+    """Every train with the sets told apart: each member gets a block label (first occurrence
+    order), no two members of one set in a block; with and without a bare input shaft."""
+    n = 3 * n_sets
+    for bare in (0, 1):
+        blocks = n_links - bare
+        seen = set()
+        for labels in itertools.product(range(blocks), repeat=n):
+            order = {}
+            norm = tuple(order.setdefault(x, len(order)) for x in labels)
+            if norm in seen or len(order) != blocks:
+                continue
+            seen.add(norm)
+            links = [tuple(m for m in range(n) if norm[m] == b) for b in range(blocks)]
+            if any(len({m // 3 for m in link}) < len(link) for link in links):
+                continue
+            yield Train(n_sets, tuple(links) + (((),) if bare else ()))
+
+
+def _simple_feasible(c: Concept, gears: int, engaged: int, k: np.ndarray) -> bool:
+    """The early pruning of one concept written plainly (rank of the stacked constraints)."""
+    t = c.train
+    n = len(t.links)
+    link_of = t.link_of()
+    rows = []
+    for p in range(t.sets):
+        row = np.zeros(n)
+        for j, coeff in enumerate((1.0, k[p], -(1 + k[p]))):
+            if 3 * p + j in link_of:
+                row[link_of[3 * p + j]] += coeff
+        rows.append(row)
+    elements = [(b,) for b in c.brakes] + list(c.clutches)
+    ratios, used = [], set()
+    for combo in itertools.combinations(range(len(elements)), engaged):
+        a = [r.copy() for r in rows]
+        for e in combo:
+            row = np.zeros(n)
+            row[elements[e][0]] = 1
+            if len(elements[e]) == 2:
+                row[elements[e][1]] = -1
+            a.append(row)
+        a = np.array(a)
+        if n - np.linalg.matrix_rank(a, tol=1e-9) != 1:
+            continue
+        w = np.linalg.svd(a)[2][-1]
+        if abs(w[c.input]) < 1e-9 or abs(w[c.output]) < 1e-9:
+            continue
+        ratios.append(w[c.input] / w[c.output])
+        used.update(combo)
+    distinct = len({round(r, 7) for r in ratios})
+    touched = {l for e in elements for l in e} | {c.input, c.output}
+    dead = any(len(t.links[l]) == 1 and l not in touched for l in range(n))
+    return len(ratios) >= gears and distinct >= gears and len(used) == len(elements) and not dead
+
+
+@pytest.mark.parametrize("n_sets,brakes,clutches,engaged,gears", [(2, 1, 1, 1, 2), (2, 1, 2, 2, 3)])
+def test_the_enumeration_finds_the_brute_forces_distinct_concepts(n_sets, brakes, clutches, engaged, gears):
+    spec = SearchSpec(n_sets, brakes, clutches, engaged, tuple(str(g) for g in range(gears)),
+                      tuple(float(g + 2) for g in range(gears)))
+    k = sample_points(n_sets, spec.k_low, spec.k_high, 0, spec.seed)[0][0]
+    n_links = link_count(n_sets, engaged)
+    brute_keys, brute_feasible = set(), set()
+    labelled = 0
+    for train in _labelled_trains(n_sets, n_links):
+        for i, o, bs, cs in placements(train, brakes, clutches):
+            labelled += 1
+            c = Concept(train, i, o, bs, cs)
+            key = canonical_key(c)
+            if key in brute_keys:
+                continue
+            brute_keys.add(key)
+            if _simple_feasible(c, gears, engaged, k):
+                brute_feasible.add(key)
+    fast_keys, enumerated, distinct = [], 0, 0
+    for train in trains(n_sets, n_links):
+        counts, kin, feasible = feasible_placements(train, spec)
+        enumerated += counts.enumerated
+        distinct += counts.distinct
+        for i, o, rows in feasible:
+            fast_keys += [canonical_key(placement_concept(kin, spec, i, o, r)) for r in rows]
+    assert len(fast_keys) == len(set(fast_keys)), "one representative per class"
+    assert set(fast_keys) == brute_feasible
+    assert distinct == len(brute_keys)
+    assert enumerated == labelled
+    assert brute_feasible, "the case prunes something and keeps something"
+    assert len(brute_feasible) < len(brute_keys)
+
+
+def test_the_canonical_key_ignores_set_order_link_order_and_clutch_ends():
+    a = Train(2, ((0,), (1, 5), (2, 3), (4,), ()))
+    # the same train with the sets swapped (member m of set p -> set 1 - p) and links reordered
+    swap = {0: 3, 1: 4, 2: 5, 3: 0, 4: 1, 5: 2}
+    b_links = [tuple(sorted(swap[m] for m in link)) for link in a.links]
+    order = [4, 2, 0, 3, 1]
+    b = Train(2, tuple(b_links[j] for j in order))
+    pos = {j: n for n, j in enumerate(order)}
+    ca = Concept(a, 4, 2, (0,), ((0, 4), (3, 4)))
+    cb = Concept(b, pos[4], pos[2], (pos[0],), tuple(sorted((tuple(sorted((pos[x], pos[y]))) for x, y in ((4, 0), (4, 3))))))
+    assert canonical_key(ca) == canonical_key(cb)
+    assert canonical_key(ca) != canonical_key(Concept(a, 4, 2, (3,), ((0, 4), (3, 4))))
+
+
+def test_orbit_counts_match_explicit_classes():
+    spec_trains = trains(2, 5)
+    for train in spec_trains[:8]:
+        keys = {canonical_key(Concept(train, *p)) for p in placements(train, 1, 2)}
+        assert count_orbits(train, 1, 2)[1] == len(keys)
+
+
+def test_the_gear_rule_agrees_with_kinematics_analyze():
+    """The vectorised pruning and transgen.kinematics.analyze classify the same combinations as
+    one-DOF gears, with the same ratio (one rule: a K-element combination of one DOF)."""
+    spec = SearchSpec(2, 2, 2, 2, ("1", "2", "3", "R"), (2.5, 1.5, 1.0, -2.0))
+    k = sample_points(2, 1.5, 4.5, 0, 0)[0]
+    checked = 0
+    for train in trains(2, 5)[:6]:
+        _, kin, feasible = feasible_placements(train, spec)
+        for i, o, rows in feasible[:2]:
+            c = placement_concept(kin, spec, i, o, rows[0])
+            teeth = tuple((f"P{p + 1}", 1000, int(round(1000 * k[0][p])), 3) for p in range(2))
+            names = [n for n, _ in c.elements]
+            gears = {f"g{j}": combo for j, combo in enumerate(itertools.combinations(names, 2))}
+            mech = parse_mechanism(concept_text(c, gears, None, teeth), "<test>")
+            basis = speed_basis(train, np.array([[t[2] / 1000 for t in teeth]]))[0]
+            for combo in gears.values():
+                got = analyze(mech, combo)
+                rows_ = [basis[c.elements[names.index(e)][1][0]] - (basis[c.elements[names.index(e)][1][1]]
+                         if len(c.elements[names.index(e)][1]) == 2 else 0) for e in combo]
+                null = np.linalg.svd(np.array(rows_))[2][-1]
+                w = basis @ null
+                ours = abs(w[i]) > 1e-9 and abs(w[o]) > 1e-9
+                assert ours == (got.kind == "gear" and got.dof == 1)
+                if ours:
+                    assert w[i] / w[o] == pytest.approx(got.ratio, rel=1e-9)
+                checked += 1
+    assert checked > 20
+
+
+def test_sizes_are_bounded_before_any_work():
+    with pytest.raises(TopologyInputError, match="would take about"):
+        validate_spec(SearchSpec(4, 3, 4, 3, tuple("12345678R"), tuple(range(1, 10))), max_seconds=60)
+    with pytest.raises(TopologyInputError, match="at most"):
+        validate_spec(SearchSpec(2, 1, 1, 1, ("1", "2", "3"), (3.0, 2.0, 1.0)))
+    with pytest.raises(TopologyInputError, match="--sets"):
+        validate_spec(SearchSpec(7, 1, 1, 1, ("1",), (3.0,)))
+
+
+SIMPSON = "1=2.479,2=1.479,3=1.000,R=-2.086"  # ZF 3HP22 (published ratios)
+
+
+def _simpson_key():
+    # bare input IN; sun S1_S2; front ring R1; output front carrier + rear ring; rear carrier C2
+    t = Train(2, ((0, 3), (1,), (2, 4), (5,), ()))
+    # brakes: sun (2nd), rear carrier (low/reverse); clutches: IN-R1 (forward), IN-sun (direct/reverse)
+    return canonical_key(Concept(t, 4, 2, (0, 3), ((1, 4), (0, 4))))
+
+
+def test_the_simpson_three_speed_is_found_from_its_ratios(tmp_path):
+    gears, targets = zip(*[(g, float(r)) for g, r in (item.split("=") for item in SIMPSON.split(","))])
+    spec = SearchSpec(2, 2, 2, 2, gears, targets, tolerance=0.01)
+    result = synthesize_topology(spec, top=10, teeth_candidates=10)
+    keys = [c.concept.key() for c in result.candidates]
+    assert _simpson_key() in keys
+    simpson = result.candidates[keys.index(_simpson_key())]
+    assert simpson.teeth and simpson.max_ratio_error <= 0.01
+    assert {g: set(e) for g, e in simpson.gears.items()} == {"1": {"B", "D"}, "2": {"A", "D"}, "3": {"C", "D"},
+                                                             "R": {"B", "C"}}
+    c = result.counts
+    assert c["enumerated"] >= c["distinct"] >= c["feasible"] >= c["screened"] >= c["fitted"] >= c["ranked"] > 0
+    # the candidate's .mech is complete: every gear's ratio checks against its file
+    mech = parse_mechanism(simpson.mech, "<simpson>")
+    for gear in mech.gears:
+        assert analyze(mech, gear.engaged).ratio == pytest.approx(float(gear.ratio), abs=6e-5)
+
+
+def test_the_command_writes_files_and_a_valid_document(tmp_path, capsys):
+    from transgen.cli import main
+    from transgen.schemas import validate
+
+    out = tmp_path / "cands"
+    code = main(["synthesize", "topology", "--sets", "2", "--brakes", "2", "--clutches", "2", "--ratios", SIMPSON,
+                 "--top", "2", "-o", str(out), "--json"])
+    assert code == 0
+    doc = json.loads(capsys.readouterr().out)
+    validate(doc)
+    assert doc["schema"] == "transgen.synthesize.topology/1"
+    assert [c["rank"] for c in doc["candidates"]] == [1, 2]
+    assert (out / "summary.csv").read_text().count("\n") == 3
+    assert (out / "candidate_01.mech").read_text() == doc["candidates"][0]["mech"]
+
+
+def test_bad_input_is_an_error_not_a_traceback(capsys):
+    from transgen.cli import main
+
+    assert main(["synthesize", "topology", "--sets", "2", "--brakes", "2", "--clutches", "2",
+                 "--ratios", "1=abc"]) == 2
+    assert "error" in capsys.readouterr().err
+    assert main(["synthesize", "topology", "--sets", "9", "--brakes", "2", "--clutches", "2",
+                 "--ratios", "1=2,2=1"]) == 2
+
+
+class _Reversed:
+    """An executor that runs the tasks in reverse order (as a pool may finish them)."""
+
+    def run(self, fn, shared, tasks):
+        return (fn(shared, t) for t in reversed(list(tasks)))
+
+
+def test_the_result_does_not_depend_on_the_executor_or_task_order():
+    from transgen.sim.study.executors import LocalExecutor
+
+    gears, targets = zip(*[(g, float(r)) for g, r in (item.split("=") for item in SIMPSON.split(","))])
+    spec = SearchSpec(2, 2, 2, 2, gears, targets)
+    subset = trains(2, 5)[:1] + [Train(2, ((0, 3), (1,), (2, 4), (5,), ()))]
+    runs = [synthesize_topology(spec, top=3, train_list=subset, executor=e)
+            for e in (None, _Reversed(), LocalExecutor(1))]
+    for other in runs[1:]:
+        assert other.counts == runs[0].counts
+        assert [c.mech for c in other.candidates] == [c.mech for c in runs[0].candidates]
+    assert runs[0].candidates
