@@ -229,7 +229,9 @@ def shift_modes(mech: Mechanism, source: str, a, target: str, b, graph: Graph | 
             continue
         seen.add(key)
         check = gear_check(mech, locked, g)
-        if check.kind == "neutral" and not diagnose_singular(g, locked):
+        # a speed phase whose massless links are undetermined stays: check and the simulator
+        # refuse it by name (massless_problems) instead of failing mid-shift
+        if check.kind == "neutral" and (not diagnose_singular(g, locked) or undetermined_links(g, locked)):
             kind = "speed phase" if label == "shift" else label
         elif check.is_gear:
             kind = label
