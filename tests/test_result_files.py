@@ -12,6 +12,7 @@ import scipy.io
 
 from transgen.cli import main
 from transgen.describe import modes_report
+from transgen.export import field_names
 from transgen.language import load_mechanism
 from transgen.sim.result_files import result_columns, write_result
 from transgen.sim.scenario import Scenario, load_scenario
@@ -58,14 +59,17 @@ def test_mode_column_names_the_modes_as_transgen_modes_does(run, tmp_path):
     modes = [r[1] for r in rows]
     # named by gear (transgen.names); each joins a mode of `transgen modes` by its locked set and gear
     known = {frozenset(m["locked"]): m for m in modes_report(load_mechanism(scenario.mechanism.source))["modes"]}
-    assert set(modes) == {"1", "none", "2"}                      # gear 1, the shift's slipping mode, gear 2
+    # the CSV's mode column holds each mode's field name (transgen.export.field_names: text that no
+    # reader takes for a number, e.g. m_1 for gear 1), the other formats the names themselves
+    field = dict(zip([s.name for s in result.modes], field_names([s.name for s in result.modes])))
+    assert set(modes) == {field["1"], field["none"], field["2"]} == {"m_1", "none", "m_2"}
     for span in result.modes:
         assert known[frozenset(span.locked)]["gear"] == span.gear
         assert span.name == (span.gear or "+".join(span.locked) or "none")
     for span in result.modes:                                     # inside each span: its name
         inside = [m for t, m in zip(result.time, modes) if span.t0 < t < span.t1]
-        assert inside and set(inside) == {span.name}
-    assert modes[0] == result.modes[0].name and modes[-1] == result.modes[-1].name
+        assert inside and set(inside) == {field[span.name]}
+    assert modes[0] == field[result.modes[0].name] and modes[-1] == field[result.modes[-1].name]
 
 
 def test_every_format_holds_the_same_columns(run, tmp_path):
@@ -82,14 +86,16 @@ def test_every_format_holds_the_same_columns(run, tmp_path):
     mat = scipy.io.loadmat(files["mat"], squeeze_me=True)
     assert list(mat["names"]) == names
     assert [u if isinstance(u, str) else "" for u in mat["units"]] == units    # MATLAB's '' is an empty array
-    assert list(mat["mode_names"]) == ["1", "none", "2"] and list(mat["mode"]) == [r[1] for r in rows]
+    field = dict(zip(mat["mode_names"], mat["mode_fields"]))  # the CSV holds the field names, the rest the names
+    csv_modes = [r[1] for r in rows]
+    assert list(mat["mode_names"]) == ["1", "none", "2"] and [field[m] for m in mat["mode"]] == csv_modes
     assert [g if isinstance(g, str) else "" for g in mat["mode_gears"]] == ["1", "", "2"]
     assert [x if isinstance(x, str) else "" for x in mat["mode_locked"]] == ["C1", "none", "C2"]
     npz = np.load(files["npz"])
-    assert list(npz["names"]) == names and list(npz["units"]) == units and list(npz["mode"]) == [r[1] for r in rows]
+    assert list(npz["names"]) == names and list(npz["units"]) == units and [field[m] for m in npz["mode"]] == csv_modes
     doc = json.loads(files["json"].read_text())
     assert doc["names"] == names and doc["units"] == {n: u for n, u in zip(names, units) if n != "mode"}
-    assert doc["columns"]["mode"] == [r[1] for r in rows] and doc["mode_names"] == list(mat["mode_names"])
+    assert [field[m] for m in doc["columns"]["mode"]] == csv_modes and doc["mode_names"] == list(mat["mode_names"])
     for n in names[2:] + ["time"]:
         np.testing.assert_array_equal(mat[n], columns[n])
         np.testing.assert_array_equal(npz[n], columns[n])

@@ -6,7 +6,16 @@ generated C), :mod:`.description` (``modelDescription.xml``), :mod:`.build` (com
 :mod:`.export` (the sources: ``.mech`` or scenario), :mod:`.cli` (``transgen fmu``); the C runtime
 is in ``c/``.
 """
-from .data import FmuError
-from .export import export_fmu
-
 __all__ = ["export_fmu", "FmuError"]
+
+
+def __getattr__(name: str):
+    """The package's names, imported on first use: ``transgen --help`` builds the ``fmu``
+    command's parser from :mod:`.cli` without loading numpy."""
+    if name == "FmuError":
+        from .data import FmuError
+        return FmuError
+    if name == "export_fmu":
+        from .export import export_fmu
+        return export_fmu
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
