@@ -117,7 +117,7 @@ class Sandbox:
         self.unknown = self.inputs / "unknown.mech"
         self.unknown.write_text(text[:i] + "Ns=?" + text[j:])
         subprocess.run([python, "-m", "transgen", "scenario", "copy", "simple2_upshift", str(self.inputs)],
-                       check=True, capture_output=True)
+                       check=True, capture_output=True, cwd=self.inputs)
         self.scenario = self.inputs / "simple2_upshift.toml"
         self.full = None
         if ROOT:

@@ -80,7 +80,7 @@ SWEEP = ["sweep", "simple2_upshift", "--grid", "simulation.t_end=4.5,4.6,4.7", "
 
 def test_a_finished_two_worker_sweep_leaves_no_process(tmp_path):
     env = dict(os.environ, MPLBACKEND="Agg")
-    proc = subprocess.Popen([sys.executable, "-m", "transgen", *SWEEP, "-o", str(tmp_path / "r.csv")], env=env,
+    proc = subprocess.Popen([sys.executable, "-m", "transgen", *SWEEP, "-o", str(tmp_path / "r.csv")], env=env, cwd=tmp_path,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
     _, err = proc.communicate(timeout=600)
     assert proc.returncode == 0, err
@@ -92,7 +92,7 @@ def test_the_workers_of_a_killed_sweep_end_with_it_and_it_resumes(tmp_path):
     out = tmp_path / "r.csv"
     grid = ["--grid", "simulation.t_end=" + ",".join(f"{4.3 + 0.05 * k:.2f}" for k in range(8))]
     command = [sys.executable, "-m", "transgen", *SWEEP[:2], *grid, *SWEEP[4:], "-o", str(out)]
-    proc = subprocess.Popen(command, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+    proc = subprocess.Popen(command, env=env, cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                             start_new_session=True)
     end = time.monotonic() + 300
     while len(_group(proc.pid)) < 3 and time.monotonic() < end:  # the command and its two workers
@@ -101,7 +101,7 @@ def test_the_workers_of_a_killed_sweep_end_with_it_and_it_resumes(tmp_path):
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait()
     assert _wait_empty(proc.pid, 5.0) == []
-    again = subprocess.run(command, env=env, capture_output=True, text=True, timeout=600)
+    again = subprocess.run(command, env=env, cwd=tmp_path, capture_output=True, text=True, timeout=600)
     assert again.returncode == 0, again.stderr
     from transgen.sim.study import SweepTable
 
@@ -115,7 +115,7 @@ def test_sigterm_stops_a_sweep_with_its_rows_kept(tmp_path):
     out = tmp_path / "r.csv"
     grid = ["--grid", "simulation.t_end=" + ",".join(f"{4.3 + 0.05 * k:.2f}" for k in range(10))]
     command = [sys.executable, "-m", "transgen", *SWEEP[:2], *grid, *SWEEP[4:], "-o", str(out)]
-    proc = subprocess.Popen(command, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+    proc = subprocess.Popen(command, env=env, cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
                             start_new_session=True)
     from transgen.sim.study import SweepTable
 
@@ -128,7 +128,7 @@ def test_sigterm_stops_a_sweep_with_its_rows_kept(tmp_path):
     assert _wait_empty(proc.pid, 5.0) == []
     kept = SweepTable.from_csv(out).rows
     assert 1 <= len(kept) <= 10 and not [p for p in tmp_path.iterdir() if p.name.startswith(".transgen~")]
-    again = subprocess.run(command, env=env, capture_output=True, text=True, timeout=600)
+    again = subprocess.run(command, env=env, cwd=tmp_path, capture_output=True, text=True, timeout=600)
     assert again.returncode == 0, again.stderr
     keys = [r["key"] for r in SweepTable.from_csv(out).rows]
     assert len(keys) == len(set(keys)) == 10
