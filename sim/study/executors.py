@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import threading
 import time
 from collections.abc import Callable, Iterable, Iterator
 
@@ -368,8 +369,27 @@ def _workers_of(pool) -> list:
     return list((getattr(pool, "_processes", None) or {}).values())
 
 
+_QUIET_MANAGERS = [False]
+
+
+def _quiet_pool_managers() -> None:
+    """Silence the exception a pool's manager thread raises while the workers it manages are
+    being terminated on purpose (CPython 3.11: ``terminate_broken`` on the closing call queue,
+    printed as a traceback when SIGTERM stops a sweep); every other thread's exception is shown."""
+    if _QUIET_MANAGERS[0]:
+        return
+    _QUIET_MANAGERS[0] = True
+    previous = threading.excepthook
+
+    def hook(args) -> None:
+        if type(args.thread).__module__ != "concurrent.futures.process":
+            previous(args)
+    threading.excepthook = hook
+
+
 def _terminate_workers(pool) -> None:
     """SIGTERM to the workers of a local pool (they exit at once: a worker's SIGTERM is the default)."""
+    _quiet_pool_managers()
     for process in _workers_of(pool):
         with contextlib.suppress(OSError, AttributeError, ValueError):
             process.terminate()
