@@ -153,7 +153,10 @@ class ShiftTemplate:
         trapezoids = [(t_r + self.boost_delay, self.boost_time, self.torque_boost - 1.0),
                       (t_e + self.cut_delay, self.cut_time, self.torque_cut - 1.0)]
         trapezoids = [tp for tp in trapezoids if tp[2] != 0.0]
-        corners = sorted({c for a, hold, _ in trapezoids for c in (a, a + ramp, a + ramp + hold, a + 2 * ramp + hold)})
+        corners = []
+        for c in sorted({c for a, hold, _ in trapezoids for c in (a, a + ramp, a + ramp + hold, a + 2 * ramp + hold)}):
+            if not corners or c - corners[-1] > 1e-9:  # one corner where two meet but for round-off
+                corners.append(c)
 
         def shape(t, a, hold):
             return float(np.clip(min((t - a) / ramp, (a + 2 * ramp + hold - t) / ramp), 0.0, 1.0))

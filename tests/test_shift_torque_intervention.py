@@ -10,7 +10,7 @@ import os
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from transgen.errors import ScenarioError
@@ -86,6 +86,7 @@ def test_profile_corners_follow_the_template_phases():
 @settings(max_examples=60, deadline=None)
 @given(boost=st.floats(0.0, 3.0), cut=st.floats(0.0, 1.5), ramp=st.floats(0.005, 0.3),
        times=st.lists(st.floats(0.0, 0.6), min_size=4, max_size=4))
+@example(boost=0.0, cut=0.90625, ramp=0.2, times=[0.6, 0.0, 0.0, 0.2])  # two corners 5e-16 s apart
 def test_profile_is_continuous_bounded_and_ends_at_one(boost, cut, ramp, times):
     """Between the levels the factor moves no faster than the ramps allow (no step unless the ramp is
     0), stays >= 0 and within the levels asked for (overlapping changes add), and is 1 outside."""
