@@ -57,6 +57,10 @@ typedef struct {
     long n_events;
     int gear_k;                 /* the schedule's gear (position in its order) */
     double last_shift;          /* when it commanded the last shift [s] */
+    double J[TG_NL + 1];        /* link inertias [kg*m^2] (tunable) */
+    double par[TG_NPAR + 1];    /* driveline and engine parameters (tunable, see model_data.h) */
+    double B[TG_NB];            /* every mode's dq/dt = B u, from the inertias (tg_matrices) */
+    double D[TG_ND];            /* every mode's locked torques = D u */
     double ov_t0[TG_NE + 1];    /* an element's apply replaced by a shift from this time on */
     int ov_n[TG_NE + 1];
     double ov_t[TG_NE + 1][TG_SPLICE_MAX], ov_v[TG_NE + 1][TG_SPLICE_MAX];
@@ -166,7 +170,7 @@ static void tg_external(const TG *m, double t, const double *w, double *u) {
     for (int k = 0; k < TG_NIN; k++)
         if (TG_IN_UCOL[k] >= 0) u[TG_IN_UCOL[k]] += tg_input(m, k, t);
 #if TG_DRIVELINE
-    u[TG_DL_UCOL] += tg_shaft_torque(w);
+    u[TG_DL_UCOL] += tg_shaft_torque(m, w);
 #endif
 #if TG_ENGINE
     u[TG_ENG_UCOL] += tg_engine_input(m, t, w);
@@ -176,15 +180,16 @@ static void tg_external(const TG *m, double t, const double *w, double *u) {
 
 /* ----------------------------------------------------------------------- modes */
 
-#define MODE_B(mask) (TG_B + TG_MODE_B_OFF[mask])
 #define MODE_C(mask) (TG_C + TG_MODE_C_OFF[mask])
-#define MODE_D(mask) (TG_D + TG_MODE_D_OFF[mask])
+
+/* every mode's B and D from the link inertias: tg_matrices */
+#include "tg_matrices.c"
 
 /* rates dq/dt = B u, slip accelerations P C B u, link accelerations C B u */
-static void tg_mode_rates(unsigned mask, const double *u, double *dw) {
+static void tg_mode_rates(const TG *m, unsigned mask, const double *u, double *dw) {
     int dof = TG_MODE_DOF[mask];
     double dq[TG_NL + 1];
-    const double *B = MODE_B(mask), *C = MODE_C(mask);
+    const double *B = m->B + TG_MODE_B_OFF[mask], *C = MODE_C(mask);
     for (int r = 0; r < dof; r++) {
         double s = 0.0;
         for (int j = 0; j < TG_NU; j++) s += B[r * TG_NU + j] * u[j];
@@ -197,9 +202,9 @@ static void tg_mode_rates(unsigned mask, const double *u, double *dw) {
     }
 }
 
-static void tg_mode_torques(unsigned mask, const double *u, double *torques) {
+static void tg_mode_torques(const TG *m, unsigned mask, const double *u, double *torques) {
     int n = TG_MODE_NROW[mask];
-    const double *D = MODE_D(mask);
+    const double *D = m->D + TG_MODE_D_OFF[mask];
     for (int r = 0; r < n; r++) {
         double s = 0.0;
         for (int j = 0; j < TG_NU; j++) s += D[r * TG_NU + j] * u[j];
@@ -290,7 +295,7 @@ static void tg_inputs(const TG *m, double t, const double *w, double *u) {
 static void tg_derivatives(const TG *m, double t, const double *w, double *dw) {
     double u[TG_NU + 1];
     tg_inputs(m, t, w, u);
-    tg_mode_rates(m->locked, u, dw);
+    tg_mode_rates(m, m->locked, u, dw);
 #if TG_ENGINE == 2
     {
         double pump, turbine;
@@ -300,7 +305,7 @@ static void tg_derivatives(const TG *m, double t, const double *w, double *dw) {
 #endif
 #if TG_DRIVELINE
     dw[TG_DL_X] = w[TG_DL_OUTPUT] - w[TG_DL_X + 1];
-    dw[TG_DL_X + 1] = (tg_shaft_torque(w) - tg_road_torque(w[TG_DL_X + 1])) / TG_DL_JV;
+    dw[TG_DL_X + 1] = (tg_shaft_torque(m, w) - tg_road_torque(m, w[TG_DL_X + 1])) / tg_vehicle_inertia(m);
 #endif
 }
 
@@ -310,7 +315,7 @@ static void tg_indicators(const TG *m, double t, const double *w, double *z) {
     double u[TG_NU + 1], rows[TG_NE + 1], slips[TG_NE + 1];
     double ts = tg_seg_time(m, t);
     tg_inputs(m, t, w, u);
-    tg_mode_torques(m->locked, u, rows);
+    tg_mode_torques(m, m->locked, u, rows);
     tg_slips(w, slips);
     for (int e = 0; e < TG_NE; e++) {
         z[2 * e] = 1.0;
@@ -340,7 +345,7 @@ static int tg_event(TG *m) {
         double u[TG_NU + 1], rows[TG_NE + 1];
         double ts = tg_seg_time(m, m->t);
         tg_inputs(m, m->t, m->w, u);
-        tg_mode_torques(m->locked, u, rows);
+        tg_mode_torques(m, m->locked, u, rows);
         int nrow = TG_MODE_NROW[m->locked];
         for (int r = 0; r < nrow; r++) {
             if (tg_holding_margin(m, m->locked, r, ts, rows[r]) > 0.0) continue;
@@ -464,7 +469,7 @@ static int tg_input_event_needed(const TG *m) {
     double u[TG_NU + 1], rows[TG_NE + 1];
     double ts = tg_seg_time(m, m->t);
     tg_inputs(m, m->t, m->w, u);
-    tg_mode_torques(m->locked, u, rows);
+    tg_mode_torques(m, m->locked, u, rows);
     for (int r = 0; r < TG_MODE_NROW[m->locked]; r++)
         if (tg_holding_margin(m, m->locked, r, ts, rows[r]) <= 0.0) return 1;
     for (int e = 0; e < TG_NE; e++)
@@ -480,7 +485,7 @@ static void tg_element_torques(const TG *m, double *out) {
     double u[TG_NU + 1], rows[TG_NE + 1];
     double ts = tg_seg_time(m, m->t);
     tg_inputs(m, m->t, m->w, u);
-    tg_mode_torques(m->locked, u, rows);
+    tg_mode_torques(m, m->locked, u, rows);
     for (int e = 0; e < TG_NE; e++)
         out[e] = (m->locked >> e) & 1u ? 0.0 : tg_slip_torque(m, e, ts, m->dirs[e], 0);
     int nrow = TG_MODE_NROW[m->locked];
@@ -605,6 +610,9 @@ static void tg_reset(TG *m) {
         m->stat[e] = TG_STATIC0[e];
         m->dyn[e] = TG_DYNAMIC0[e];
     }
+    for (int k = 0; k < TG_NL; k++) m->J[k] = TG_J0[k];
+    for (int k = 0; k < TG_NPAR; k++) m->par[k] = TG_PAR0[k];
+    (void)tg_matrices(m); /* the exported inertias: the simulator's own modes */
     m->slip_tol_rel = TG_SLIP_TOL;
     m->cs_step = TG_CS_STEP;
     m->t_stop = INFINITY;
@@ -644,7 +652,8 @@ static int tg_get_real(TG *m, unsigned vr, double *value) {
     if (vr < TG_VR_STATIC) { *value = tg_input(m, vr - TG_VR_IN, tg_seg_time(m, m->t)); return 0; }
     if (vr < TG_VR_DYNAMIC) { *value = m->stat[vr - TG_VR_STATIC]; return 0; }
     if (vr < TG_VR_J) { *value = m->dyn[vr - TG_VR_DYNAMIC]; return 0; }
-    if (vr < TG_VR_SLIPTOL) { *value = TG_J[vr - TG_VR_J]; return 0; }
+    if (vr < TG_VR_SLIPTOL) { *value = m->J[vr - TG_VR_J]; return 0; }
+    if (vr >= TG_VR_PAR && vr < TG_VR_PAR + TG_NPAR) { *value = m->par[vr - TG_VR_PAR]; return 0; }
     if (vr == TG_VR_SLIPTOL) { *value = m->slip_tol_rel; return 0; }
     if (vr == TG_VR_CSSTEP) { *value = m->cs_step; return 0; }
     if (vr == TG_VR_TIME) { *value = m->t; return 0; }
@@ -657,7 +666,7 @@ static int tg_get_real(TG *m, unsigned vr, double *value) {
     }
 #endif
 #if TG_DRIVELINE
-    if (vr == TG_VR_DL) { *value = tg_shaft_torque(m->w); return 0; }
+    if (vr == TG_VR_DL) { *value = tg_shaft_torque(m, m->w); return 0; }
     if (vr == TG_VR_DL + 1) { *value = m->w[TG_DL_X + 1] * TG_DL_RADIUS / TG_DL_FINAL; return 0; }
 #endif
     if (vr >= TG_VR_Z && vr < TG_VR_Z + TG_NZ) {
@@ -689,6 +698,35 @@ static int tg_set_real(TG *m, unsigned vr, double value) {
             return 1;
         }
         if (vr < TG_VR_DYNAMIC) m->stat[vr - TG_VR_STATIC] = value; else m->dyn[vr - TG_VR_DYNAMIC] = value;
+        m->in_changed = 1;
+        return 0;
+    }
+    if (vr >= TG_VR_J && vr < TG_VR_SLIPTOL) {
+        if (value < 0.0) {
+            snprintf(m->msg, sizeof m->msg, "value reference %u: an inertia must not be negative (%g)", vr, value);
+            return 1;
+        }
+        double old = m->J[vr - TG_VR_J];
+        m->J[vr - TG_VR_J] = value;
+        if (tg_matrices(m)) {
+            m->J[vr - TG_VR_J] = old;
+            char why[1024];
+            snprintf(why, sizeof why, "%s", m->msg);
+            (void)tg_matrices(m);
+            snprintf(m->msg, sizeof m->msg, "value reference %u = %g: %s", vr, value, why);
+            return 1;
+        }
+        m->in_changed = 1;
+        return 0;
+    }
+    if (vr >= TG_VR_PAR && vr < TG_VR_PAR + TG_NPAR) {
+        int k = vr - TG_VR_PAR, bound = TG_PAR_BOUND[k];
+        if ((bound == 0 && !(value > 0.0)) || (bound == 1 && value < 0.0) || (bound == 2 && !(fabs(value) < 1.5707963267948966))) {
+            snprintf(m->msg, sizeof m->msg, "value reference %u: %g is out of range (%s)", vr, value,
+                     bound == 0 ? "must be > 0" : bound == 1 ? "must be >= 0" : "a grade angle within +-pi/2");
+            return 1;
+        }
+        m->par[k] = value;
         m->in_changed = 1;
         return 0;
     }
