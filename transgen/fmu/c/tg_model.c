@@ -102,6 +102,60 @@ static double tg_ramp(double t, double t0, double t1, double v0, double v1) {
     return v0 + (v1 - v0) * (t - t0) / (t1 - t0);
 }
 
+/* the periodic signals (simulator: signals._period_start, pulse_value, periodic_phase): the
+ * k of the period [first + k*period, first + (k+1)*period) holding t, corrected for round-off;
+ * every period start is computed as first + k*period, as the simulator's breakpoints are */
+static double tg_period_k(double t, double first, double period) {
+    double k = floor((t - first) / period);
+    while (first + k * period > t) k -= 1.0;
+    while (first + (k + 1.0) * period <= t) k += 1.0;
+    return k;
+}
+
+static double tg_period_start(double t, double first, double period) {
+    return first + tg_period_k(t, first, period) * period;
+}
+
+static double tg_pulse(double t, double t0, double width, double low, double high, double period) {
+    double start = (period == 0.0 || t < t0) ? t0 : tg_period_start(t, t0, period);
+    return (start <= t && t < start + width) ? high : low;
+}
+
+/* the first edge of a pulse (train) after t (signals.Pulse.breakpoints: s and s + width) */
+static double tg_pulse_next_edge(double t, double t0, double width, double period) {
+    if (t < t0) return t0;
+    if (period == 0.0) return t < t0 + width ? t0 + width : INFINITY;
+    double k = tg_period_k(t, t0, period);
+    if (t < t0 + k * period + width) return t0 + k * period + width;
+    return t0 + (k + 1.0) * period;
+}
+
+static int tg_bisect_left(const double *xs, int n, double x) {
+    int lo = 0, hi = n;
+    while (lo < hi) {
+        int mid = (lo + hi) / 2;
+        if (xs[mid] < x) lo = mid + 1; else hi = mid;
+    }
+    return lo;
+}
+
+static double tg_periodic(double t, const double *ts, const double *vs, int n, double period) {
+    double first = ts[0], u = first + (t - tg_period_start(t, first, period));
+    double big = fmax(fabs(t), fabs(first) + period), tol = 8.0 * (nextafter(big, INFINITY) - big);
+    int j = tg_bisect_left(ts, n, u - tol);
+    if (j < n && fabs(ts[j] - u) <= tol) u = ts[j];
+    return tg_table(u, ts, vs, n);
+}
+
+/* the first breakpoint of a periodic table after t: a table time (as an offset from its first
+ * time, within the period) or the next period's start (signals.Periodic.breakpoints) */
+static double tg_periodic_next_edge(double t, const double *ts, const double *offsets, int n_off, double period) {
+    double k = tg_period_k(t, ts[0], period);
+    for (int j = 0; j < n_off; j++)
+        if (ts[0] + k * period + offsets[j] > t) return ts[0] + k * period + offsets[j];
+    return ts[0] + (k + 1.0) * period;
+}
+
 /* the built-in signals: tg_signal(k, t), generated */
 #include "model_signals.h"
 
@@ -259,6 +313,8 @@ static double tg_signal_time(const TG *m, double t) {
     double after = t + 1e-12 * fmax(1.0, fabs(t)), best = t;
     for (int k = 0; k < TG_NBP; k++)
         if (TG_BP[k] > t && TG_BP[k] <= after) best = TG_BP[k];
+    for (double edge = tg_signal_next_edge(t); edge <= after; edge = tg_signal_next_edge(edge)) best = fmax(best, edge);
+    /* (each edge is after the one before: tg_signal_next_edge(x) > x) */
     for (int e = 0; e < TG_NE; e++) /* the breakpoints of the applies a shift replaced */
         for (int k = 0; k < m->ov_n[e]; k++)
             if (m->ov_t[e][k] > t && m->ov_t[e][k] <= after) best = fmax(best, m->ov_t[e][k]);
@@ -269,6 +325,7 @@ static double tg_next_stop(const TG *m, double t) {
     double after = t + 1e-12 * fmax(1.0, fabs(t)), stop = INFINITY;
     for (int k = 0; k < TG_NBP; k++)
         if (TG_BP[k] > after) { stop = TG_BP[k]; break; }
+    stop = fmin(stop, tg_signal_next_edge(after)); /* the periodic signals' edges, without end */
     for (int e = 0; e < TG_NE; e++)
         for (int k = 0; k < m->ov_n[e]; k++)
             if (m->ov_t[e][k] > after && m->ov_t[e][k] < stop) stop = m->ov_t[e][k];
