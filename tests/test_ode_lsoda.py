@@ -1,4 +1,4 @@
-"""The lean LSODA stepper (transgen.sim.ode_solvers.LeanLSODA) gives scipy's LSODA, bit for bit:
+"""The lean LSODA stepper (transgen.sim.solve.ode_solvers.LeanLSODA) gives scipy's LSODA, bit for bit:
 the same steps, states, event roots, dense output and counters on random linear and nonlinear
 systems with terminal events, the same failure (status, message, warning), and the same runs of
 every bundled scenario integrated with LSODA."""
@@ -13,10 +13,10 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy.integrate import LSODA, solve_ivp
 
-from transgen.sim import ode_solvers
-from transgen.sim.ode_solvers import SOLVERS, LeanLSODA, solve_segment
-from transgen.sim.library import bundled_scenarios
-from transgen.sim.scenario import load_scenario
+from transgen.sim.solve import ode_solvers
+from transgen.sim.solve.ode_solvers import SOLVERS, LeanLSODA, solve_segment
+from transgen.sim.scenario.library import bundled_scenarios
+from transgen.sim.scenario.load import load_scenario
 
 
 def _terminal(func, direction=0, linear=None):

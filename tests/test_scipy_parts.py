@@ -1,4 +1,4 @@
-"""The simulator's default path imports only the scipy parts it uses (transgen.sim.scipy_parts, a
+"""The simulator's default path imports only the scipy parts it uses (transgen.sim.solve.scipy_parts, a
 sweep worker's start): the deferred packages are scipy's own once anything asks for more, the
 LSODA solution and Brent's roots are scipy's bit for bit, and the BLAS preload is skipped only
 where the environment already gives one thread."""
@@ -14,8 +14,8 @@ import tempfile
 import numpy as np
 import pytest
 
-from transgen.sim import scipy_parts
-from transgen.sim.ode_solvers import SOLVERS, LeanLSODA, _MESSAGES
+from transgen.sim.solve import scipy_parts
+from transgen.sim.solve.ode_solvers import SOLVERS, LeanLSODA, _MESSAGES
 
 
 def fresh(code: str, **env: str) -> dict:
@@ -44,7 +44,7 @@ event.terminal, event.direction = True, -1
 
 def test_the_lsoda_path_imports_no_other_scipy_package_and_gives_scipys_solution():
     answer = fresh(SOLVE + f"""
-from transgen.sim.ode_solvers import LeanLSODA, solve_segment
+from transgen.sim.solve.ode_solvers import LeanLSODA, solve_segment
 {SCIPY_LOADED}
 out['deferred'] = [type(sys.modules[m]).__name__ for m in ('scipy.integrate', 'scipy.linalg')]
 ours = solve_segment(f, 0.0, 5.0, np.array([0.1, 0.0]), LeanLSODA, [event], rtol=1e-8, atol=1e-10)
@@ -76,7 +76,7 @@ out['linalg'] = type(scipy.linalg).__name__
 def test_a_package_imported_already_is_used_as_it_is():
     answer = fresh("""
 import scipy.integrate, scipy.optimize
-from transgen.sim import scipy_parts
+from transgen.sim.solve import scipy_parts
 LSODA = scipy_parts.lsoda_classes()[0]
 out['same'] = LSODA is scipy.integrate.LSODA and scipy_parts.deferred_package('scipy.optimize') is scipy.optimize
 out['types'] = [type(sys.modules[m]).__name__ for m in ('scipy.integrate', 'scipy.optimize')]
@@ -86,7 +86,7 @@ out['types'] = [type(sys.modules[m]).__name__ for m in ('scipy.integrate', 'scip
 
 def test_a_deferred_package_runs_its_init_once_at_the_first_name_it_lacks():
     answer = fresh("""
-from transgen.sim import scipy_parts
+from transgen.sim.solve import scipy_parts
 optimize = scipy_parts.deferred_package('scipy.optimize')
 import scipy.optimize._zeros  # a submodule: the package's __init__ still deferred
 out['before'] = type(optimize).__name__
@@ -133,8 +133,8 @@ def test_brentq_refuses_nan_and_an_interval_without_a_sign_change():
 def test_messages_solvers_and_the_stiff_solvers_at_first_use():
     from scipy.integrate._ivp.ivp import MESSAGES
 
-    from transgen.sim import ode_solvers
-    from transgen.sim.ode_stiff import LeanBDF, LeanRadau
+    from transgen.sim.solve import ode_solvers
+    from transgen.sim.solve.ode_stiff import LeanBDF, LeanRadau
 
     assert _MESSAGES == MESSAGES
     assert SOLVERS["LSODA"] is LeanLSODA and SOLVERS["BDF"] is LeanBDF and SOLVERS.get("Radau") is LeanRadau

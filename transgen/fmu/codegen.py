@@ -192,7 +192,7 @@ def model_signals_h(d: FmuData) -> str:
 
 
 def _signal_c(sig, tables: list[str], where: str) -> str:
-    """A C expression in ``t`` for the signal ``sig`` (the formulas of :mod:`transgen.sim.signals`)."""
+    """A C expression in ``t`` for the signal ``sig`` (the formulas of :mod:`transgen.sim.core.signals`)."""
     form = sig.kernel_form() if hasattr(sig, "kernel_form") else None
     if form is None:
         raise FmuError(f"input {where}: a {type(sig).__name__.lower()} signal cannot be built into an FMU "
