@@ -211,7 +211,7 @@ def test_lean_ode_solution_is_scipys(method, backwards, seed):
 def test_lean_lsoda_falls_back_to_scipys_step(monkeypatch):
     """A scipy whose LSODA keeps other state (here: another compiled routine) runs scipy's own
     step and dense output."""
-    monkeypatch.setattr(ode_solvers, "_odepack_lsoda", lambda: None)
+    monkeypatch.setattr(ode_solvers, "lsoda_routine", lambda: None)
     A = np.array([[-0.2, 6.0], [-6.0, -0.2]])
     got = solve_segment(lambda t, y: A @ y, 0.0, 2.0, np.array([1.0, 0.5]), LeanLSODA, [], rtol=1e-7, atol=1e-9)
     ref = solve_segment(lambda t, y: A @ y, 0.0, 2.0, np.array([1.0, 0.5]), LSODA, [], rtol=1e-7, atol=1e-9)

@@ -130,13 +130,10 @@ def test_brentq_refuses_nan_and_an_interval_without_a_sign_change():
         scipy_parts.brentq(lambda x: x * x + 1.0, 0.0, 1.0, xtol=1e-12, rtol=1e-15)
 
 
-def test_messages_solvers_and_the_stiff_solvers_at_first_use():
-    from scipy.integrate._ivp.ivp import MESSAGES
-
+def test_solvers_and_the_stiff_solvers_at_first_use():
     from transgen.sim.solve import ode_solvers
     from transgen.sim.solve.ode_stiff import LeanBDF, LeanRadau
 
-    assert _MESSAGES == MESSAGES
     assert SOLVERS["LSODA"] is LeanLSODA and SOLVERS["BDF"] is LeanBDF and SOLVERS.get("Radau") is LeanRadau
     assert "BDF" in SOLVERS and SOLVERS.get("RK45", "RK45") == "RK45" and ode_solvers.LeanBDF is LeanBDF
     with pytest.raises(KeyError):
@@ -148,3 +145,89 @@ def test_blas_preload_is_skipped_only_where_the_environment_gives_one_thread():
             "out['linalg'] = 'scipy.linalg' in sys.modules"
     assert fresh(probe, OPENBLAS_NUM_THREADS="1", MKL_NUM_THREADS="1") == {"linalg": False}
     assert fresh(probe, OPENBLAS_NUM_THREADS="2", MKL_NUM_THREADS="1") == {"linalg": True}
+
+
+# --- the public fallback (TRANSGEN_SCIPY_PUBLIC=1, or a private name that fails to import) ---
+
+RUN = """
+import numpy as np
+from transgen.sim import load_scenario
+from transgen.sim.solve import ode_solvers, scipy_parts
+out['public'] = scipy_parts.PUBLIC
+out['lean'] = scipy_parts.lsoda_routine() is not None
+out['bdf'] = ode_solvers.SOLVERS['BDF'].__module__
+for name, method in RUNS:
+    result = load_scenario(name, overrides={'simulation.method': method}).run()
+    out[f'{name}/{method}'] = {'success': bool(result.success),
+                               'events': [(e.t, e.kind, list(e.elements)) for e in result.events],
+                               'end': {k: float(v[-1]) for k, v in sorted(result.signals.items())}}
+"""
+RUNS = [("simple2_upshift", "LSODA"), ("simple2_upshift", "BDF"), ("simple2_upshift", "Radau"),
+        ("ht740_improved", "LSODA")]
+
+
+def _agree(a: dict, b: dict, rtol: float = 1e-5) -> None:
+    for key in (f"{name}/{method}" for name, method in RUNS):
+        x, y = a[key], b[key]
+        assert x["success"] and y["success"], key
+        assert [(k, el) for _, k, el in x["events"]] == [(k, el) for _, k, el in y["events"]], key
+        np.testing.assert_allclose([t for t, _, _ in x["events"]], [t for t, _, _ in y["events"]], rtol=0, atol=1e-6)
+        assert x["end"].keys() == y["end"].keys()
+        for name in x["end"]:
+            assert x["end"][name] == pytest.approx(y["end"][name], rel=rtol, abs=1e-6), (key, name)
+
+
+@pytest.fixture(scope="module")
+def private_runs():
+    answer = fresh(f"RUNS = {RUNS!r}\n" + RUN, TRANSGEN_SCIPY_PUBLIC="0")
+    assert not answer["public"] and answer["lean"] and answer["bdf"] == "transgen.sim.solve.ode_stiff"
+    return answer
+
+
+def test_the_public_fallback_gives_the_same_runs(private_runs):
+    """TRANSGEN_SCIPY_PUBLIC=1: scipy's public LSODA/BDF/Radau with their own steps, scipy's brentq."""
+    public = fresh(f"RUNS = {RUNS!r}\n" + RUN, TRANSGEN_SCIPY_PUBLIC="1")
+    assert public["public"] and not public["lean"] and public["bdf"].startswith("scipy.integrate")
+    _agree(private_runs, public)
+
+
+def test_a_private_name_that_fails_to_import_falls_back_to_the_public_api(private_runs):
+    """Each private module made unimportable (as a scipy release that renames it would): the run
+    still completes, on the public classes, with the same events and end states."""
+    block = """
+import sys, types, scipy.integrate, scipy.optimize
+del scipy.integrate._odepack
+sys.modules['scipy.integrate._odepack'] = sys.modules['scipy.optimize._zeros'] = None
+for m in ('bdf', 'radau', 'lsoda', 'base', 'common'):  # the modules without the private names
+    sys.modules['scipy.integrate._ivp.' + m] = types.ModuleType(m)
+"""
+    broken = fresh(block + f"RUNS = {RUNS!r}\n" + RUN, TRANSGEN_SCIPY_PUBLIC="0")
+    assert not broken["public"] and not broken["lean"] and broken["bdf"].startswith("scipy.integrate")
+    _agree(private_runs, broken)
+
+
+def test_brentq_falls_back_to_scipys_where_the_routine_misbehaves(monkeypatch):
+    """A compiled routine that answers wrongly on the check root is not used."""
+    from scipy.optimize import brentq as scipy_brentq
+
+    class Wrong:
+        @staticmethod
+        def _brentq(*args):
+            return 1.0
+
+    monkeypatch.setattr(scipy_parts, "_deferred_import", lambda packages, load: Wrong)
+    assert scipy_parts._load_brentq() is scipy_brentq
+    monkeypatch.setattr(scipy_parts, "PUBLIC", True)
+    assert scipy_parts._load_brentq() is scipy_brentq
+
+
+def test_the_messages_are_solve_ivps():
+    from scipy.integrate import solve_ivp
+
+    def stop(t, y):
+        return y[0] - 0.5
+
+    stop.terminal = True
+    done = solve_ivp(lambda t, y: [1.0], (0.0, 1.0), [0.0])
+    hit = solve_ivp(lambda t, y: [1.0], (0.0, 1.0), [0.0], events=[stop])
+    assert (done.status, done.message) == (0, _MESSAGES[0]) and (hit.status, hit.message) == (1, _MESSAGES[1])

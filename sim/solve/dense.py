@@ -50,9 +50,10 @@ def dense_values(sol, ts: np.ndarray) -> np.ndarray:
     interpolants = getattr(sol, "interpolants", None)
     if loop is None or not interpolants or ts.ndim != 1 or not getattr(sol, "ascending", False):
         return sol(ts)
-    from scipy.integrate._ivp.lsoda import LsodaDenseOutput  # here: reading a scenario needs no scipy
+    from .scipy_parts import lsoda_dense_type  # here: reading a scenario needs no scipy
 
-    if not all(isinstance(ip, LsodaDenseOutput) for ip in interpolants):  # scipy's or LeanLSODA's lazy one
+    LsodaDenseOutput = lsoda_dense_type()
+    if LsodaDenseOutput is None or not all(isinstance(ip, LsodaDenseOutput) for ip in interpolants):  # scipy's or LeanLSODA's lazy one
         return sol(ts)
     # OdeSolution's choice of the interpolant of each time
     segment = np.searchsorted(sol.ts_sorted, ts, side=sol.side) - 1

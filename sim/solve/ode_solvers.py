@@ -16,13 +16,12 @@ conversions.
 """
 from __future__ import annotations
 
-import sys
 import warnings
 from types import SimpleNamespace
 
 import numpy as np
 
-from .scipy_parts import brentq, lsoda_classes
+from .scipy_parts import brentq, is_bdf, lsoda_classes, lsoda_routine
 
 LSODA, LsodaDenseOutput, ConstantDenseOutput, OdeSolution = lsoda_classes()
 
@@ -90,11 +89,15 @@ class LeanLSODA(LSODA):
 
     def __init__(self, fun, t0, y0, t_bound, **options):
         super().__init__(fun, t0, y0, t_bound, **options)
+        routine = lsoda_routine()
+        if routine is None:  # the public API only (scipy_parts): scipy's own step
+            self._lean = False
+            return
         solver = self._lsoda_solver
         integrator = solver._integrator
         self._lean = (all(hasattr(integrator, a) for a in self._INTEGRATOR_STATE) and len(integrator.call_args) == 7
                       and integrator.call_args[4] is integrator.rwork and integrator.call_args[5] is integrator.iwork
-                      and not solver.f_params and not solver.jac_params and _odepack_lsoda() is integrator.runner)
+                      and not solver.f_params and not solver.jac_params and routine is integrator.runner)
         if not self._lean:
             return
         self._run = integrator.runner
@@ -198,12 +201,6 @@ class LeanOdeSolution(OdeSolution):
         return ys if reverse is None else ys[:, reverse]
 
 
-def _odepack_lsoda():
-    from scipy.integrate import _odepack
-
-    return getattr(_odepack, "lsoda", None)
-
-
 class _SolverTable(dict):
     """:data:`SOLVERS`: ``"BDF"`` and ``"Radau"`` are added at their first look-up (:mod:`.ode_stiff`)."""
 
@@ -229,8 +226,8 @@ class _SolverTable(dict):
 SOLVERS = _SolverTable(LSODA=LeanLSODA)
 """Solver classes used for these method names (the others are passed to ``solve_ivp`` by name)."""
 
-#: scipy.integrate._ivp.ivp.MESSAGES, the result messages of solve_ivp (ivp.py imports
-#: scipy.optimize; tests/test_ode_lsoda.py checks they are scipy's)
+#: the result messages of solve_ivp (its module imports scipy.optimize; tests/test_scipy_parts.py
+#: checks they are solve_ivp's)
 _MESSAGES = {0: "The solver successfully reached the end of the integration interval.",
              1: "A termination event occurred."}
 
@@ -257,10 +254,12 @@ def solve_segment(fun, t0: float, t1: float, y0: np.ndarray, method, events: lis
     """
     if any(getattr(e, "terminal", None) != 1 and getattr(e, "terminal", None) is not True for e in events):
         raise ValueError("solve_segment takes terminal events only")
-    if isinstance(method, str):
-        from scipy.integrate._ivp.ivp import METHODS
+    if isinstance(method, str):  # solve_ivp's other methods, by their public names
+        import scipy.integrate
 
-        method = METHODS[method]
+        if method not in ("RK23", "RK45", "DOP853", "Radau", "BDF", "LSODA"):
+            raise ValueError(f"unknown solve_ivp method {method!r}")
+        method = getattr(scipy.integrate, method)
     t0, t1 = float(t0), float(t1)
     solver = method(fun, t0, y0, t1, vectorized=False, **options)
     ts, ys, interpolants = [t0], [y0], []
@@ -319,8 +318,7 @@ def solve_segment(fun, t0: float, t1: float, y0: np.ndarray, method, events: lis
 def _alt_segment(method) -> bool:
     """solve_ivp's ``alt_segment`` of the dense output: ``method in (BDF, LSODA)`` (scipy's BDF
     is loaded where it is the method)."""
-    bdf = sys.modules.get("scipy.integrate._ivp.bdf")
-    return method in (LSODA, LeanLSODA) or (bdf is not None and method is bdf.BDF)
+    return method in (LSODA, LeanLSODA) or is_bdf(method)
 
 
 def _event_values(events: list):

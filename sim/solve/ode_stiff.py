@@ -16,10 +16,18 @@ import math
 import warnings
 
 import numpy as np
-from scipy.integrate._ivp.bdf import BDF, MAX_FACTOR, MAX_ORDER, MIN_FACTOR, NEWTON_MAXITER, compute_R
-from scipy.integrate._ivp.radau import Radau
 from scipy.linalg import LinAlgWarning, get_lapack_funcs
 from scipy.sparse import issparse
+
+from .scipy_parts import stiff_internals
+
+_INTERNALS = stiff_internals()
+if _INTERNALS is None:  # the public API only (scipy_parts): scipy's classes, as they are
+    from scipy.integrate import BDF, Radau
+
+    MAX_FACTOR = MAX_ORDER = MIN_FACTOR = NEWTON_MAXITER = compute_R = None
+else:
+    BDF, Radau, MAX_FACTOR, MAX_ORDER, MIN_FACTOR, NEWTON_MAXITER, compute_R = _INTERNALS
 
 __all__ = ["LeanBDF", "LeanRadau", "change_D"]
 
@@ -215,3 +223,7 @@ class LeanBDF(_LeanLU, BDF):
 
 class LeanRadau(_LeanLU, Radau):
     """:class:`scipy.integrate.Radau` with the lean dense LU."""
+
+
+if _INTERNALS is None:  # the public API only: scipy's own BDF and Radau (their own LU and step)
+    LeanBDF, LeanRadau = BDF, Radau  # noqa: F811

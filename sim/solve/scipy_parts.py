@@ -1,36 +1,34 @@
-"""The parts of scipy the simulator's default path uses, imported without the rest of their packages.
+"""The one home of scipy's private names in the simulator, each with a public fallback; and the parts
+of scipy the default path uses, imported without the rest of their packages.
 
-The switching model with LSODA needs scipy's ``_odepack`` (the compiled lsoda routine), the LSODA
-solver class around it (``scipy.integrate._ivp.lsoda``, with its base classes and
-``OdeSolution``) and Brent's root finder (the compiled ``scipy.optimize._zeros``). Importing them
-the ordinary way runs ``scipy/integrate/__init__.py`` and ``scipy/optimize/__init__.py``, which
-import boundary-value solvers, quadrature, scipy.special, scipy.linalg and every optimizer: 0.18 s
-of CPU of which the simulator uses nothing, paid by every process that runs a simulation (each
-worker of a sweep; ``benchmarks/bench_sweep.py``).
+Private names used (scipy 1.10-1.17): ``scipy.integrate._odepack.lsoda`` (the compiled routine
+:class:`~.ode_solvers.LeanLSODA` steps directly), ``scipy.integrate._ivp.lsoda`` / ``.base`` /
+``.common`` / ``.bdf`` / ``.radau`` (classes, BDF's constants and ``compute_R``), ``scipy.integrate._ode``
+and ``scipy.optimize._zeros._brentq``. Where one fails to import or to pass its check, or where the
+environment sets ``TRANSGEN_SCIPY_PUBLIC=1`` (:data:`PUBLIC`), the public API is used instead:
+``scipy.integrate.LSODA`` / ``BDF`` / ``Radau`` / ``OdeSolution`` with their own steps, and
+``scipy.optimize.brentq``; the results agree within the solvers' tolerances
+(tests/test_scipy_parts.py runs both). The narrative of the deferred import is
+docs/explanation/scipy-internals.md.
 
-:func:`deferred_package` registers such a package under its real name with its ``__init__`` not
-yet run: its submodules import as usual (the real files, the real modules), and the first time
-anything asks the package for a name it does not have (``from scipy.integrate import quad``,
-``scipy.integrate.solve_ivp``, ``import *``, ``dir``), the package's own ``__init__`` runs in it,
-once, reusing the submodules already loaded (so ``scipy.integrate.LSODA`` is the class the
-simulator's solver derives from). Nothing is copied from scipy and no other module is touched; if
-anything is unexpected (the package imported already, a file missing, an import failing) the
-ordinary import is used.
-
-:func:`brentq` is ``scipy.optimize.brentq`` as the simulator calls it (defaults, no extra
-arguments, a NaN of the function an error): the same compiled routine with the same arguments,
-so the same roots, bit for bit; checked on a known root when first loaded, else scipy's.
+The default path imports those without running ``scipy/integrate/__init__.py`` and
+``scipy/optimize/__init__.py`` (:func:`deferred_package`; 0.18 s of a sweep worker's start).
 """
 from __future__ import annotations
 
 import importlib
 import importlib.machinery
 import importlib.util
+import os
 import sys
 import threading
 import types
 
-__all__ = ["deferred_package", "lsoda_classes", "brentq"]
+__all__ = ["deferred_package", "lsoda_classes", "lsoda_routine", "lsoda_dense_type", "stiff_internals",
+           "is_bdf", "brentq", "PUBLIC"]
+
+PUBLIC = os.environ.get("TRANSGEN_SCIPY_PUBLIC", "") == "1"
+"""Use scipy's public API only (``TRANSGEN_SCIPY_PUBLIC=1`` in the environment at import)."""
 
 _LOCK = threading.RLock()
 
@@ -110,9 +108,18 @@ def _deferred_import(packages: tuple[str, ...], load):
         return load()
 
 
+def _public_lsoda_classes() -> tuple:
+    """The public stand-ins of :func:`lsoda_classes`: ``DenseOutput`` for the two dense-output
+    classes (only the lean step makes those, and it is off without :func:`lsoda_routine`)."""
+    from scipy.integrate import LSODA, DenseOutput, OdeSolution
+
+    return LSODA, DenseOutput, DenseOutput, OdeSolution
+
+
 def lsoda_classes() -> tuple:
     """``(LSODA, LsodaDenseOutput, ConstantDenseOutput, OdeSolution)`` of ``scipy.integrate``,
-    without running ``scipy/integrate/__init__.py`` (see the module docstring).
+    without running ``scipy/integrate/__init__.py`` (see the module docstring); the public
+    classes (:func:`_public_lsoda_classes`) under :data:`PUBLIC` or where the private ones fail.
 
     scipy.linalg is deferred too: the simulator's path does not use it, but loading numba's
     compiled code imports ``scipy.linalg.cython_blas`` (numba's check for a BLAS), which ran
@@ -130,7 +137,60 @@ def lsoda_classes() -> tuple:
 
         return LSODA, LsodaDenseOutput, ConstantDenseOutput, OdeSolution
 
-    return _deferred_import(("scipy.integrate", "scipy.integrate._ivp", "scipy.linalg"), load)
+    if PUBLIC:
+        return _public_lsoda_classes()
+    try:
+        return _deferred_import(("scipy.integrate", "scipy.integrate._ivp", "scipy.linalg"), load)
+    except Exception:  # noqa: BLE001 - a scipy without these private modules: the public classes
+        return _public_lsoda_classes()
+
+
+def lsoda_routine():
+    """The compiled ``lsoda`` of ``scipy.integrate._odepack`` that scipy's LSODA calls per step, or
+    None (:data:`PUBLIC`, or missing): :class:`~.ode_solvers.LeanLSODA` then runs scipy's own step."""
+    if PUBLIC:
+        return None
+    try:
+        from scipy.integrate import _odepack
+    except Exception:  # noqa: BLE001 - another scipy
+        return None
+    return getattr(_odepack, "lsoda", None)
+
+
+def lsoda_dense_type():
+    """scipy's ``LsodaDenseOutput`` class (the Nordsieck interpolant that :mod:`.dense` evaluates in
+    a compiled loop), or None where it is not to be relied on (then ``sol(t)`` is used)."""
+    if PUBLIC:
+        return None
+    try:
+        from scipy.integrate._ivp.lsoda import LsodaDenseOutput
+    except Exception:  # noqa: BLE001 - another scipy
+        return None
+    return LsodaDenseOutput
+
+
+def stiff_internals():
+    """``(BDF, Radau, MAX_FACTOR, MAX_ORDER, MIN_FACTOR, NEWTON_MAXITER, compute_R)`` of
+    ``scipy.integrate._ivp.bdf`` / ``.radau`` for the lean BDF step (:mod:`.ode_stiff`), or None
+    (:data:`PUBLIC`, or a scipy without them): scipy's public ``BDF`` and ``Radau`` are then used."""
+    if PUBLIC:
+        return None
+    try:
+        from scipy.integrate._ivp.bdf import BDF, MAX_FACTOR, MAX_ORDER, MIN_FACTOR, NEWTON_MAXITER, compute_R
+        from scipy.integrate._ivp.radau import Radau
+    except Exception:  # noqa: BLE001 - another scipy
+        return None
+    return BDF, Radau, MAX_FACTOR, MAX_ORDER, MIN_FACTOR, NEWTON_MAXITER, compute_R
+
+
+def is_bdf(method) -> bool:
+    """Whether ``method`` is scipy's BDF class (solve_ivp's ``alt_segment`` of the dense output),
+    without importing it where it is not loaded (then it cannot be ``method``)."""
+    for name in ("scipy.integrate._ivp.bdf", "scipy.integrate"):
+        module = sys.modules.get(name)
+        if module is not None and type(module) is not _DeferredPackage and method is getattr(module, "BDF", None):
+            return True
+    return False
 
 
 def _scipy_brentq():
@@ -143,7 +203,9 @@ def _load_brentq():
     """The compiled Brent routine behind ``scipy.optimize.brentq`` called as that function calls it
     (scipy 1.17: ``_zeros._brentq(f, a, b, xtol, rtol, maxiter, args, full_output, disp)`` with
     ``f`` wrapped to raise ValueError on NaN), checked on a root it must find exactly; scipy's
-    ``brentq`` where that differs or fails."""
+    ``brentq`` where that differs or fails, or under :data:`PUBLIC`."""
+    if PUBLIC:
+        return _scipy_brentq()
     try:
         zeros = _deferred_import(("scipy.optimize",), lambda: importlib.import_module("scipy.optimize._zeros"))
         routine = zeros._brentq
