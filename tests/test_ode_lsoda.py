@@ -120,7 +120,8 @@ def test_lean_lsoda_steps_like_scipy_one_by_one(t_bound):
 
     lean = LeanLSODA(fun, 0.0, np.array([1.0, 0.0, 2.0]), t_bound, rtol=1e-8, atol=1e-10, max_step=0.2)
     ref = LSODA(fun, 0.0, np.array([1.0, 0.0, 2.0]), t_bound, rtol=1e-8, atol=1e-10, max_step=0.2)
-    assert lean._lean
+    if not lean._lean:
+        pytest.skip("this scipy's LSODA keeps other state: LeanLSODA runs scipy's own step (tested below)")
     while ref.status == "running":
         assert lean.step() == ref.step()
         assert (lean.status, lean.t, lean.t_old, lean.nfev, lean.njev, lean.nlu) == \
@@ -199,6 +200,8 @@ def test_lean_ode_solution_is_scipys(method, backwards, seed):
     t1 = -2.0 if backwards else 2.0
     got = solve_segment(lambda t, y: A @ y, 0.0, t1, np.array([1.0, 0.5]), method, [], rtol=1e-6, atol=1e-9)
     sol = got.sol
+    if not hasattr(sol, "side"):
+        pytest.skip("scipy < 1.11: OdeSolution has no alt_segment; LeanOdeSolution calls scipy's own")
     ref = OdeSolution(sol.ts, sol.interpolants, alt_segment=sol.side == ("right" if not backwards else "left"))
     assert ref.side == sol.side
     ts = np.concatenate([rng.uniform(-0.1, 2.1, 30) * np.sign(t1), rng.choice(got.t, 8), got.t[:3]])

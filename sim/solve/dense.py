@@ -48,7 +48,8 @@ def dense_values(sol, ts: np.ndarray) -> np.ndarray:
     ts = np.asarray(ts, dtype=float)
     loop = compiled_loop(nordsieck_values, len(ts))
     interpolants = getattr(sol, "interpolants", None)
-    if loop is None or not interpolants or ts.ndim != 1 or not getattr(sol, "ascending", False):
+    if loop is None or not interpolants or ts.ndim != 1 or not getattr(sol, "ascending", False) \
+            or not hasattr(sol, "side"):  # scipy < 1.11: OdeSolution's own choice of segment
         return sol(ts)
     from .scipy_parts import lsoda_dense_type  # here: reading a scenario needs no scipy
 

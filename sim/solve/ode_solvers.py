@@ -173,7 +173,7 @@ class LeanOdeSolution(OdeSolution):
 
     def __call__(self, t):
         t = np.asarray(t)
-        if t.ndim != 1 or not t.size:
+        if t.ndim != 1 or not t.size or not hasattr(self, "side"):  # scipy < 1.11 has no side: its own walk
             return super().__call__(t)
         if t.size == 1 or bool(np.all(t[1:] >= t[:-1])):  # sorted already (the output grid): no permutation
             reverse, t_sorted = None, t
@@ -308,11 +308,15 @@ def solve_segment(fun, t0: float, t1: float, y0: np.ndarray, method, events: lis
     t_events = [np.array([root]) if k == hit else np.zeros(0) for k in range(len(events))]
     y_events = [np.array([y_root]) if k == hit else np.zeros(0) for k in range(len(events))]
     ts_arr = np.array(ts)
-    return SimpleNamespace(t=ts_arr, y=np.array(ys).T,
-                           sol=LeanOdeSolution(ts_arr, interpolants, alt_segment=_alt_segment(method)),
+    alt = {"alt_segment": _alt_segment(method)} if _HAS_ALT_SEGMENT else {}
+    return SimpleNamespace(t=ts_arr, y=np.array(ys).T, sol=LeanOdeSolution(ts_arr, interpolants, **alt),
                            t_events=t_events, y_events=y_events, nfev=solver.nfev, njev=solver.njev,
                            nlu=solver.nlu, status=status, message=_MESSAGES.get(status, message),
                            success=status >= 0)
+
+
+#: OdeSolution takes ``alt_segment`` (solve_ivp's choice of segment at a step end) from scipy 1.11 on
+_HAS_ALT_SEGMENT = "alt_segment" in OdeSolution.__init__.__code__.co_varnames
 
 
 def _alt_segment(method) -> bool:
