@@ -7,7 +7,7 @@ Times, with the BLAS libraries' default thread count and limited to one thread
 * 6x6 solves (numpy ``solve``; scipy ``lu_factor``/``lu_solve``, which the BDF, Radau and LSODA
   integrators use per step);
 * the mode generator (:func:`transgen.modes.mode_models` of the HT-740, all combinations);
-* whole runs of ``ht740_improved`` and ``ht740_turbo`` (:func:`transgen.sim.simulate.simulate`;
+* whole runs of ``ht740_improved`` and ``ht740_turbo`` (:func:`transgen.sim.solve.simulate.simulate`;
   its undecorated ``__wrapped__`` is the threaded case).
 
 alternating, each on an idle machine and with busy-loop processes on the other cores (a loaded machine: the
@@ -28,8 +28,8 @@ import scipy.linalg
 from transgen.blas import single_threaded
 from transgen.language import load_mechanism
 from transgen.modes import mode_models
-from transgen.sim.scenario import load_scenario
-from transgen.sim.simulate import simulate
+from transgen.sim.scenario.load import load_scenario
+from transgen.sim.solve.simulate import simulate
 
 
 def busy(stop) -> None:

@@ -20,7 +20,7 @@ import numpy as np
 from fmpy import simulate_fmu
 
 from transgen.fmu import export_fmu
-from transgen.sim.scenario import load_scenario
+from transgen.sim.scenario.load import load_scenario
 
 DEFAULT = ["coupled_clutches", "freewheel_clutch", "zf3hp22_manual_first_coast", "ht740_improved"]
 

@@ -1,6 +1,6 @@
 """Per-step overhead of the simulator's integration driver with LSODA (issue 11, real-time goals):
-scipy's ``solve_ivp``, :func:`transgen.sim.ode_solvers.solve_segment` with scipy's LSODA class, and
-``solve_segment`` with :class:`~transgen.sim.ode_solvers.LeanLSODA` (what ``method = "LSODA"``
+scipy's ``solve_ivp``, :func:`transgen.sim.solve.ode_solvers.solve_segment` with scipy's LSODA class, and
+``solve_segment`` with :class:`~transgen.sim.solve.ode_solvers.LeanLSODA` (what ``method = "LSODA"``
 runs), on a trivial right-hand side (ten states, five lightly damped oscillators, ``A @ y``: about
 3500 steps over 20 s at rtol 1e-7), without events and with four terminal events that never fire
 (three linear in the state, one not), as the simulator's segments have. The overhead per step is
@@ -26,8 +26,8 @@ import time
 import numpy as np
 from scipy.integrate import LSODA, solve_ivp
 
-from transgen.sim import ode_solvers
-from transgen.sim.ode_solvers import LeanLSODA, solve_segment
+from transgen.sim.solve import ode_solvers
+from transgen.sim.solve.ode_solvers import LeanLSODA, solve_segment
 
 N = 10
 _A = np.zeros((N, N))
@@ -97,7 +97,7 @@ def trivial(repeats: int) -> None:
 
 
 def scenario(name: str, repeats: int) -> None:
-    from transgen.sim.scenario import load_scenario
+    from transgen.sim.scenario.load import load_scenario
 
     s = load_scenario(name)
     s.options = dataclasses.replace(s.options, method="LSODA")

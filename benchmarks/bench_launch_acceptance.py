@@ -4,7 +4,7 @@ For every gearbox (the bundled mechanisms with a forward gear table, and the rea
 ``benchmarks/gearboxes/*.mech``, which are not in the package) and each vehicle class, derive the
 launch scenario as ``transgen scenario new FILE --vehicle V`` does, simulate it as ``transgen
 simulate --report`` does, and judge every upshift by the rule of issue 21
-(:mod:`transgen.sim.acceptance`: no bindup, flare <= 50 rpm, torque hole <= 100*(1 - 1/step) + 20
+(:mod:`transgen.sim.derive.acceptance`: no bindup, flare <= 50 rpm, torque hole <= 100*(1 - 1/step) + 20
 points). Prints one row per upshift (bindup [N*m], flare [rpm], hole and its limit [%], largest
 |jerk| [m/s^3], acceptable) and the totals; asserts nothing.
 
@@ -20,7 +20,7 @@ from pathlib import Path
 
 from transgen.library import bundled_mechanisms, bundled_path
 from transgen.language import load_mechanism
-from transgen.sim.acceptance import launch_acceptance
+from transgen.sim.derive.acceptance import launch_acceptance
 
 HERE = Path(__file__).resolve().parent
 

@@ -1,4 +1,4 @@
-"""Cost of the run-time invariant monitor (sim/monitor.py) on every bundled scenario, on the
+"""Cost of the run-time invariant monitor (sim/solve/monitor.py) on every bundled scenario, on the
 scenario's own solver: the time spent inside the monitor's checks against the run's wall time
 (best of ``--repeats`` runs), and, for reference, the wall time with the monitor switched off
 (that difference is within the machine's noise).
@@ -10,8 +10,8 @@ import time
 import warnings
 from dataclasses import replace
 
-from transgen.sim.monitor import InvariantMonitor
-from transgen.sim.scenario import bundled_scenarios, load_scenario
+from transgen.sim.solve.monitor import InvariantMonitor
+from transgen.sim.scenario.load import bundled_scenarios, load_scenario
 
 _check = InvariantMonitor.check
 _spent = [0.0]

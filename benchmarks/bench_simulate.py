@@ -25,7 +25,7 @@ import time
 
 import numpy as np
 
-from transgen.sim.scenario import load_scenario
+from transgen.sim.scenario.load import load_scenario
 
 TARGET_EVENT = 1e-4     # s
 TARGET_SPEED = 1e-2     # rad/s at the output shaft (0.1 rpm)
@@ -119,7 +119,7 @@ def realtime(repeats: int = 5) -> None:
     right-hand-side evaluations; ``inputs``: evaluations of the input vector alone (the torque
     events at the step ends; with the compiled right-hand side, one evaluation gives every event's
     value there); ``met``: the wall-time factor against the goal. The warm-up run also loads the
-    compiled right-hand side (``transgen.sim.kernel``) from numba's disk cache, or compiles it
+    compiled right-hand side (``transgen.sim.solve.kernel``) from numba's disk cache, or compiles it
     once after an install (about 8 s of CPU time)."""
     print(f"real-time factor = simulated time / time of the run, in-process, median of {repeats} "
           f"(wall and CPU time)")

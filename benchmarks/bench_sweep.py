@@ -169,7 +169,7 @@ def _without_bytecode() -> list[str]:
 
     from transgen.sim.study.task import PRELOAD
 
-    for name in PRELOAD + ("transgen.sim.ode_solvers",):
+    for name in PRELOAD + ("transgen.sim.solve.ode_solvers",):
         importlib.import_module(name)
     missing = []
     for name, module in list(sys.modules.items()):

@@ -111,7 +111,7 @@ def _set_option(parser) -> None:
 
 def _overrides(texts: list[str]) -> dict[str, object]:
     """The ``--set`` options as a key -> value mapping (the last of a repeated key wins)."""
-    from .overrides import parse_override
+    from .scenario.overrides import parse_override
 
     return dict(parse_override(t) for t in texts)
 
@@ -151,7 +151,7 @@ def cmd_simulate(args) -> int:
     if args.list or not args.scenario:
         if not args.list:
             raise ScenarioError("name a scenario file (or use --list to see the bundled ones)")
-        from .library import bundled_scenarios  # not the simulator: listing needs no numeric library
+        from .scenario.library import bundled_scenarios  # not the simulator: listing needs no numeric library
 
         items = {name: str(path) for name, path in bundled_scenarios().items()}
         if args.json:
@@ -159,19 +159,19 @@ def cmd_simulate(args) -> int:
         else:
             print("\n".join(f"  {k:<24} {v}" for k, v in items.items()))
         return 0
-    from .report import report_dict, report_text, shift_report, simulate_units
-    from .scenario import load_scenario
+    from .analysis.report import report_dict, report_text, shift_report, simulate_units
+    from .scenario.load import load_scenario
 
     formats = _plot_formats(args.format)  # checked before anything runs or is written
     if args.output:
-        from .result_files import result_format
+        from .analysis.result_files import result_format
 
         result_format(args.output)
     elif args.unique_times:
         raise ValueError("--unique-times applies to the result file: name one with -o FILE")
     overrides = _overrides(args.overrides)
     scenario = _with_model(load_scenario(args.scenario, overrides), args.model)
-    from .run_limits import check_run
+    from .scenario.run_limits import check_run
 
     check_run(scenario, args.force)  # samples, memory, periodic inputs: refused before the run
     o = scenario.options
@@ -206,12 +206,12 @@ def cmd_simulate(args) -> int:
 
     with output_set():
         if args.output:
-            from .result_files import write_result
+            from .analysis.result_files import write_result
 
             write_result(result, args.output, scenario.outputs or None, args.unique_times)
             written.append(args.output)
         if args.plot and len(result.time):
-            from .plots import plot_all
+            from .analysis.plots import plot_all
 
             written += [str(p) for p in plot_all(result, qualities, Path(args.plot), formats=formats)]
         if compare and args.plot:
@@ -244,7 +244,7 @@ def cmd_simulate(args) -> int:
             if e.kind != "start":
                 print(f"  t = {e.t:8.4f} s  {e.kind:<7} {' '.join(e.elements):<8} {e.source} -> {e.target} {e.detail}")
         if cycle is not None:
-            from .cycle_report import cycle_text
+            from .analysis.cycle_report import cycle_text
 
             print()
             print(cycle_text(cycle))
@@ -265,12 +265,12 @@ def cmd_simulate(args) -> int:
 
 def _cycle_report(scenario, result):
     """The drive-cycle report of a run whose scenario has a driver (:mod:`.driver`), else None."""
-    from .driver import Driver
+    from .control.driver import Driver
 
     driver = next((c for c in scenario.powertrain.controllers if isinstance(c, Driver)), None)
     if driver is None or not len(result.time):
         return None
-    from .cycle_report import cycle_report
+    from .analysis.cycle_report import cycle_report
 
     return cycle_report(result, driver.trace)
 
@@ -298,7 +298,7 @@ def _comparison_plots(scenario, result, other_s, other, directory: Path, formats
     thesis' Figs. 4.17-4.24 with both runs."""
     from transgen.drawing import save_figure
 
-    from .plots import compare
+    from .analysis.plots import compare
 
     first, second = _labels(scenario, other_s)
     runs = {first: result, second: other}
@@ -317,7 +317,7 @@ def _comparison_plots(scenario, result, other_s, other, directory: Path, formats
 
 def _engine_of(scenario):
     """The scenario's turbodiesel engine, or None."""
-    from .powertrain import TurbodieselSource
+    from .model.powertrain import TurbodieselSource
 
     return next((c.engine for c in scenario.powertrain.components if isinstance(c, TurbodieselSource)), None)
 
@@ -351,7 +351,7 @@ def cmd_scenario_new(args) -> int:
     from transgen.language import load_mechanism
     from transgen.schemas import dumps
 
-    from .launch import derive_launch, launch_scenario, mechanism_reference
+    from .derive.launch import derive_launch, launch_scenario, mechanism_reference
 
     mech = load_mechanism(args.file)
     launch = derive_launch(mech, args.vehicle)
@@ -365,7 +365,7 @@ def cmd_scenario_new(args) -> int:
     if args.maneuver == "launch":
         text = launch_scenario(mech, args.vehicle, ref, launch)
     else:
-        from .maneuver import maneuver_scenario
+        from .derive.maneuver import maneuver_scenario
 
         try:
             text = maneuver_scenario(mech, args.vehicle, args.maneuver, ref, launch, args.cycle)
@@ -398,11 +398,11 @@ def _maneuver_summary(mech, launch, kind: str, cycle: str | None) -> dict:
     ``t_end`` [s] and the shifts expected."""
     out = {"kind": kind}
     if kind == "cycle":
-        from .cycles import DEFAULT_CYCLE
+        from .control.cycles import DEFAULT_CYCLE
 
         out["cycle"] = cycle or DEFAULT_CYCLE
     elif kind != "launch":
-        from .maneuver import derive_maneuver
+        from .derive.maneuver import derive_maneuver
 
         m = derive_maneuver(mech, launch, kind)
         out.update({"gear": m.gear, "speed": m.speed, "throttle": m.throttle, "throttle_after": m.throttle_after,
@@ -412,8 +412,8 @@ def _maneuver_summary(mech, launch, kind: str, cycle: str | None) -> dict:
 
 def cmd_scenario_keys(args) -> int:
     """``transgen scenario keys``: the settable keys of a scenario with their values."""
-    from .overrides import toml_value
-    from .scenario import scenario_keys, scenario_path
+    from .scenario.overrides import toml_value
+    from .scenario.load import scenario_keys, scenario_path
 
     keys = scenario_keys(args.scenario, _overrides(args.overrides))
     if args.json:
@@ -428,7 +428,7 @@ def cmd_scenario_keys(args) -> int:
 
 def cmd_scenario_copy(args) -> int:
     """``transgen scenario copy``: a bundled scenario and its include files, written into a folder."""
-    from .scenario_copy import copy_scenario
+    from .scenario.copy import copy_scenario
 
     for path in copy_scenario(args.name, args.directory, args.force):
         print(f"wrote {path}")

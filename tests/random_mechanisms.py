@@ -8,7 +8,7 @@ clipped at zero: kinks and rises from zero), a random input torque and output to
 initial speeds (some slips start at exactly zero, some links at rest), run for 0.2-0.5 s.
 
 Everything goes through the public API: the ``.mech`` text and a scenario TOML are written to a
-folder and read with :func:`transgen.sim.scenario.load_scenario`.
+folder and read with :func:`transgen.sim.scenario.load.load_scenario`.
 
 :func:`physics_problems` re-checks a completed run's samples independently of the simulator's
 own monitor; :func:`solver_differences` compares the runs of one case on several solvers.
@@ -28,7 +28,7 @@ from hypothesis import assume
 from hypothesis import strategies as st
 
 from transgen.errors import MechError, ScenarioError, TransgenError
-from transgen.sim.scenario import load_scenario
+from transgen.sim.scenario.load import load_scenario
 
 HOUSING = "housing"
 SOLVERS = ("DOP853", "RK45", "LSODA", "Radau", "BDF")

@@ -1,4 +1,4 @@
-"""The default calibration of 'transgen scenario new' (transgen.sim.calibration, docs/calibration.md):
+"""The default calibration of 'transgen scenario new' (transgen.sim.derive.calibration, docs/calibration.md):
 its pieces against closed forms and the statics, the driveline of the vehicle classes from its
 parts, and untuned launches of bundled gearboxes judged by issue 21's acceptance rule."""
 from __future__ import annotations
@@ -8,10 +8,10 @@ import math
 import pytest
 
 from transgen import load_mechanism
-from transgen.sim.acceptance import FLARE_LIMIT_RPM, UpshiftVerdict, hole_limit, judge_upshift, launch_acceptance
-from transgen.sim.calibration import handover, synchronised_inertia
-from transgen.sim.driveline_class import DrivelineParts
-from transgen.sim.launch import VEHICLES, derive_launch, launch_scenario, static_element_torques
+from transgen.sim.derive.acceptance import FLARE_LIMIT_RPM, UpshiftVerdict, hole_limit, judge_upshift, launch_acceptance
+from transgen.sim.derive.calibration import handover, synchronised_inertia
+from transgen.sim.derive.driveline_class import DrivelineParts
+from transgen.sim.derive.launch import VEHICLES, derive_launch, launch_scenario, static_element_torques
 
 
 def test_synchronised_inertia_of_the_two_speed_is_its_input_inertia():

@@ -62,7 +62,7 @@ def test_dogs_in_gears_modes_and_std():
 
 
 def _run(tmp_path, mech: str, scenario: str):
-    from transgen.sim.scenario import load_scenario
+    from transgen.sim.scenario.load import load_scenario
 
     (tmp_path / "dog.mech").write_text(mech)
     path = tmp_path / "s.toml"
@@ -145,7 +145,7 @@ def test_a_dog_over_its_static_capacity_stops_the_run(tmp_path):
 
 def test_the_compliant_model_refuses_dogs(tmp_path):
     from transgen.errors import SimulationError
-    from transgen.sim.scenario import load_scenario
+    from transgen.sim.scenario.load import load_scenario
 
     (tmp_path / "dog.mech").write_text(DOG)
     path = tmp_path / "s.toml"
@@ -193,8 +193,8 @@ def test_zf9hp48_launch_through_the_dog_shifts(tmp_path):
     """The derived launch scenario runs the 9HP from rest through 1-2-3-4-5: its dog brake F holds
     in 1st to 4th and is released in the 4-5 shift, when B takes over."""
     from transgen.language import load_mechanism
-    from transgen.sim.launch import launch_scenario
-    from transgen.sim.scenario import load_scenario
+    from transgen.sim.derive.launch import launch_scenario
+    from transgen.sim.scenario.load import load_scenario
 
     path = tmp_path / "zf9.toml"
     path.write_text(launch_scenario(load_mechanism("zf9hp48"), mechanism_ref="zf9hp48"))
@@ -219,7 +219,7 @@ def test_zf9hp48_power_on_downshift_engages_the_dog_brake_at_synchronism(tmp_pat
     """5-4 under drive torque: B lets go, the input speeds up, and the dog brake F, engaged from the
     start of the shift, transmits nothing until the common sun 3/4 it holds comes to rest; then it
     locks (no torque at nonzero slip, no slip after)."""
-    from transgen.sim.scenario import load_scenario
+    from transgen.sim.scenario.load import load_scenario
 
     path = tmp_path / "down.toml"
     path.write_text(textwrap.dedent("""

@@ -16,7 +16,7 @@ import scipy.io
 from transgen.cli import main
 from transgen.export import field_names, matlab_name, output_format
 from transgen.schemas import SCHEMA_DIR
-from transgen.sim.result_files import csv_float
+from transgen.sim.analysis.result_files import csv_float
 
 
 @pytest.fixture(scope="module")
@@ -90,8 +90,8 @@ def test_pandas_reads_float_columns_as_float_and_the_mode_as_text(tmp_path):
 
 def test_a_run_in_a_mode_named_1_gives_a_text_mode_column(tmp_path):
     pd = pytest.importorskip("pandas")
-    from transgen.sim.result import Result
-    from transgen.sim.result_files import write_result
+    from transgen.sim.core.result import Result
+    from transgen.sim.analysis.result_files import write_result
 
     result = Result(np.array([0.0, 1.0]), {"mode": np.array([1.0, 1.0]), "t_C1": np.zeros(2)}, {"t_C1": "N*m"},
                     [], [], True, "", meta={"mode_names": ["1"]})

@@ -58,7 +58,7 @@ def sources(tmp_path_factory):
 @pytest.fixture(scope="module")
 def reference(sources):
     """``transgen simulate`` of each scenario, run once."""
-    from transgen.sim.scenario import load_scenario
+    from transgen.sim.scenario.load import load_scenario
 
     runs = {}
 
@@ -164,8 +164,8 @@ def test_the_c_decision_is_the_simulators(source, tmp_path):
     where it fails."""
     from transgen.errors import SimulationError
     from transgen.language import load_mechanism
-    from transgen.sim.signals import Constant
-    from transgen.sim.transmission import Transmission
+    from transgen.sim.core.signals import Constant
+    from transgen.sim.model.transmission import Transmission
 
     lib, d = _decide_library(tmp_path, source)
     tr = Transmission(load_mechanism(source))

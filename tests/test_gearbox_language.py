@@ -205,7 +205,7 @@ def test_drive_torques_of_a_simpson_first_gear():
 @pytest.mark.parametrize("name", ["zf3hp22_big", "mb722_6_w5a580_2004", "simple2_oneway", "ht740"])
 def test_drive_torques_agree_with_the_simulators_static_balance(name):
     from transgen.language import load_mechanism
-    from transgen.sim.launch import static_element_torques
+    from transgen.sim.derive.launch import static_element_torques
     from transgen.statics import drive_torques
 
     m = load_mechanism(name)

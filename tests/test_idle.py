@@ -105,7 +105,7 @@ def test_std_holds_the_modes_the_a340e_shifts_pass_through():
 
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_scenario_new_launches_through_every_forward_gear(name):
-    from transgen.sim.launch import derive_launch
+    from transgen.sim.derive.launch import derive_launch
 
     mech = load_mechanism(name)
     launch = derive_launch(mech, "car")
@@ -117,7 +117,7 @@ def test_scenario_new_launches_through_every_forward_gear(name):
 
 
 def test_scenario_new_warns_about_a_gear_it_cannot_use():
-    from transgen.sim.launch import derive_launch
+    from transgen.sim.derive.launch import derive_launch
 
     text = load_mechanism("a340e_like").text.replace("link H   J=0.004", "link H   J=0")
     launch = derive_launch(parse_mechanism(text), "car")
@@ -211,7 +211,7 @@ damping = 200.0
 
 
 def test_the_simulator_runs_an_idle_gear_and_bounds_the_hub(tmp_path):
-    from transgen.sim.scenario import load_scenario
+    from transgen.sim.scenario.load import load_scenario
 
     path = tmp_path / "s.toml"
     path.write_text(IDLE_RUN)
@@ -226,8 +226,8 @@ def test_the_simulator_runs_an_idle_gear_and_bounds_the_hub(tmp_path):
 
 def test_the_monitor_flags_an_idle_hub_running_away():
     from transgen.idle import idle_hubs
-    from transgen.sim.monitor import InvariantMonitor, InvariantViolation
-    from transgen.sim.transmission import Transmission
+    from transgen.sim.solve.monitor import InvariantMonitor, InvariantViolation
+    from transgen.sim.model.transmission import Transmission
 
     mech = load_mechanism("idle_hub3")
     assert idle_hubs(mech, mech.gear("1").engaged) == (("H", ("IN", "S", "Rf")),)

@@ -506,8 +506,8 @@ def test_power_flow_of_random_stepped_trains_with_dogs(seed):
 def test_launch_of_the_stepped_example_runs_its_ratios_and_balances_energy(tmp_path):
     """``transgen scenario new`` and the simulator on a stepped set: 1st holds the stepped ratio
     1 + Nr*Np1/(Ns*Np2), the 1-2 upshift hands B1 over to K, and the energy balance closes."""
-    from transgen.sim.launch import launch_scenario
-    from transgen.sim.scenario import load_scenario
+    from transgen.sim.derive.launch import launch_scenario
+    from transgen.sim.scenario.load import load_scenario
 
     path = tmp_path / "stepped.toml"
     path.write_text(launch_scenario(load_mechanism(STEPPED2), mechanism_ref=str(STEPPED2)))

@@ -81,8 +81,8 @@ def ht740_two_shifts():
 
 
 def test_every_command_names_the_shifts_and_modes_alike(ht740_two_shifts, tmp_path, capsys):
-    from transgen.sim.plots import shift_files
-    from transgen.sim.report import report_dict, report_text, shift_report
+    from transgen.sim.analysis.plots import shift_files
+    from transgen.sim.analysis.report import report_dict, report_text, shift_report
     from transgen.sim.study.optimize import _select, plan_calibration
     from transgen.sim.study.task import result_scalars
 
@@ -121,7 +121,7 @@ def test_every_command_names_the_shifts_and_modes_alike(ht740_two_shifts, tmp_pa
     assert main(["std", "ht740"]) == 0
     assert "M1 (1) -> M5 (C1): unlock C5" in capsys.readouterr().out
     # the result files carry each mode's gear and locked set
-    from transgen.sim.result_files import write_result
+    from transgen.sim.analysis.result_files import write_result
 
     write_result(result, tmp_path / "r.json")
     signals = json.loads((tmp_path / "r.json").read_text())
@@ -131,7 +131,7 @@ def test_every_command_names_the_shifts_and_modes_alike(ht740_two_shifts, tmp_pa
 
 def test_a_shift_the_run_ends_in_is_named_by_the_gear_it_heads_for():
     from transgen.sim import load_scenario
-    from transgen.sim.report import shift_report
+    from transgen.sim.analysis.report import shift_report
 
     scenario = load_scenario("ht740_improved", {"simulation.t_end": 4.5})
     (q,) = shift_report(scenario.run())
@@ -140,8 +140,8 @@ def test_a_shift_the_run_ends_in_is_named_by_the_gear_it_heads_for():
 
 def test_the_drive_plot_names_the_gears(ht740_two_shifts):
     pytest.importorskip("matplotlib")
-    from transgen.sim.plots import gear_track, plot_drive
-    from transgen.sim.report import shift_report
+    from transgen.sim.analysis.plots import gear_track, plot_drive
+    from transgen.sim.analysis.report import shift_report
 
     scenario, result = ht740_two_shifts
     t, level, ticks = gear_track(result)
@@ -195,7 +195,7 @@ def test_scenario_new_names_bundled_data_by_name_and_a_users_file_relatively(tmp
 
 def test_a_bundled_converter_by_name_is_the_bundled_file(tmp_path, monkeypatch):
     from transgen.sim import scenario_files
-    from transgen.sim.library import bundled_data
+    from transgen.sim.scenario.library import bundled_data
 
     monkeypatch.chdir(tmp_path)
     assert main(["scenario", "new", "zf3hp22_small", "-o", "s.toml"]) == 0
@@ -212,8 +212,8 @@ def test_a_bundled_map_by_name_is_the_bundled_file():
 
 
 def test_scenario_copy_of_every_bundled_scenario_holds_no_machine_path(tmp_path):
-    from transgen.sim.library import bundled_scenarios
-    from transgen.sim.scenario_copy import copy_scenario
+    from transgen.sim.scenario.library import bundled_scenarios
+    from transgen.sim.scenario.copy import copy_scenario
 
     for name in bundled_scenarios():
         for path in copy_scenario(name, tmp_path / name):

@@ -14,9 +14,9 @@ import pytest
 
 from transgen.cli import main
 from transgen.sim import load_scenario
-from transgen.sim.report import shift_report
-from transgen.sim.schedule import ShiftTemplate
-from transgen.sim.signals import Table
+from transgen.sim.analysis.report import shift_report
+from transgen.sim.control.schedule import ShiftTemplate
+from transgen.sim.core.signals import Table
 from transgen.sim.study.optimize import (TORQUE_PARAMETERS, Constraints, Objective, fit_template, optimize,
                                          parse_objective, plan_calibration, score, trade_off)
 
@@ -24,7 +24,7 @@ SMALL = {"max_evaluations": 10, "population": 9}  # the start and one generation
 
 
 def _signal(points, before):
-    from transgen.sim.schedule import _merge
+    from transgen.sim.control.schedule import _merge
 
     return _merge([(0.0, before)] + list(points))
 

@@ -40,7 +40,7 @@ def test_a_bad_plot_format_is_refused_before_anything_runs(tmp_path, capsys):
 
 
 def test_a_failing_plot_leaves_neither_csv_nor_plots(tmp_path, monkeypatch):
-    import transgen.sim.plots as plots
+    import transgen.sim.analysis.plots as plots
 
     real = plots.plot_all
 

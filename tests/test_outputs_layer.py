@@ -99,7 +99,7 @@ def test_a_folder_is_refused(tmp_path):
 
 
 def test_an_input_of_the_command_is_refused_unless_forced(tmp_path):
-    from transgen.sim.file_access import FileAccess
+    from transgen.sim.scenario.file_access import FileAccess
 
     source = tmp_path / "base.toml"
     source.write_text("t = 1\n")

@@ -13,7 +13,7 @@ import pytest
 
 from transgen.errors import ScenarioError
 from transgen.sim import load_scenario, parse_override, scenario_files, scenario_keys
-from transgen.sim.scenario import bundled_scenarios
+from transgen.sim.scenario.load import bundled_scenarios
 
 SHORT = {"simulation.t_end": 2.0}  # the HT-740 launch in first gear, fast enough for tests
 
@@ -390,7 +390,7 @@ def test_scenario_copy_writes_the_includes_and_the_copy_runs_from_its_folder(tmp
 
 
 def test_scenario_copy_writes_all_files_or_none(tmp_path, monkeypatch):
-    from transgen.sim.scenario_copy import copy_scenario
+    from transgen.sim.scenario.copy import copy_scenario
 
     calls = []
     import transgen.export as export
@@ -428,7 +428,7 @@ def test_gear_pair_radii_and_one_way_direction_are_parameters():
 
 
 def test_a_worker_elsewhere_loads_the_scenario_by_its_key(tmp_path, monkeypatch):
-    from transgen.sim.scenario import scenario_path
+    from transgen.sim.scenario.load import scenario_path
 
     key = str(scenario_path("ht740_improved").resolve())
     files = scenario_files("ht740_improved", SHORT)

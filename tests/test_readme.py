@@ -11,7 +11,7 @@ import pytest
 from transgen import bundled_mechanisms, parse_mechanism
 from transgen.cli import build_parser
 from transgen.kinematics import check_gears
-from transgen.sim.scenario import bundled_scenarios
+from transgen.sim.scenario.load import bundled_scenarios
 
 README = (Path(__file__).resolve().parent.parent / "README.md").read_text(encoding="utf-8")
 
@@ -28,7 +28,7 @@ def test_worked_mech_example_parses_and_matches_its_ratios():
 
 
 def test_scenario_reference_uses_known_top_level_tables():
-    from transgen.sim.scenario_schema import TOP_KEYS as _TOP_KEYS
+    from transgen.sim.scenario.schema import TOP_KEYS as _TOP_KEYS
 
     block = next(b for b in _blocks("toml") if "[simulation]" in b)
     for table in re.findall(r"^\[\[?([a-z_]+)", block, flags=re.M):
@@ -53,8 +53,8 @@ def test_every_command_is_documented(command):
 
 
 def test_every_turbodiesel_parameter_and_input_key_is_documented():
-    from transgen.sim.powertrain import ENGINE_KEYS, GAS_KEYS, GOVERNOR_KEYS, PORT_KEYS, SHAFT_KEYS, SOLVER_KEYS
-    from transgen.sim.scenario_schema import INPUT_KEYS
+    from transgen.sim.model.powertrain import ENGINE_KEYS, GAS_KEYS, GOVERNOR_KEYS, PORT_KEYS, SHAFT_KEYS, SOLVER_KEYS
+    from transgen.sim.scenario.schema import INPUT_KEYS
 
     section = README[README.index("## Scenario files"):README.index("### Starting with a new gearbox")]
     for key in sorted(ENGINE_KEYS | PORT_KEYS | SHAFT_KEYS | GOVERNOR_KEYS | GAS_KEYS | SOLVER_KEYS | INPUT_KEYS):

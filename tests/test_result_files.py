@@ -14,8 +14,8 @@ from transgen.cli import main
 from transgen.describe import modes_report
 from transgen.export import field_names
 from transgen.language import load_mechanism
-from transgen.sim.result_files import result_columns, write_result
-from transgen.sim.scenario import Scenario, load_scenario
+from transgen.sim.analysis.result_files import result_columns, write_result
+from transgen.sim.scenario.load import Scenario, load_scenario
 
 NAME = "simple2_upshift"
 
@@ -173,12 +173,12 @@ def test_unique_times_without_a_result_file_is_refused(capsys):
     assert capsys.readouterr().err.startswith("error: --unique-times applies to the result file")
 
 
-@pytest.mark.parametrize("name", sorted(__import__("transgen.sim.scenario", fromlist=["x"]).bundled_scenarios()))
+@pytest.mark.parametrize("name", sorted(__import__("transgen.sim.scenario.load", fromlist=["x"]).bundled_scenarios()))
 def test_every_signal_of_the_bundled_scenarios_is_a_matlab_name(name):
     """In the .mat file the columns are variables by their own names (R.w_L1), none renamed."""
     import re
 
-    from transgen.sim.scenario import output_signals
+    from transgen.sim.scenario.load import output_signals
 
     names = output_signals(load_scenario(name).powertrain)
     assert all(re.fullmatch(r"[A-Za-z][A-Za-z0-9_]{0,62}", n) for n in ["time", "mode", *names]), names

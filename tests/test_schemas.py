@@ -93,7 +93,7 @@ def test_every_json_output_is_a_valid_document(argv, schema, capsys, tmp_path, m
 
 
 def test_a_failed_run_prints_a_valid_document(capsys, monkeypatch):
-    from transgen.sim.scenario import Scenario
+    from transgen.sim.scenario.load import Scenario
 
     run = Scenario.run
 

@@ -1,5 +1,5 @@
-"""Engine torque intervention in shift calibration (:mod:`transgen.sim.schedule`, the engines of
-:mod:`transgen.sim.components`, ``[input] torque_request``, ``transgen optimize``): the factor
+"""Engine torque intervention in shift calibration (:mod:`transgen.sim.control.schedule`, the engines of
+:mod:`transgen.sim.model.components`, ``[input] torque_request``, ``transgen optimize``): the factor
 signal's shape, no intervention leaves a run bit for bit as it was, the engine torque is scaled
 (limited to full load) and the torque hole of the torque phase shrinks, the optimizer tunes and
 reports the parameters, the tuned file runs from another folder, bad values are refused at the door."""
@@ -15,10 +15,10 @@ from hypothesis import strategies as st
 
 from transgen.errors import ScenarioError
 from transgen.sim import load_scenario
-from transgen.sim.scenario import parse_scenario
-from transgen.sim.components import EngineMap
-from transgen.sim.report import shift_report
-from transgen.sim.schedule import ShiftEvent, ShiftTemplate, request_table, torque_request_signal
+from transgen.sim.scenario.load import parse_scenario
+from transgen.sim.model.components import EngineMap
+from transgen.sim.analysis.report import shift_report
+from transgen.sim.control.schedule import ShiftEvent, ShiftTemplate, request_table, torque_request_signal
 
 TRUCK = os.path.join(os.path.dirname(__file__), "..", "sim", "scenarios", "shared", "m915_truck.toml")
 
@@ -184,7 +184,7 @@ def test_torque_phase_increase_raises_engine_and_output_torque(runs):
 
 
 def test_energy_balance_holds_with_the_intervention(runs):
-    from transgen.sim.report import energy_balance
+    from transgen.sim.analysis.report import energy_balance
 
     _, result = runs["boost"]
     summary = energy_balance(result)
@@ -311,7 +311,7 @@ def test_optimizer_refuses_engine_torque_without_an_engine(tmp_path):
 def test_tuned_file_of_a_bundled_scenario_runs_from_another_folder(tmp_path, monkeypatch):
     from transgen.sim.study.optimize import (Calibration, Constraints, Objective, OptimizeResult,
                                              tuned_scenario_text)
-    from transgen.sim.scenario import scenario_path
+    from transgen.sim.scenario.load import scenario_path
 
     original = str(scenario_path("ht740_original").resolve())
     result = OptimizeResult(original, "HT", Objective(), Constraints(), Calibration("tables", 0.0), [], [],
@@ -375,7 +375,7 @@ def test_second_pass_keeps_the_files_own_request_outside_the_retuned_shift():
     assert "input.torque_request" not in calibration.overrides(plans, {1: plans[0].template})  # kept as it is
     tmpl = ShiftTemplate(**{**plans[0].template.__dict__, "torque_boost": 1.2, "boost_time": 0.3})
     table = calibration.overrides(plans, {1: tmpl})["input.torque_request"]
-    from transgen.sim.signals import Table
+    from transgen.sim.core.signals import Table
 
     new = Table(tuple(table["t"]), tuple(table["value"]))
     assert new.value(1.2) == pytest.approx(0.9)  # before the shift: the file's own

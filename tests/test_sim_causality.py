@@ -1,7 +1,7 @@
 """Causality kinds and the algebraic-loop check (thesis 2.4.2-2.4.6)."""
 import pytest
 
-from transgen.sim.causality import AlgebraicLoopError, Block, Causality, CausalityError, \
+from transgen.sim.core.causality import AlgebraicLoopError, Block, Causality, CausalityError, \
     check_connections
 from transgen.sim.engine import TurbochargedDiesel, default_compressor_table
 from transgen.sim.engine.compressor import Compressor

@@ -1,4 +1,4 @@
-"""Comfort arithmetic (transgen.sim.comfort): the ISO 2631-1 weightings against the standard's
+"""Comfort arithmetic (transgen.sim.analysis.comfort): the ISO 2631-1 weightings against the standard's
 tabulated factors, jerk, VDV and settling time on signals with closed-form answers."""
 import math
 
@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from transgen.sim.comfort import jerk, settling_time, unique_samples, vdv, weighted, weighting_response
+from transgen.sim.analysis.comfort import jerk, settling_time, unique_samples, vdv, weighted, weighting_response
 
 # ISO 2631-1:1997 Table 3 (principal weightings, factors x 1000), Wk (z) and Wd (x, y)
 TABLE = {

@@ -1,4 +1,4 @@
-"""Haessig's compliant clutch model (sim/compliant.py): a stuck element is a spring-damper whose
+"""Haessig's compliant clutch model (sim/solve/compliant.py): a stuck element is a spring-damper whose
 twist rate is its slip, a slipping one transmits ``T_dyn * apply * sign(slip)``. Its breakaway
 and zero-slip decisions keep every slipping element dissipative (the invariant monitor stops a
 run otherwise), and it converges to the mode-switching model as the stiffness grows."""
@@ -10,11 +10,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from transgen import parse_mechanism
-from transgen.sim.components import InputTorque
-from transgen.sim.scenario import load_scenario
-from transgen.sim.signals import Constant, Table
-from transgen.sim.simulate import Powertrain, SolverOptions, simulate
-from transgen.sim.transmission import Transmission
+from transgen.sim.model.components import InputTorque
+from transgen.sim.scenario.load import load_scenario
+from transgen.sim.core.signals import Constant, Table
+from transgen.sim.solve.simulate import Powertrain, SolverOptions, simulate
+from transgen.sim.model.transmission import Transmission
 
 PAIR_TEXT = """
 link A J=1

@@ -7,7 +7,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from transgen.errors import SimulationError
-from transgen.sim.causality import check_connections
+from transgen.sim.core.causality import check_connections
 from transgen.sim.engine import (EngineParams, NonFiniteError, SpeedGovernor, TurbochargedDiesel,
                                  exhaust_temperature, rate, RPM)
 

@@ -1,6 +1,6 @@
 """The turbodiesel's compiled kernels (sim/engine/kernels.py, sim/engine/compiled.py) against the
 same functions run by the interpreter, against the look-up and root finder they replace
-(transgen.sim.interp, scipy's brentq), and against the engine's equations written out here."""
+(transgen.sim.core.interp, scipy's brentq), and against the engine's equations written out here."""
 import math
 import re
 import warnings
@@ -15,7 +15,7 @@ from transgen.sim.engine import (RPM, MapRangeWarning, TurbochargedDiesel, defau
 from transgen.sim.engine import kernels as K
 from transgen.sim.engine.compiled import kernels
 from transgen.sim.engine.turbocharger import ChokedFlowError, IterativeTurbo, PortAreas
-from transgen.sim.interp import bilinear, locate
+from transgen.sim.core.interp import bilinear, locate
 from transgen.errors import SimulationError
 
 ENGINES = {kind: TurbochargedDiesel(turbo=kind, rack=0.7) for kind in ("basic", "iterative")}
@@ -55,7 +55,7 @@ def test_compiled_evaluation_equals_the_interpreted_one(kind, p_im, ratio, w_tc,
 
 
 def _old_compressor_lookup(tab, N_corr, PR):
-    """The compressor look-up as it was written before the kernels (transgen.sim.interp on lists)."""
+    """The compressor look-up as it was written before the kernels (transgen.sim.core.interp on lists)."""
     speed, chi_grid = tab.speed.tolist(), tab.chi.tolist()
     stall_l, span_l = tab.pr_stall.tolist(), (tab.pr_surge - tab.pr_stall).tolist()
     m_l, e_l = tab.mass_flow.tolist(), tab.efficiency.tolist()
@@ -177,7 +177,7 @@ def test_out_of_map_warning_from_the_compiled_evaluation_names_the_map_once():
 
 
 def test_a_turbo_solve_failure_stops_the_run_naming_device_time_and_reason():
-    from transgen.sim.scenario import load_scenario
+    from transgen.sim.scenario.load import load_scenario
 
     r = load_scenario("ht740_turbo_iterative", {"input.ports.turbine_inlet": 0.0011}).run()
     assert not r.success

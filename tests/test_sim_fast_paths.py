@@ -1,5 +1,5 @@
 """The simulator's fast paths give the numbers of the plain ones: its integration driver
-(transgen.sim.ode_solvers.solve_segment) against scipy's solve_ivp (the same steps, event roots,
+(transgen.sim.solve.ode_solvers.solve_segment) against scipy's solve_ivp (the same steps, event roots,
 end state and dense output, bit for bit), the torque events' input vector against the full
 evaluation's, the mechanism-derived caches shared between transmissions."""
 from __future__ import annotations
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from transgen.sim.ode_solvers import LeanBDF, LeanRadau, solve_segment
+from transgen.sim.solve.ode_solvers import LeanBDF, LeanRadau, solve_segment
 
 METHODS = ["RK45", "DOP853", "LSODA", "BDF", "Radau", LeanBDF, LeanRadau]
 
@@ -91,8 +91,8 @@ def test_input_vector_alone_is_the_right_hand_sides(name):
     """What the torque events read at every step end (ComponentEvaluator.inputs: the components'
     torques alone; the turbodiesel's from its cylinders) is the input vector of the full
     evaluation, bit for bit, at states off the steady state."""
-    from transgen.sim.integration import ComponentEvaluator, StateLayout
-    from transgen.sim.scenario import load_scenario
+    from transgen.sim.solve.integration import ComponentEvaluator, StateLayout
+    from transgen.sim.scenario.load import load_scenario
 
     pt = load_scenario(name).powertrain
     model = ComponentEvaluator(pt)
@@ -127,7 +127,7 @@ def test_crank_torque_is_the_engines_torque():
 # ----------------------------------------------------------------------------- shared caches
 def test_transmissions_of_one_mechanism_share_what_the_gearing_decides():
     from transgen.errors import ModeError
-    from transgen.sim.scenario import load_scenario
+    from transgen.sim.scenario.load import load_scenario
 
     a, b = load_scenario("ht740_improved").powertrain.transmission, load_scenario("ht740_improved").powertrain.transmission
     assert a is not b and a._on_demand is b._on_demand and a._implied is b._implied

@@ -1,11 +1,11 @@
-"""The one scalar table look-up (transgen.sim.interp): cell search, clamping, bilinear values."""
+"""The one scalar table look-up (transgen.sim.core.interp): cell search, clamping, bilinear values."""
 import math
 import random
 from bisect import bisect_right
 
 import pytest
 
-from transgen.sim.interp import bilinear, interp1, interp1_pair, interp2, interp_like_numpy, locate
+from transgen.sim.core.interp import bilinear, interp1, interp1_pair, interp2, interp_like_numpy, locate
 
 GRID = (0.0, 1.0, 2.5, 4.0)
 

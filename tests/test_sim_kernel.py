@@ -1,4 +1,4 @@
-"""The compiled right-hand side (transgen.sim.kernel) gives the numbers of the Python one: the state
+"""The compiled right-hand side (transgen.sim.solve.kernel) gives the numbers of the Python one: the state
 derivative, the input vector and the torque events' holding margins of every bundled scenario's
 powertrain at random states, times, modes and slip directions; every signal kind (hypothesis over
 random signals and tables); a powertrain mixing compiled and Python-only components and signals
@@ -13,23 +13,23 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from transgen.sim import kernel as K
-from transgen.sim.components import Component, Driveline, EngineMap, EngineWithConverter, InputTorque, LinkLoad
-from transgen.sim.integration import ComponentEvaluator, StateLayout, _partial_jacobian
-from transgen.sim.interp import interp2
-from transgen.sim.jit import compiled, jit_enabled
-from transgen.sim.library import bundled_scenarios
-from transgen.sim.scenario import load_scenario
-from transgen.sim.signals import Constant, Periodic, Pulse, Ramp, Signal, Sine, Spliced, Step, Sum, Table
-from transgen.sim.simulate import simulate
-from transgen.sim.switching import _add_slipping
-from transgen.sim.transmission import APPLY_THRESHOLD
+from transgen.sim.solve import kernel as K
+from transgen.sim.model.components import Component, Driveline, EngineMap, EngineWithConverter, InputTorque, LinkLoad
+from transgen.sim.solve.integration import ComponentEvaluator, StateLayout, _partial_jacobian
+from transgen.sim.core.interp import interp2
+from transgen.sim.core.jit import compiled, jit_enabled
+from transgen.sim.scenario.library import bundled_scenarios
+from transgen.sim.scenario.load import load_scenario
+from transgen.sim.core.signals import Constant, Periodic, Pulse, Ramp, Signal, Sine, Spliced, Step, Sum, Table
+from transgen.sim.solve.simulate import simulate
+from transgen.sim.solve.switching import _add_slipping
+from transgen.sim.model.transmission import APPLY_THRESHOLD
 
 pytestmark = pytest.mark.skipif(not jit_enabled(), reason="numba not installed or TRANSGEN_JIT=0")
 
 
 def _python(pt, mode, layout, active, t, y):
-    """The Python path of transgen.sim.switching: derivative, input vector, holding margins."""
+    """The Python path of transgen.sim.solve.switching: derivative, input vector, holding margins."""
     tr = pt.transmission
     model = ComponentEvaluator(pt)
     q = y[:mode.dof]
@@ -251,7 +251,7 @@ def test_reading_a_scenario_does_not_load_numba(tmp_path):
     import subprocess
     import sys
 
-    code = ("import sys; from transgen.sim.scenario import load_scenario; load_scenario('ht740_improved'); "
+    code = ("import sys; from transgen.sim.scenario.load import load_scenario; load_scenario('ht740_improved'); "
             "assert 'numba' not in sys.modules, 'numba loaded'")
     subprocess.run([sys.executable, "-c", code], check=True, cwd=tmp_path)  # not the checkout: the installed package
 
@@ -260,8 +260,8 @@ def test_reading_a_scenario_does_not_load_numba(tmp_path):
 def test_dense_output_in_one_call_equals_scipys(method):
     import numba  # noqa: F401  (the compiled loop runs once numba is loaded, as in a simulation)
 
-    from transgen.sim.dense import dense_values
-    from transgen.sim.ode_solvers import SOLVERS, solve_segment
+    from transgen.sim.solve.dense import dense_values
+    from transgen.sim.solve.ode_solvers import SOLVERS, solve_segment
 
     def rhs(t, y):
         return np.array([y[1], -4.0 * y[0] - 0.3 * y[1] + np.sin(3.0 * t), y[1] * y[1]])

@@ -14,12 +14,12 @@ from transgen import bundled_mechanisms, load_mechanism, parse_mechanism
 from transgen.cli import main
 from transgen.errors import ScenarioError
 from transgen.kinematics import gear_ratios
-from transgen.sim.launch import (HOLD_FACTOR, RAMP_END_RANGE, derive_launch, launch_scenario, output_inertia,
+from transgen.sim.derive.launch import (HOLD_FACTOR, RAMP_END_RANGE, derive_launch, launch_scenario, output_inertia,
                                  static_element_torques)
-from transgen.sim.scenario import load_scenario
-from transgen.sim.schedule import AutoShift, ShiftTemplate, gear_swap
-from transgen.sim.signals import Constant
-from transgen.sim.transmission import ElementConfig
+from transgen.sim.scenario.load import load_scenario
+from transgen.sim.control.schedule import AutoShift, ShiftTemplate, gear_swap
+from transgen.sim.core.signals import Constant
+from transgen.sim.model.transmission import ElementConfig
 
 
 # ------------------------------------------------------------------------------ derivation

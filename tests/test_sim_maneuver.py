@@ -12,14 +12,14 @@ import pytest
 
 from transgen import load_mechanism
 from transgen.cli import main
-from transgen.sim.brake import BrakedDriveline, braked_driveline_rates
-from transgen.sim.downshift_quality import downshift_figures
-from transgen.sim.launch import derive_launch
-from transgen.sim.maneuver import derive_maneuver, maneuver_scenario
-from transgen.sim.report import energy_balance, shift_report
-from transgen.sim.scenario import parse_scenario
-from transgen.sim.schedule import POWER_ON_THROTTLE, SYNC_FRACTION, speed_phase_first
-from transgen.sim.signals import Constant, Ramp
+from transgen.sim.model.brake import BrakedDriveline, braked_driveline_rates
+from transgen.sim.analysis.downshift_quality import downshift_figures
+from transgen.sim.derive.launch import derive_launch
+from transgen.sim.derive.maneuver import derive_maneuver, maneuver_scenario
+from transgen.sim.analysis.report import energy_balance, shift_report
+from transgen.sim.scenario.load import parse_scenario
+from transgen.sim.control.schedule import POWER_ON_THROTTLE, SYNC_FRACTION, speed_phase_first
+from transgen.sim.core.signals import Constant, Ramp
 
 
 def _run(name, vehicle, kind, tmp_path):
@@ -115,8 +115,8 @@ def test_scenario_brake_key_and_cli_maneuvers(tmp_path, capsys):
 
 
 def test_sync_band_is_a_fraction_of_the_slip_at_the_command():
-    from transgen.sim.schedule import AutoShift
-    from transgen.sim.transmission import ElementConfig
+    from transgen.sim.control.schedule import AutoShift
+    from transgen.sim.model.transmission import ElementConfig
 
     mech = load_mechanism("ht740")
     gears = {g.name: g.engaged for g in mech.gears}

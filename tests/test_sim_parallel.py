@@ -13,11 +13,11 @@ from transgen import bundled_mechanisms, load_mechanism, parse_mechanism
 from transgen.describe import modes_report
 from transgen.errors import ModeError
 from transgen.modes import select_modes
-from transgen.sim.components import InputTorque
-from transgen.sim.scenario import load_scenario
-from transgen.sim.signals import Constant, Ramp
-from transgen.sim.simulate import Powertrain, SolverOptions, simulate
-from transgen.sim.transmission import Transmission
+from transgen.sim.model.components import InputTorque
+from transgen.sim.scenario.load import load_scenario
+from transgen.sim.core.signals import Constant, Ramp
+from transgen.sim.solve.simulate import Powertrain, SolverOptions, simulate
+from transgen.sim.model.transmission import Transmission
 from transgen.std import state_transition_diagram
 
 TOL = 1e-6

@@ -7,9 +7,9 @@ pytest.importorskip("matplotlib")
 
 from matplotlib.figure import Figure  # noqa: E402
 
-from transgen.sim.plots import (PLOTS, compare, plot_all, plot_apply, plot_io_torques, plot_mode,  # noqa: E402
+from transgen.sim.analysis.plots import (PLOTS, compare, plot_all, plot_apply, plot_io_torques, plot_mode,  # noqa: E402
                                 plot_power, plot_shift, plot_slips, plot_speeds, plot_torques, shift_window)
-from transgen.sim.report import shift_report  # noqa: E402
+from transgen.sim.analysis.report import shift_report  # noqa: E402
 
 
 def _cases():
@@ -164,7 +164,7 @@ def test_shift_figure_zooms_on_the_shift(s2):
 
 
 def test_shift_figure_with_vehicle_has_acceleration_and_jerk(tmp_path):
-    from transgen.sim.scenario import load_scenario
+    from transgen.sim.scenario.load import load_scenario
 
     sc = load_scenario("ht740_improved", {"simulation.t_end": 5.5})
     r = sc.run()

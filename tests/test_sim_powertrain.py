@@ -13,13 +13,13 @@ import numpy as np
 import pytest
 
 from transgen.errors import ScenarioError
-from transgen.sim.assembly import causal_assembly, check_powertrain
-from transgen.sim.causality import AlgebraicLoopError, Causality
+from transgen.sim.model.assembly import causal_assembly, check_powertrain
+from transgen.sim.core.causality import AlgebraicLoopError, Causality
 from transgen.sim.engine import RPM
 from transgen.sim.engine.torque_converter import TorqueConverter
 from transgen.sim.engine.turbo_report import turbo_report
-from transgen.sim.powertrain import ConverterComponent, TurbodieselSource
-from transgen.sim.scenario import bundled_scenarios, load_scenario
+from transgen.sim.model.powertrain import ConverterComponent, TurbodieselSource
+from transgen.sim.scenario.load import bundled_scenarios, load_scenario
 
 SCENARIOS = Path(__file__).resolve().parent.parent / "sim" / "scenarios"
 TURBO = SCENARIOS / "ht740_turbo.toml"

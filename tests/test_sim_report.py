@@ -8,13 +8,13 @@ import pytest
 
 from transgen import load_mechanism
 from transgen.kinematics import constraint_matrix, null_space
-from transgen.sim.components import Driveline, InputTorque
-from transgen.sim.report import (RPM_PER_RAD_S, Shift, ShiftQuality, energy_balance, infer_shifts, report_dict,
+from transgen.sim.model.components import Driveline, InputTorque
+from transgen.sim.analysis.report import (RPM_PER_RAD_S, Shift, ShiftQuality, energy_balance, infer_shifts, report_dict,
                                  report_text, shift_report)
-from transgen.sim.result import Event, ModeSpan, Result
-from transgen.sim.samples import integrate
-from transgen.sim.signals import Constant, Table
-from transgen.sim.simulate import Powertrain, SolverOptions, simulate
+from transgen.sim.core.result import Event, ModeSpan, Result
+from transgen.sim.analysis.samples import integrate
+from transgen.sim.core.signals import Constant, Table
+from transgen.sim.solve.simulate import Powertrain, SolverOptions, simulate
 
 
 # --------------------------------------------------------------------------- synthetic result
@@ -323,7 +323,7 @@ def test_synthetic_chatter_counts():
 def test_vehicle_acceleration_is_the_force_balance():
     """The driveline's vehicle_accel integrates to the vehicle speed (it is the exact derivative of
     the speed state, not a differenced signal); a driveline without a vehicle mass has none."""
-    from transgen.sim.scenario import load_scenario
+    from transgen.sim.scenario.load import load_scenario
 
     r = load_scenario("ht740_improved", {"simulation.t_end": 3.0}).run()
     t, a, v = r.time, r["vehicle_accel"], r["vehicle_speed"]
@@ -339,8 +339,8 @@ def test_vehicle_jerk_is_the_exact_derivative():
     of the original 1-2 (finely sampled: the jerk jumps at the unlock and decays within
     milliseconds); the differenced jerk of coarse samples misses that peak, the exact one does not
     depend on the sampling."""
-    from transgen.sim.comfort import jerk
-    from transgen.sim.scenario import load_scenario
+    from transgen.sim.analysis.comfort import jerk
+    from transgen.sim.scenario.load import load_scenario
 
     fine = load_scenario("ht740_original", {"simulation.t_end": 5.6, "simulation.output_dt": 2e-4}).run()
     t, a, j = fine.time, fine["vehicle_accel"], fine["vehicle_jerk"]
@@ -354,7 +354,7 @@ def test_vehicle_jerk_is_the_exact_derivative():
 
 
 def test_sweep_rows_carry_the_comfort_scalars():
-    from transgen.sim.scenario import load_scenario
+    from transgen.sim.scenario.load import load_scenario
     from transgen.sim.study.table import column_unit
     from transgen.sim.study.task import result_scalars
 
@@ -376,7 +376,7 @@ def run_simple2(c1=((0, 5.2, 5.3), (1, 1, 0)), c2=((0, 5.0, 5.5), (0, 0, 1))) ->
     """Thesis 3.3.1 simple transmission, 400 N*m input, driveshaft 12000 N*m/rad, 200 N*m*s/rad,
     100 kg*m^2 output inertia; C2 ramps on over 5.0-5.5 s, C1 off over 5.2-5.3 s."""
     m = load_mechanism("simple2")
-    from transgen.sim.transmission import Transmission
+    from transgen.sim.model.transmission import Transmission
 
     tr = Transmission(m, {"C1": {"apply": Table(*c1)}, "C2": {"apply": Table(*c2)}})
     n = null_space(constraint_matrix(tr.graph, ["C1"]), len(tr.links))
@@ -510,7 +510,7 @@ def test_ht740_thesis_findings():
     shift, their first two speed phases run past the oncoming ramp, and at the 3-4 shift the
     oncoming element forces the offgoing one to unlock (the largest offgoing dissipation); the
     improved trajectories shrink the torque holes and the dissipated energy of every shift."""
-    from transgen.sim.scenario import load_scenario
+    from transgen.sim.scenario.load import load_scenario
 
     def run(name):
         sc = load_scenario(name)
@@ -559,7 +559,7 @@ def test_ht740_improved_chatter_at_constant_throttle():
     """At the constant throttle 0.72 the scenarios had before their shifts were put at 1800 rpm,
     the improved 3-4 chatters: C3, dropped to its 30 % holding pressure, slips, re-locks and slips
     again before C2 locks (issue 12: 'C3 locks and unlocks repeatedly in the 3-4')."""
-    from transgen.sim.scenario import load_scenario
+    from transgen.sim.scenario.load import load_scenario
 
     sc = load_scenario("ht740_improved", {"input.throttle_signal": 0.72})
     r = sc.run()
@@ -576,7 +576,7 @@ def test_oneway_release_downshift_is_inferred():
     """A release to a one-way clutch (bundled oneway_overrun scenario): the C2 upshift off the
     freewheel is a perfect shift (no bindup, small torque hole); the release of C2 at 2.5 s hands
     back to the one-way clutch F1 - a downshift with its speed phase first and no apply ramp."""
-    from transgen.sim.scenario import load_scenario
+    from transgen.sim.scenario.load import load_scenario
 
     r = load_scenario("oneway_overrun").run()
     assert r.success, r.message

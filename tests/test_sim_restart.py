@@ -1,4 +1,4 @@
-"""Runs started from a saved state (:mod:`transgen.sim.restart`): a run stopped at ``t`` and
+"""Runs started from a saved state (:mod:`transgen.sim.solve.restart`): a run stopped at ``t`` and
 restarted from its own state reproduces the continuous run after ``t`` within the solver
 tolerance (events, speeds, output torque, energy integrals), also across an automatic schedule's
 commands; a state refuses another powertrain and another start time."""
@@ -58,7 +58,7 @@ def test_state_refuses_another_powertrain_or_time():
     with pytest.raises(ValueError, match="another powertrain"):
         other.run(start=state)
     same = load_scenario("simple2_upshift")
-    from transgen.sim.simulate import simulate
+    from transgen.sim.solve.simulate import simulate
 
     with pytest.raises(ValueError, match="starts at its time"):
         simulate(same.powertrain, same.options, start=state)

@@ -11,10 +11,10 @@ import pytest
 
 from transgen.errors import ScenarioError
 from transgen.cli import main
-from transgen.sim.scenario import load_scenario, output_signals, parse_scenario
-from transgen.sim.signals import Constant, Periodic, Pulse, Ramp, Sine, Spliced, Step, Sum, Table
-from transgen.sim.simulate import Powertrain, SolverOptions, simulate
-from transgen.sim.tomlpos import key_positions
+from transgen.sim.scenario.load import load_scenario, output_signals, parse_scenario
+from transgen.sim.core.signals import Constant, Periodic, Pulse, Ramp, Sine, Spliced, Step, Sum, Table
+from transgen.sim.solve.simulate import Powertrain, SolverOptions, simulate
+from transgen.sim.scenario.tomlpos import key_positions
 
 sys.path.insert(0, str(Path(__file__).parent))
 from fuzz.fuzz_scenario import dumps, fuzz_scenarios  # noqa: E402
@@ -294,7 +294,7 @@ def test_the_energy_residual_is_relative_to_the_energies_of_the_run():
     """No work goes in (two spinning inertias, no input torque): the relative residual is a
     fraction of the energies that do move, not of the zero input work."""
     from transgen.language import parse_mechanism
-    from transgen.sim.transmission import Transmission
+    from transgen.sim.model.transmission import Transmission
 
     mech = parse_mechanism('transmission "pair"\nlink A J=1.0\nlink B J=1.0\nclutch C A B static=10 dynamic=10\n'
                            "input A\noutput B\n", "pair.mech")

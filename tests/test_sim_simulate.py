@@ -11,11 +11,11 @@ import pytest
 from transgen import parse_mechanism
 from transgen.cli import main
 from transgen.errors import ScenarioError
-from transgen.sim.components import InputTorque
-from transgen.sim.scenario import load_scenario
-from transgen.sim.signals import Constant, Table
-from transgen.sim.simulate import Powertrain, SolverOptions, simulate
-from transgen.sim.transmission import Transmission
+from transgen.sim.model.components import InputTorque
+from transgen.sim.scenario.load import load_scenario
+from transgen.sim.core.signals import Constant, Table
+from transgen.sim.solve.simulate import Powertrain, SolverOptions, simulate
+from transgen.sim.model.transmission import Transmission
 
 
 @pytest.fixture(scope="module")
@@ -278,7 +278,7 @@ def test_compare_model_reruns_the_scenario_with_the_other_clutch_model(capsys, t
     assert "simple2_upshift (compliant)" in capsys.readouterr().out
 
 
-@pytest.mark.parametrize("name", sorted(__import__("transgen.sim.scenario", fromlist=["x"]).bundled_scenarios()))
+@pytest.mark.parametrize("name", sorted(__import__("transgen.sim.scenario.load", fromlist=["x"]).bundled_scenarios()))
 def test_every_bundled_scenario_loads(name):
     s = load_scenario(name)
     assert s.options.t_end > s.options.t_start and s.powertrain.initial_speeds is not None
@@ -289,7 +289,7 @@ def test_every_bundled_scenario_loads(name):
 def test_vectorised_sampling_equals_the_scalar_component_methods(scenario):
     """Every component's array ``sample`` (used for the output) agrees with its scalar methods
     (used by the right-hand side), and ``evaluate`` with the separate scalar methods."""
-    from transgen.sim.components import Component
+    from transgen.sim.model.components import Component
 
     pt = load_scenario(scenario).powertrain
     tr = pt.transmission
@@ -331,7 +331,7 @@ def test_vectorised_slipping_torques_equal_the_scalar_ones():
 def test_signal_upper_bounds_hold_on_every_interval():
     """``upper_bound`` lets the simulator drop unapplied elements from a segment's right-hand
     side; it must never be below the signal."""
-    from transgen.sim.signals import Ramp, Sine, Spliced, Step, Sum
+    from transgen.sim.core.signals import Ramp, Sine, Spliced, Step, Sum
 
     signals = [Constant(0.3), Step(1.0, 0.0, 0.5), Ramp(1.0, 2.0, 0.0, 1.0), Table((0, 1, 2, 3), (0, 0, 1, 0)),
                Sine(0.2, 0.5, 2.0), Sum((Table((0, 1, 2), (0, 1, 0)), Constant(-0.2))),
@@ -348,7 +348,7 @@ def test_simple2_scenario_reproduces_the_thesis_phase_times(simple2_run):
     """Thesis 3.3.1: torque phase from 5.0 s, speed phase 5.24-5.63 s. The run starts settled,
     so the output torque before the shift is the steady first-gear value and the torque hole is
     that of the ratio change (C1 released onto its torque reversal), not bindup."""
-    from transgen.sim.report import shift_report
+    from transgen.sim.analysis.report import shift_report
 
     r = simple2_run
     (q,) = shift_report(r)

@@ -10,7 +10,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from transgen.sim.scenario import bundled_scenarios, load_scenario
+from transgen.sim.scenario.load import bundled_scenarios, load_scenario
 
 SOLVERS = ["DOP853", "RK45", "LSODA", "Radau", "BDF"]
 _runs: dict = {}

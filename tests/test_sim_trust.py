@@ -11,8 +11,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from transgen.sim.monitor import INVARIANTS, InvariantMonitor, InvariantViolation
-from transgen.sim.scenario import load_scenario
+from transgen.sim.solve.monitor import INVARIANTS, InvariantMonitor, InvariantViolation
+from transgen.sim.scenario.load import load_scenario
 
 SOLVERS = ["DOP853", "RK45", "LSODA", "Radau", "BDF"]
 
@@ -145,7 +145,7 @@ def test_monitor_can_be_switched_off(tmp_path):
 
 @pytest.mark.parametrize("patched", ["torque_at", "signed_capacity"])
 def test_a_friction_torque_of_the_wrong_sign_stops_the_run(tmp_path, monkeypatch, patched):
-    from transgen.sim.transmission import ElementConfig
+    from transgen.sim.model.transmission import ElementConfig
 
     if patched == "torque_at":  # the Python right-hand side's element torque (the compiled one calls the formula)
         monkeypatch.setenv("TRANSGEN_JIT", "0")

@@ -125,7 +125,7 @@ def test_rows_have_parameters_energy_and_every_shift_scalar(serial):
     columns = serial.columns
     assert columns[:7] == ["key", *GRID, "success", "message", "wall_time"]
     assert serial["driveline.vehicle_mass"] == [20000, 20000, 36000, 36000]
-    from transgen.sim.shift_quality import ShiftQuality
+    from transgen.sim.analysis.shift_quality import ShiftQuality
 
     scalars = [f for f, t in ShiftQuality.__annotations__.items() if "dict" not in str(t) and "tuple" not in str(t)]
     assert all(f"shift.1-2.{f}" in columns for f in scalars), [f for f in scalars if f"shift.1-2.{f}" not in columns]
@@ -147,7 +147,7 @@ def test_a_failed_run_is_a_row_with_its_message(monkeypatch):
     row = run_variant(SCENARIO, {"simulation.t_end": 4.6, "simulation.energy_tol": 1e-30})
     assert row["success"] is False and "invariant 'energy_balance' violated" in row["message"]
     assert row["wall_time"] > 0 and "energy.work_in" in row
-    from transgen.sim.scenario import Scenario
+    from transgen.sim.scenario.load import Scenario
 
     for exc, text in ((SimulationError("t=1 s: stuck"), "t=1 s: stuck"), (ZeroDivisionError("x"), "ZeroDivisionError: x")):
         def run(self, progress=None, exc=exc):

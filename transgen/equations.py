@@ -329,7 +329,7 @@ def diagnose_singular(g: Graph, locked=()) -> str:
     elements over-constrain the mechanism, a static indeterminacy), and massless links whose
     motion the equations leave undetermined. Elements in parallel (:func:`locked_constraints`)
     are one constraint and no cause: their motion is unique, and their torque split is a rule
-    of the simulator (:meth:`transgen.sim.transmission.Transmission.split_locked_torques`).
+    of the simulator (:meth:`transgen.sim.model.transmission.Transmission.split_locked_torques`).
     """
     locked = tuple(locked)
     groups = locked_constraints(g, locked)

@@ -114,7 +114,7 @@ def idle_hubs(mech: Mechanism, engaged, graph: Graph | None = None) -> tuple[tup
     """The idle hubs of the gear ``engaged`` (``()`` when it is no usable gear), each with the
     links on the other side of the elements that touch it (``"housing"`` for a brake): the
     speeds an open element's torque pulls the hub toward (the simulator's ``idle_speed``
-    invariant, :mod:`transgen.sim.monitor`)."""
+    invariant, :mod:`transgen.sim.solve.monitor`)."""
     check = gear_check(mech, engaged, graph)
     out = []
     for hub in (check.hubs if check.is_gear else ()):

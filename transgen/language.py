@@ -20,8 +20,6 @@ located diagnostics are one pass over the text; splitting them would hand positi
 from __future__ import annotations
 
 import functools
-import math
-import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import ModuleType
@@ -30,6 +28,9 @@ from typing import TYPE_CHECKING
 from .errors import Diagnostic, MechSyntaxError, MechValidationError
 from .grammar_cache import parser_module
 from .library import package_folder
+from .mech_format import ALTERNATIVE, format_mechanism
+from .mech_numbers import (CAPACITY, EFFICIENCY, INERTIA, MAX_NUMBER_LENGTH, RADIUS, RATIO, RATIO_TOL, SLIP_SPEED, TEETH,
+                           _NOT_FINITE, Quantity, _suggest, read_number, shorten)
 from .model import (
     HOUSING,
     ExternalTorque,
@@ -50,9 +51,6 @@ if TYPE_CHECKING:
     from lark.exceptions import UnexpectedInput
 
 __all__ = ["parse_mechanism", "load_mechanism", "parse_tree", "grammar_text", "format_mechanism"]
-
-ALTERNATIVE = "alternative"
-"""The word that marks a gear row as an alternative gear (``gear L = K1 B3 alternative``)."""
 
 RESERVED = frozenset(
     {
@@ -232,49 +230,6 @@ def _statements(tree: Tree, report: _Reporter) -> list[_Statement]:
     return statements
 
 
-@dataclass(frozen=True)
-class Quantity:
-    """The admissible values of a numeric parameter (SI units).
-
-    A value is a finite, normal double (no overflow to infinity, no underflow to a subnormal or to
-    0) or exactly 0 where ``zero`` allows it; its magnitude lies in ``[low, high]``. The range is
-    physical: it keeps out values no transmission has (and whose ratios would defeat the rank
-    tests of 64-bit arithmetic, e.g. inertias 1e-300 next to 1e300).
-    """
-
-    low: float
-    high: float
-    unit: str = ""
-    sign: str = "any"  # "any", ">=0" (zero and positive), ">0"
-    integer: bool = False  # a tooth count
-
-    @property
-    def zero(self) -> bool:
-        return self.sign == ">=0"
-
-    def describe(self) -> str:
-        unit = f" {self.unit}" if self.unit else ""
-        span = f"{self.low:g} and {self.high:g}{unit}"
-        if self.integer:
-            return f"a whole number between {span}"
-        if self.sign == "any":
-            return f"between {span} in magnitude (negative allowed)"
-        return ("0 or " if self.zero else "") + f"between {span}"
-
-
-MAX_NUMBER_LENGTH = 64
-"""Longest number text accepted (a double has 17 significant digits)."""
-
-INERTIA = Quantity(1e-15, 1e15, "kg*m^2", ">=0")
-TEETH = Quantity(1, 100_000, sign=">0", integer=True)
-RADIUS = Quantity(1e-4, 100.0, "m", ">0")
-CAPACITY = Quantity(sys.float_info.min, 1e8, "N*m", ">=0")
-RATIO = Quantity(1e-6, 1e6)
-EFFICIENCY = Quantity(1e-6, 1.0, sign=">0")
-SLIP_SPEED = Quantity(1e-3, 1e6, "rpm", ">0")
-RATIO_TOL = Quantity(1e-12, 1e6, sign=">0")
-"""Ranges of the numbers of a ``.mech`` file (see README, "Numbers")."""
-
 # Allowed parameters per statement: key -> a Quantity, "name" (a link), or a tuple of allowed words.
 _PARAMS: dict[str, dict[str, object]] = {
     "link": {"J": INERTIA},
@@ -299,53 +254,6 @@ _REQUIRED: dict[str, tuple[str, ...]] = {
     "oneway": ("free",),
     "stepped": ("carrier",),
 }
-_NOT_FINITE = frozenset({"nan", "inf", "infinity"})
-
-
-def _suggest(name: str, known) -> str:
-    if len(name) > 100:
-        return ""
-    import difflib  # only for a message
-
-    close = difflib.get_close_matches(name, list(known), n=1, cutoff=0.5)
-    return f"; did you mean '{close[0]}'?" if close else ""
-
-
-def shorten(text: str, limit: int = 40) -> str:
-    """``text``, or its start and length when longer than ``limit`` (keeps messages bounded)."""
-    return text if len(text) <= limit else f"{text[:limit - 16]}... ({len(text)} characters)"
-
-
-def read_number(text: str, key: str, quantity: Quantity) -> float | int | str:
-    """The value of the number ``text`` for parameter ``key``, or an error message (a ``str``
-    that starts with ``key``) when it is not admissible for ``quantity``."""
-    shown = shorten(text)
-    if len(text) > MAX_NUMBER_LENGTH:
-        return f"{key} is written with {len(text)} characters (at most {MAX_NUMBER_LENGTH}): {shown}"
-    number = float(text)
-    if quantity.integer:
-        if not math.isfinite(number) or number != int(number) or number <= 0:
-            return f"{key} is a tooth count: a positive whole number, not {shown}"
-        if number > quantity.high:
-            return f"{key} is a tooth count: at most {quantity.high:g}, not {shown}"
-        return int(number)
-    if not math.isfinite(number):
-        return f"{key} must be a finite number, not {shown} (beyond the largest double, 1.8e308)"
-    mantissa = text.lower().split("e")[0]
-    if abs(number) < sys.float_info.min and any(c in mantissa for c in "123456789"):
-        return (f"{key} {shown} is below the smallest normal double (2.2e-308) and would read as "
-                f"{'0' if number == 0 else 'a subnormal'}; {key} must be {quantity.describe()}")
-    if quantity.sign == ">0" and number <= 0:
-        return f"{key} must be positive, not {shown}"
-    if quantity.sign == ">=0" and number < 0:
-        return f"{key} must not be negative, not {shown}"
-    if number == 0 and quantity.zero:
-        return 0.0
-    if not quantity.low <= abs(number) <= quantity.high:
-        return f"{key} must be {quantity.describe()}, not {shown}"
-    return number
-
-
 @dataclass(frozen=True)
 class _UnknownTeeth:
     """A tooth count written ``?`` (``bounds`` None) or ``a..b``."""
@@ -746,61 +654,3 @@ def load_mechanism(path: str | Path, unknown_teeth: bool = False) -> Mechanism:
     except OSError as exc:
         raise MechSyntaxError([Diagnostic(str(path), 1, 1, f"cannot read file: {exc.strerror}{hint}")]) from None
     return parse_mechanism(text, str(path), unknown_teeth)
-
-
-def _number(x: float) -> str:
-    return repr(float(x))  # shortest text that reads back as the same float
-
-
-def _optional(key: str, value: float | None) -> str:
-    """`` key=value`` for an optional number that is given, else ``""``."""
-    return "" if value is None else f" {key}={_number(value)}"
-
-
-def _teeth_text(n: int | None, bounds: tuple[int, int] | None) -> str:
-    return str(n) if n is not None else ("?" if bounds is None else f"{bounds[0]}..{bounds[1]}")
-
-
-def format_mechanism(m: Mechanism) -> str:
-    """Write a mechanism back as ``.mech`` text (canonical form; parses to an equal mechanism)."""
-    out = [f'transmission "{m.name}"']
-    out += [f"link {k.name} J={_number(k.inertia)}" for k in m.links]
-    for p in m.planetaries:
-        pin = " pinions=2" if p.pinions == 2 else ""
-        ns, nr = (_teeth_text(n, b) for n, b in ((p.n_sun, p.sun_bounds), (p.n_ring, p.ring_bounds)))
-        out.append(f"planetary {p.name} sun={p.sun} ring={p.ring} carrier={p.carrier} Ns={ns} Nr={nr}{pin}"
-                   + _optional("eta0", p.eta0))
-    for sp in m.stepped:
-        members = " ".join(f"{role}={link} {'Ns' if role.startswith('sun') else 'Nr'}{role[-1]}={teeth}"
-                           for role, link, teeth in sp.members)
-        steps = "".join(f" Np{k}={n}" for k, n in (("1", sp.np1), ("2", sp.np2)) if n is not None)
-        out.append(f"stepped {sp.name} carrier={sp.carrier} {members}{steps}" + _optional("eta0", sp.eta0))
-    for g in m.gear_pairs:
-        k1, k2 = ("N1", "N2") if g.by == "teeth" else ("r1", "r2")
-        v1, v2 = (int(g.n1), int(g.n2)) if g.by == "teeth" else (_number(g.n1), _number(g.n2))
-        out.append(f"gears {g.name} {g.link1} {g.link2} {k1}={v1} {k2}={v2} mesh={g.mesh}" + _optional("eta", g.eta))
-    for e in m.elements:
-        slip = _optional("max_slip_rpm", e.max_slip_rpm)
-        if e.kind == "clutch":
-            out.append(f"clutch {e.name} {e.link1} {e.link2} static={_number(e.static)} dynamic={_number(e.dynamic)}{slip}")
-        elif e.kind == "brake":
-            typ = f" type={e.brake_type}" if e.brake_type else ""
-            out.append(f"brake {e.name} {e.link1} static={_number(e.static)} dynamic={_number(e.dynamic)}{typ}{slip}")
-        elif e.kind == "dog":
-            static = f" static={_number(e.static)}" if math.isfinite(e.static) else ""
-            out.append(f"dog {e.name} {e.link1} {e.link2}{static}{slip}")
-        else:
-            out.append(f"oneway {e.name} {e.link1} {e.link2} free={e.free}{slip}")
-    out += [f"input {m.input}", f"output {m.output}"]
-    out += [f"torque {t.name} {t.link}" for t in m.loads]
-    for g in m.gears:
-        ratio = f" ratio={g.ratio}" if g.ratio is not None else ""
-        ratio += f" tol={g.tolerance}" if g.tolerance is not None else ""
-        ratio += " rounding=truncated" if g.rounding == "truncated" else ""
-        ratio += f" {ALTERNATIVE}" if g.alternative else ""
-        out.append(f"{g.kind} {g.name} = {' '.join(g.engaged)}{ratio}")
-    for d in m.modes:
-        out.append(f"mode {d.name} = {' '.join(d.locked) or 'none'}")
-    if m.coordinates:
-        out.append("coordinates " + " ".join(m.coordinates))
-    return "\n".join(out) + "\n"

@@ -16,7 +16,7 @@ name (``1L``), so that a name always means one locked set. A shift is named by i
 ``2-3`` (:func:`shift_name`; names never contain ``-`` or ``+`` of their own: the grammar's
 names are letters, digits and ``_``).
 
-The simulator names the modes of a result this way (:meth:`transgen.sim.transmission.Transmission.mode_name`),
+The simulator names the modes of a result this way (:meth:`transgen.sim.model.transmission.Transmission.mode_name`),
 the shift report its shifts, ``modes``, ``std`` and ``matrices`` show the name beside the
 selection's mode name (``M1``) with the locked set, so that results and matrices join on either.
 """

@@ -25,8 +25,8 @@ Data flow one way, from the top of the list to the bottom:
   figures, and the summary of a map (``transgen maps``); the last two are not re-exported.
 
 How the engine and the converter become components of the shift simulator is
-:mod:`transgen.sim.powertrain`; the causality check of such an assembly is
-:mod:`transgen.sim.assembly`.  The shipped maps and converter table are in ``sim/data/``
+:mod:`transgen.sim.model.powertrain`; the causality check of such an assembly is
+:mod:`transgen.sim.model.assembly`.  The shipped maps and converter table are in ``sim/data/``
 (:data:`DATA_DIR`).
 """
 from __future__ import annotations

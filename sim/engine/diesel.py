@@ -69,8 +69,8 @@ import numpy as np
 
 from transgen.errors import SimulationError, StateOutOfDomain
 
-from ..causality import Block, Causality, ports
-from ..interp import interp_like_numpy
+from ..core.causality import Block, Causality, ports
+from ..core.interp import interp_like_numpy
 from . import kernels as _k
 from .compiled import kernels
 from .gas import AIR, EXHAUST, RPM, Gas
@@ -500,7 +500,7 @@ class TurbochargedDiesel:
     # ---------------------------------------------------------------- structure
     def causal_structure(self) -> tuple[list[Block], list[tuple[str, str]]]:
         """Blocks and joints of the engine air path, for
-        :func:`~transgen.sim.causality.check_connections`."""
+        :func:`~transgen.sim.core.causality.check_connections`."""
         cv = ports(port_a=Causality.CONTROL_VOLUME, port_b=Causality.CONTROL_VOLUME)
         blocks = [Block("ambient_in", ports(port=Causality.CONTROL_VOLUME)),
                   Block.of("compressor", self.turbo.compressor),

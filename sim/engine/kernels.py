@@ -175,7 +175,7 @@ def shaft_acceleration(inertia, c1, c2, omega_floor, torque_turbine, torque_comp
 # --------------------------------------------------------------------------- causal tables
 def locate(grid, v):
     """Cell ``i`` (``grid[i] <= v <= grid[i+1]``), weight in [0, 1], and whether ``v`` was outside
-    (then clamped to the edge): :func:`transgen.sim.interp.locate` on an array (numba compiles no
+    (then clamped to the edge): :func:`transgen.sim.core.interp.locate` on an array (numba compiles no
     ``bisect``); a NaN ``v`` gives the last cell and a NaN weight, as there."""
     n = grid.shape[0]
     if v <= grid[0]:

@@ -42,9 +42,9 @@ import numpy as np
 
 from transgen.errors import TransgenError
 
-from ..causality import Causality, ports
-from ..interp import interp1, interp1_pair
-from ..jit import compilable, compiled_loop
+from ..core.causality import Causality, ports
+from ..core.interp import interp1, interp1_pair
+from ..core.jit import compilable, compiled_loop
 from .map_file import DATA_DIR
 
 __all__ = ["TorqueConverter", "TorqueConverterError", "DEFAULT_TORQUE_CONVERTER", "converter_torques"]
@@ -108,7 +108,7 @@ class TorqueConverter:
             problems.append("drive: torque ratios must be finite and >= 0")
         if problems:
             raise TorqueConverterError(f"torque converter '{self.name}': " + "; ".join(problems))
-        # plain tuples: scalar look-ups in the simulator's right-hand side (see sim/interp.py)
+        # plain tuples: scalar look-ups in the simulator's right-hand side (see sim/core/interp.py)
         object.__setattr__(self, "_sr", tuple(float(x) for x in self.speed_ratio))
         object.__setattr__(self, "_c", tuple(float(x) for x in _coefficient(self.capacity_factor)))
         object.__setattr__(self, "_tr", tuple(float(x) for x in self.torque_ratio))
@@ -172,7 +172,7 @@ class TorqueConverter:
 
     def kernel_numbers(self) -> tuple[tuple[int, int], tuple[float, ...]]:
         """``((n_drive, n_coast), numbers)``: :meth:`tables` as data for the compiled right-hand
-        side (:mod:`transgen.sim.kernel`), one after the other."""
+        side (:mod:`transgen.sim.solve.kernel`), one after the other."""
         return (len(self._sr), len(self._csr)), sum(self.tables(), ())
 
 

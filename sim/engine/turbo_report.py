@@ -4,8 +4,8 @@
 speed, chi range) and compares two runs (basic vs iterative algorithm) binned by compressor mass
 flow, as thesis section 4.6 discusses Figs. 4.17-4.24; :func:`algorithm_difference` evaluates both
 turbocharger algorithms on the same states of one run, without the engine's feedback.  A run is
-a :class:`~transgen.sim.result.Result` with the signals of
-:class:`~transgen.sim.powertrain.TurbodieselSource`.  Times in s, speeds in rpm, flows in kg/s.
+a :class:`~transgen.sim.core.result.Result` with the signals of
+:class:`~transgen.sim.model.powertrain.TurbodieselSource`.  Times in s, speeds in rpm, flows in kg/s.
 """
 from __future__ import annotations
 
@@ -139,7 +139,7 @@ def _title(result) -> str:
 
 
 def turbo_report(result, other=None, bins: int = 5, engine: TurbochargedDiesel | None = None) -> TurboReport:
-    """Turbocharger report of a run (a :class:`~transgen.sim.result.Result` with the signals of
+    """Turbocharger report of a run (a :class:`~transgen.sim.core.result.Result` with the signals of
     :class:`TurbodieselSource`), optionally compared with a second run ``other`` (e.g. basic
     vs iterative algorithm on the same scenario).
 

@@ -45,7 +45,7 @@ import numpy as np
 
 from transgen.errors import SimulationError
 
-from ..causality import Causality, ports
+from ..core.causality import Causality, ports
 from . import kernels as _k
 from .compiled import kernels
 from .compressor import Compressor, CompressorPoint

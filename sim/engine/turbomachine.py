@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from functools import cached_property
 from typing import ClassVar, Mapping
 
-from ..causality import Causality, ports
+from ..core.causality import Causality, ports
 from . import kernels as _k
 from .compiled import kernels
 from .gas import OMEGA_FLOOR, Gas

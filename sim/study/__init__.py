@@ -1,7 +1,7 @@
 """transgen.sim.study — parameter studies on top of the simulator (the simulator never imports it).
 
 :func:`sweep` runs a scenario over a full-factorial grid or a Latin-hypercube sample of dotted-key
-overrides (:mod:`transgen.sim.overrides`) and returns a :class:`SweepTable`: one row per run with
+overrides (:mod:`transgen.sim.scenario.overrides`) and returns a :class:`SweepTable`: one row per run with
 the parameters, success, message, wall time, the energy balance, every scalar of the shift report
 per shift (``shift1.torque_hole``, ...) and the turbocharger figures where an engine runs.
 

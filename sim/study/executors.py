@@ -458,7 +458,7 @@ def _stopped(timeout: float) -> bool:
 
 def _can_fork() -> bool:
     """Whether a local pool's workers can be forked from this process: the platform has fork, the
-    simulator's compiled code is loaded here (:func:`~transgen.sim.jit.compiled_loaded`; a cold
+    simulator's compiled code is loaded here (:func:`~transgen.sim.core.jit.compiled_loaded`; a cold
     process gains nothing from fork), only the main thread runs and no OpenMP runtime is loaded.
 
     Fork copies the memory of this process but only the thread that calls it, so it is safe where
@@ -472,7 +472,7 @@ def _can_fork() -> bool:
     import multiprocessing
     import threading
 
-    from transgen.sim.jit import compiled_loaded
+    from transgen.sim.core.jit import compiled_loaded
 
     if not compiled_loaded() or "fork" not in multiprocessing.get_all_start_methods():
         return False

@@ -1,6 +1,6 @@
 """Shift calibration: tune the apply trajectories of each shift of a scenario (``transgen optimize``).
 
-For every selected shift the nine clutch parameters of a :class:`~transgen.sim.schedule.ShiftTemplate`
+For every selected shift the nine clutch parameters of a :class:`~transgen.sim.control.schedule.ShiftTemplate`
 are tuned: oncoming fill (``fill_time``, ``fill_level``), torque-phase ramp (``ramp_time``,
 ``ramp_end``), inertia-phase level (``hold_time`` at ``ramp_end``), final rise (``final_time``)
 and the offgoing delay, level and release (``offgoing_delay``, ``offgoing_level``,
@@ -8,7 +8,7 @@ and the offgoing delay, level and release (``offgoing_delay``, ``offgoing_level`
 default there), the seven of its engine torque intervention (:data:`TORQUE_PARAMETERS`: a
 torque-phase increase ``torque_boost`` for ``boost_time`` from ``boost_delay`` after the offgoing
 release starts, an inertia-phase reduction ``torque_cut`` for ``cut_time`` from ``cut_delay`` after
-the release ends, ramps ``torque_ramp``; :mod:`transgen.sim.schedule`), to minimise a weighted
+the release ends, ramps ``torque_ramp``; :mod:`transgen.sim.control.schedule`), to minimise a weighted
 objective under constraints:
 
 * objective terms (each divided by the starting calibration's value of the shift, so that the
@@ -33,7 +33,7 @@ tuning starts from the scenario's own request), shift events with templates
 
 One evaluation simulates one shift window only: the run up to just before the shift
 (:data:`PRE_MARGIN` before the shift report's pre-shift window) is computed once and its state
-saved (:mod:`transgen.sim.restart`); each candidate starts from that state and runs to the end of
+saved (:mod:`transgen.sim.solve.restart`); each candidate starts from that state and runs to the end of
 its own trajectories plus :data:`SETTLE` (at most to the next shift). The shifts are tuned in time
 order, each from the state after the tuned shifts before it. Candidates are evaluated in batches on
 an executor of :mod:`.executors` (in this process, local processes or Dask): the worker gets the
@@ -205,7 +205,7 @@ def parse_objective(text: str) -> Objective:
 def _template(x: Sequence[float], names: Sequence[str] = PARAMETERS, base=None):
     """The template with the parameters ``names`` set to ``x`` (the others from ``base``, default
     the ShiftTemplate defaults)."""
-    from transgen.sim.schedule import ShiftTemplate
+    from transgen.sim.control.schedule import ShiftTemplate
 
     return replace(base or ShiftTemplate(), **{k: float(v) for k, v in zip(names, x)})
 
@@ -226,8 +226,8 @@ def _span(template) -> float:
 def has_engine(scenario) -> bool:
     """Whether the scenario's input is an engine that takes a torque request (map engine, engine
     with converter, turbodiesel)."""
-    from transgen.sim.components import EngineOnLink, EngineWithConverter
-    from transgen.sim.powertrain import TurbodieselSource
+    from transgen.sim.model.components import EngineOnLink, EngineWithConverter
+    from transgen.sim.model.powertrain import TurbodieselSource
 
     return any(isinstance(c, (EngineOnLink, EngineWithConverter, TurbodieselSource))
                for c in scenario.powertrain.components)
@@ -250,15 +250,15 @@ def intervention_text(template, own_request: bool = False) -> str:
 
 
 def _curve(points, before: float):
-    from transgen.sim.schedule import _merge
+    from transgen.sim.control.schedule import _merge
 
     t0 = points[0][0]
     return _merge([(t0 - 1.0, before)] + list(points))
 
 
 def fit_template(oncoming, offgoing, t0: float, t1: float, samples: int = 400):
-    """The :class:`~transgen.sim.schedule.ShiftTemplate` closest to the raw apply signals
-    ``oncoming`` and ``offgoing`` (piecewise-linear :class:`~transgen.sim.signals.Signal` s)
+    """The :class:`~transgen.sim.control.schedule.ShiftTemplate` closest to the raw apply signals
+    ``oncoming`` and ``offgoing`` (piecewise-linear :class:`~transgen.sim.core.signals.Signal` s)
     over the shift ``[t0, t1]`` [s], and the root-mean-square difference of the fitted applies
     from the raw ones over the shift (apply fraction; a fast raw drop that the template makes a
     jump differs for a few ms only, which a largest difference would overstate).
@@ -424,7 +424,7 @@ class Calibration:
         out = {}
         for element, spans in pieces.items():
             out[f"elements.{element}.apply"] = _spliced_table(self.raw[element], spans, self.t_start)
-        from transgen.sim.schedule import request_table
+        from transgen.sim.control.schedule import request_table
 
         if self.request is not None:  # the scenario's own request, with the span of each shift whose template
             spans = []                   # intervenes replaced by its profile
@@ -444,7 +444,7 @@ class Calibration:
 
 def _spliced_table(raw, spans, t_run: float) -> dict:
     """The table of ``raw`` with each span ``(t_a, t_b, points)`` replaced by ``points``."""
-    from transgen.sim.schedule import _merge
+    from transgen.sim.control.schedule import _merge
 
     spans = sorted(spans)
     last = max([t_b for _, t_b, _ in spans] + [t_run]) + 1.0
@@ -468,8 +468,8 @@ def _spliced_table(raw, spans, t_run: float) -> dict:
 def plan_calibration(path, files: Mapping[str, str], result, scenario) -> tuple[Calibration, list[ShiftPlan]]:
     """The calibration of the scenario and its shifts (from the shift report of its run
     ``result``), each with its starting template (fitted to raw tables where it has them)."""
-    from transgen.sim.report import shift_report
-    from transgen.sim.schedule import ShiftTemplate
+    from transgen.sim.analysis.report import shift_report
+    from transgen.sim.control.schedule import ShiftTemplate
 
     qualities = shift_report(result, scenario.shifts or None)
     data = scenario.data
@@ -490,7 +490,7 @@ def plan_calibration(path, files: Mapping[str, str], result, scenario) -> tuple[
         return Calibration("auto", t_run), plans
     events = (data.get("shifts") or {}).get("events") or []
     if events:
-        from transgen.sim.schedule import ShiftTemplate as T
+        from transgen.sim.control.schedule import ShiftTemplate as T
 
         default = (data.get("shifts") or {}).get("template") or {}
         plain = tuple({k: v for k, v in ev.items()} for ev in events)
@@ -526,8 +526,8 @@ def reference_limits(reference, overrides: Mapping, plans: Sequence[ShiftPlan]) 
     ``1-2``; the k-th shift of a name to the reference's k-th of that name): {plan number:
     (hole or None, energy)}. ScenarioError where the reference's run fails or lacks a shift."""
     from transgen.sim import load_scenario, scenario_files
-    from transgen.sim.report import shift_report
-    from transgen.sim.scenario import scenario_path
+    from transgen.sim.analysis.report import shift_report
+    from transgen.sim.scenario.load import scenario_path
 
     key = str(scenario_path(reference).resolve())
     files = scenario_files(key, overrides)
@@ -561,7 +561,7 @@ def shift_metrics(result, oncoming: str, offgoing: str, t_start: float, name: st
     data) from the shift report: completed, energy [J], duration [s], hole [%], flare [rpm],
     bindup, bindup torque [N*m], chatter (an element that changed its lock state more than once),
     locks (lock and unlock events of the window), jerk [m/s^3] (None without a vehicle)."""
-    from transgen.sim.report import Shift, shift_report
+    from transgen.sim.analysis.report import Shift, shift_report
 
     if not result.success or len(result.time) < 2:
         return {"success": False, "message": result.message}
@@ -780,7 +780,7 @@ def optimize(path, shifts: Sequence[str] | None = None, objective: Objective = O
 def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluations, population, progress, base,
               engine_torque=None):
     from transgen.sim import load_scenario, scenario_files
-    from transgen.sim.scenario import scenario_path
+    from transgen.sim.scenario.load import scenario_path
 
     key = str(scenario_path(path).resolve())
     files = scenario_files(key, base)
@@ -964,7 +964,7 @@ def _compass(evaluate, best: dict, bounds, budget: int, step: float = 0.05, smal
 
 
 def _pre_window() -> float:
-    from transgen.sim.shift_quality import PRE_WINDOW
+    from transgen.sim.analysis.shift_quality import PRE_WINDOW
 
     return PRE_WINDOW
 
@@ -979,7 +979,7 @@ def _refresh(plan: ShiftPlan, result) -> ShiftPlan:
     it: an automatic schedule commands the shift when the output speed crosses its line, earlier
     or later than before). The schedule's shifts come in the same order, so the plan's number is
     its place in the shift report; a schedule that shifts otherwise now is an error."""
-    from transgen.sim.report import shift_report
+    from transgen.sim.analysis.report import shift_report
 
     qualities = shift_report(result)
     q = qualities[plan.number - 1] if plan.number <= len(qualities) else None
@@ -1042,8 +1042,8 @@ def tuned_scenario_text(result: OptimizeResult, output, before: Sequence | None 
     import os
     from pathlib import Path
 
-    from transgen.sim.overrides import toml_value
-    from transgen.sim.scenario import bundled_scenarios
+    from transgen.sim.scenario.overrides import toml_value
+    from transgen.sim.scenario.load import bundled_scenarios
 
     original = Path(result.path)
     out_dir = Path(output).resolve().parent

@@ -99,7 +99,7 @@ def _options(args):
     check_optimize(args.evaluations, args.population, args.force)
     check_workers(args.workers, args.force)
     if args.no_worse_than is not None:  # a missing reference is said before anything runs
-        from transgen.sim.scenario import scenario_path
+        from transgen.sim.scenario.load import scenario_path
 
         scenario_path(args.no_worse_than)
     if not 0 <= args.seed < 2**32:  # the range of numpy's seed
@@ -116,8 +116,8 @@ def cmd_optimize(args) -> int:
     from transgen.errors import ScenarioError
     from transgen.export import output_set, write_text
     from transgen.sim.cli import _overrides
-    from transgen.sim.report import shift_report
-    from transgen.sim.scenario import load_scenario, parse_scenario
+    from transgen.sim.analysis.report import shift_report
+    from transgen.sim.scenario.load import load_scenario, parse_scenario
 
     from .optimize import comparison_rows, intervention_text, optimize, trade_off, tuned_scenario_text
 
@@ -166,7 +166,7 @@ def cmd_optimize(args) -> int:
     infeasible = [s for s in result.shifts if not s.feasible]
     if args.json:
         from transgen.schemas import print_document
-        from transgen.sim.shift_quality import jsonable
+        from transgen.sim.analysis.shift_quality import jsonable
 
         print_document(OPTIMIZE_SCHEMA, jsonable(_summary(args, result, executor, elapsed, before, after,
                                                           [str(output), str(history_path)])), optimize_units())

@@ -64,7 +64,7 @@ def scenario_path(scenario: str | Path) -> str:
     """The key the workers load the scenario by: the resolved path of the file (or of the bundled
     scenario) ``scenario`` names, which keys its text in :func:`transgen.sim.scenario_files`.
     Raises ScenarioError (with the closest bundled name) when there is none."""
-    from transgen.sim.scenario import scenario_path as named_file
+    from transgen.sim.scenario.load import scenario_path as named_file
 
     return str(named_file(scenario).resolve())
 
@@ -102,7 +102,7 @@ def validate_variants(path: str, variants: Sequence[Mapping], force: bool = Fals
     or value, or a run over a limit of :mod:`transgen.limits`: ``force`` passes the forceable
     ones) at the first problem: before any run."""
     from transgen.sim import scenario_files
-    from transgen.sim.run_limits import check_run
+    from transgen.sim.scenario.run_limits import check_run
 
     first: dict[tuple, int] = {}  # each distinct key/value -> the first variant that has it
     for index, variant in enumerate(variants):

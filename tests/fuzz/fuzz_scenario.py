@@ -6,8 +6,8 @@ for a float, a value of the wrong type (strings, tables, lists of lists, boolean
 unknown key, a signal of a random kind with random parameters, shift events inside and outside
 the run, ``[output]`` signals known and unknown, includes that are missing, cyclic, not TOML or
 faulty themselves — and sometimes the text (a character deleted or inserted, a line doubled, the
-file cut short). The case is read with :func:`~transgen.sim.scenario.parse_scenario` (from text)
-or :func:`~transgen.sim.scenario.load_scenario` (from a file next to its includes); a scenario
+file cut short). The case is read with :func:`~transgen.sim.scenario.load.parse_scenario` (from text)
+or :func:`~transgen.sim.scenario.load.load_scenario` (from a file next to its includes); a scenario
 that loads is run over a short interval (``t_end`` capped ``0.2``-``0.5`` s after its start) under
 a wall-time limit.
 
@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from transgen.errors import TransgenError
-from transgen.sim.scenario import bundled_scenarios, load_scenario, parse_scenario
+from transgen.sim.scenario.load import bundled_scenarios, load_scenario, parse_scenario
 
 __all__ = ["FuzzReport", "fuzz_scenarios"]
 

@@ -240,7 +240,7 @@ SUPPORTED = "constant, step, ramp, table, sine, pulse, square, periodic, sum, sp
 
 
 def _signal_c(sig, tables: list[str], where: str, edges: list[str]) -> str:
-    """A C expression in ``t`` for the signal ``sig`` (the formulas of :mod:`transgen.sim.signals`);
+    """A C expression in ``t`` for the signal ``sig`` (the formulas of :mod:`transgen.sim.core.signals`);
     the C expressions of the next edge after ``t`` of its periodic parts are added to ``edges``."""
     form = sig.kernel_form() if hasattr(sig, "kernel_form") else None
     if form is None:

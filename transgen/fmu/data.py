@@ -1,11 +1,11 @@
 """What an FMU of a transmission holds, as plain data: the tables the generated C code reads.
 
-:func:`fmu_data` takes the simulator's own :class:`~transgen.sim.transmission.Transmission` (the
+:func:`fmu_data` takes the simulator's own :class:`~transgen.sim.model.transmission.Transmission` (the
 per-mode matrices ``B``, ``C``, ``D`` of every lock set, the elements, the groups in parallel)
 and, from a scenario, its time signals; it computes nothing the simulator does not, so that the
 FMU and ``transgen simulate`` run on the same numbers. Units SI: speeds rad/s, torques N*m,
 inertias kg*m^2. The mode decision itself is the C port of
-:meth:`Transmission.decide <transgen.sim.transmission.Transmission.decide>` (``c/tg_model.c``);
+:meth:`Transmission.decide <transgen.sim.model.transmission.Transmission.decide>` (``c/tg_model.c``);
 what it needs from the gearing alone (which lock is implied by the others, the lock sets that
 are no mode) is tabulated here with the simulator's functions.
 """
@@ -38,7 +38,7 @@ class FmuInput:
     """One input of the FMU: ``name`` (``T_in``, ``T_out``, a named load, ``apply_<element>``),
     the column of the mode matrices' input vector it adds to (None for an apply), the element
     whose apply it is (None otherwise), its start value and its built-in signal (a
-    :class:`~transgen.sim.signals.Signal`, or None: the input is what the importer sets)."""
+    :class:`~transgen.sim.core.signals.Signal`, or None: the input is what the importer sets)."""
 
     name: str
     column: int | None
@@ -136,17 +136,17 @@ class FmuData:
 def fmu_data(tr, model_name: str, title: str, signals: dict | None = None, w0=None, slip_tol: float = 1e-7,
              t_end: float | None = None, source: str = "", driveline=None, engine=None,
              schedule=None, rtol: float | None = None) -> FmuData:
-    """The FMU tables of the transmission ``tr`` (:class:`~transgen.sim.transmission.Transmission`).
+    """The FMU tables of the transmission ``tr`` (:class:`~transgen.sim.model.transmission.Transmission`).
 
     ``signals``: built-in signals by input name (``T_in``, ``T_out``, ``apply_<element>``): the
     input follows it while the importer leaves it unset; ``w0``: initial link speeds [rad/s];
     ``t_end``: the end of the breakpoint window for periodic signals [s]; ``driveline``: a
-    :class:`~transgen.sim.components.Driveline` on the output (its shaft torque is ``T_out``, its
+    :class:`~transgen.sim.model.components.Driveline` on the output (its shaft torque is ``T_out``, its
     twist and vehicle-side speed are states); ``engine``: an
-    :class:`~transgen.sim.components.EngineOnLink` or
-    :class:`~transgen.sim.components.EngineWithConverter` on the input (``T_in``; its throttle and
+    :class:`~transgen.sim.model.components.EngineOnLink` or
+    :class:`~transgen.sim.model.components.EngineWithConverter` on the input (``T_in``; its throttle and
     torque request are inputs, with their signals as defaults); ``schedule``: an
-    :class:`~transgen.sim.schedule.AutoShift` (its shift lines, templates and gear sequence)."""
+    :class:`~transgen.sim.control.schedule.AutoShift` (its shift lines, templates and gear sequence)."""
     signals = dict(signals or {})
     n = len(tr.elements)
     if n > MAX_ELEMENTS:
@@ -294,7 +294,7 @@ def mode_matrices(C: np.ndarray, F: np.ndarray, E: np.ndarray, J, locked_columns
 
 def _engine(engine, tr) -> dict:
     """The numbers of an engine map (and its converter) for the C code."""
-    from transgen.sim.components import EngineMap, EngineWithConverter
+    from transgen.sim.model.components import EngineMap, EngineWithConverter
 
     if type(engine.engine) is not EngineMap:
         raise FmuError(f"the engine model {type(engine.engine).__name__} cannot be exported (only a torque map)")
@@ -312,10 +312,10 @@ def _engine(engine, tr) -> dict:
 
 
 def _schedule(auto, tr, engine, inputs) -> dict:
-    """The numbers of an automatic shift schedule (:class:`~transgen.sim.schedule.AutoShift`) for
+    """The numbers of an automatic shift schedule (:class:`~transgen.sim.control.schedule.AutoShift`) for
     the C code: the shifts up the order, then down, each with its oncoming and offgoing elements
     (bit masks, one-way clutches left out) and its template's apply numbers."""
-    from transgen.sim.schedule import ShiftTemplate, gear_swap
+    from transgen.sim.control.schedule import ShiftTemplate, gear_swap
 
     oneway = frozenset(e.name for e in tr.elements if e.kind == "oneway")
     fields = ("fill_time", "fill_level", "ramp_time", "ramp_end", "hold_time", "final_time", "offgoing_delay",

@@ -39,8 +39,8 @@ def load_source(source: str | Path, model_name: str, overrides=None) -> FmuData:
     scenario ``.toml`` file, or a bare name (a bundled scenario, else a bundled mechanism)."""
     from transgen.language import load_mechanism
     from transgen.library import bundled_path
-    from transgen.sim.library import bundled_scenarios
-    from transgen.sim.transmission import Transmission
+    from transgen.sim.scenario.library import bundled_scenarios
+    from transgen.sim.model.transmission import Transmission
 
     text = str(source)
     is_mech = text.endswith(".mech") or (not text.endswith(".toml") and not Path(text).is_file()
@@ -54,8 +54,8 @@ def load_source(source: str | Path, model_name: str, overrides=None) -> FmuData:
 
 
 def _scenario_data(source: str, model_name: str, overrides) -> FmuData:
-    from transgen.sim.components import Driveline, EngineOnLink, EngineWithConverter, InputTorque, LinkLoad
-    from transgen.sim.scenario import load_scenario
+    from transgen.sim.model.components import Driveline, EngineOnLink, EngineWithConverter, InputTorque, LinkLoad
+    from transgen.sim.scenario.load import load_scenario
 
     sc = load_scenario(source, overrides)
     pt = sc.powertrain
@@ -64,7 +64,7 @@ def _scenario_data(source: str, model_name: str, overrides) -> FmuData:
     if sc.options.model != "switching":
         raise FmuError(f"{where}: the FMU export follows the switching model; this scenario uses the "
                        f"{sc.options.model} model")
-    from transgen.sim.schedule import AutoShift
+    from transgen.sim.control.schedule import AutoShift
 
     if len(pt.controllers) > 1 or any(not isinstance(c, AutoShift) for c in pt.controllers):
         raise FmuError(f"{where}: only one automatic shift schedule ([auto_shift]) can be exported")

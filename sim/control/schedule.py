@@ -1,0 +1,404 @@
+"""Shift schedules: apply trajectories of the oncoming and offgoing elements generated from a
+template, for shift events at given times or for an automatic schedule.
+
+The template (all times in s, apply levels as fractions of full apply), for a shift commanded at
+``t0``:
+
+oncoming element
+    ``0`` until ``t0``; fill: ``fill_level`` from ``t0`` to ``t0 + fill_time`` (the piston
+    strokes, the clutch carries little torque); torque-phase ramp: linear from ``fill_level`` to
+    ``ramp_end`` over ``ramp_time``; inertia phase: held at ``ramp_end`` for ``hold_time``; then
+    a ramp to full apply ``1`` over ``final_time`` (locks the element firmly).
+offgoing element
+    ``1`` until ``t0 + fill_time + offgoing_delay``; then a drop to ``offgoing_level`` and a
+    linear release to ``0`` over ``offgoing_ramp`` — released as the oncoming element takes
+    over the torque (too late: bindup; too early: flare).
+
+Elements engaged in both gears stay at their level. A double swap (two elements off, two on, as
+in a clutch-to-clutch shift between non-adjacent planetary states) applies the oncoming profile to
+both oncoming elements and the offgoing profile to both offgoing ones (:func:`gear_swap`); a
+one-way clutch is never commanded: leaving the gear it overruns by itself, entering it locks by
+itself when the offgoing element lets go. :func:`shift_trajectories` turns a list of
+shift events into apply :class:`~transgen.sim.core.signals.Table` signals; :class:`AutoShift` is a
+controller that commands shifts when the output speed crosses throttle-dependent upshift or
+downshift lines (with hysteresis: the downshift line lies below the upshift line).
+
+Power on and off, and which phase comes first. A shift is *power-on* when the throttle is at least
+:data:`POWER_ON_THROTTLE` at its command, else *power-off* (the vehicle drives the engine). In a
+power-on upshift and a power-off downshift the oncoming element slips the way that lets it take the
+torque over: the torque phase comes first, and the template above runs as it stands. In a
+power-on downshift (a kickdown) and a power-off upshift the oncoming element slips against the
+speed change the shift needs (its torque would brake the input's flare: a tie-up), so the
+speed phase comes first: the offgoing element releases by its template (the input flares to the
+new gear's synchronous speed, driven by the engine or, power-off, pulled down by its drag), the
+oncoming element only fills (held at ``fill_level``), and when its slip has fallen to
+:data:`SYNC_FRACTION` of its slip at the command (at least :data:`SYNC_MIN`: near
+synchronism) it is applied, from its level to full over ``final_time`` (and what is left of the
+offgoing element's apply is released in :data:`SYNC_RELEASE`), and locks at or just past
+synchronism. If synchronism is not reached by the end of the template's inertia phase
+(``fill_time + ramp_time + hold_time`` after the command) it is applied then. This needs the
+element slips (:attr:`AutoShift.slips`, the rows of the transmission's slip matrix); without them
+every shift follows its template. A speed-phase-first shift takes its template from
+:attr:`AutoShift.speed_first` (``[auto_shift.speed_first_templates]``) where given, else the
+shift's own.
+
+Engine torque intervention (the TCU's torque request to the engine; optional, none by default). The
+template gives a torque-request *factor* [-] that multiplies the engine's driving torque, 1 meaning
+no intervention, built from two trapezoids anchored at the template's own phases:
+
+torque-phase increase
+    from ``t_r + boost_delay`` (``t_r = t0 + fill_time + offgoing_delay``: the offgoing element
+    starts to let go, the oncoming one takes over the torque) the factor ramps over
+    ``torque_ramp`` to ``torque_boost`` (>= 1 raises the torque), is held there for
+    ``boost_time`` and ramps back over ``torque_ramp``;
+inertia-phase reduction
+    from ``t_e + cut_delay`` (``t_e = t_r + offgoing_ramp``: the offgoing element is released,
+    the speed change begins) the factor ramps over ``torque_ramp`` to ``torque_cut`` (<= 1
+    lowers the torque), is held for ``cut_time`` and ramps back over ``torque_ramp``.
+
+Where the two overlap their changes add: ``factor = max(0, 1 + (torque_boost - 1)*b(t) +
+(torque_cut - 1)*c(t))`` with ``b``, ``c`` the trapezoids' shapes in [0, 1]. The ramps make the
+engine torque continuous; ``torque_ramp = 0`` asks for steps. How an engine obeys the factor is its
+component's business (:mod:`transgen.sim.model.components`, the turbodiesel in
+:mod:`transgen.sim.model.powertrain`): a map engine scales its driving (positive) torque and gets no more
+than its full-load torque at the current speed; the diesel scales its fuel command, bounded by the
+full-load fuel. :func:`torque_request_signal` turns the events' templates into one signal; an
+:class:`AutoShift` splices a shift's profile into :attr:`AutoShift.torque_request` when it commands
+the shift.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..core.interp import interp_like_numpy
+from ..core.signals import Signal, Spliced, Table
+
+__all__ = ["ShiftTemplate", "ShiftEvent", "shift_trajectories", "gear_elements", "gear_swap", "AutoShift",
+           "TORQUE_FIELDS", "torque_request_signal", "request_table", "ControllerRequest", "POWER_ON_THROTTLE",
+           "SYNC_FRACTION", "SYNC_MIN", "speed_phase_first"]
+
+POWER_ON_THROTTLE = 0.1
+"""Throttle [0-1] at and above which a shift is power-on (module docstring)."""
+SYNC_FRACTION = 0.1
+"""Fraction of the oncoming element's slip at the command at which a speed-phase-first shift applies it."""
+SYNC_MIN = 1.0
+"""Smallest slip [rad/s] at which a speed-phase-first shift applies its oncoming element."""
+SYNC_RELEASE = 0.02
+"""Time [s] in which a speed-phase-first shift releases what is left of its offgoing element at synchronism."""
+
+
+def speed_phase_first(direction: str, throttle: float) -> bool:
+    """Whether a shift (``direction`` 'up'/'down') at ``throttle`` [0-1] has its speed phase first:
+    a power-on downshift or a power-off upshift (module docstring)."""
+    return (direction == "down") == (throttle >= POWER_ON_THROTTLE)
+
+#: the template's engine torque intervention parameters (factors [-] and times [s]); their defaults
+#: leave the engine alone
+TORQUE_FIELDS = ("torque_boost", "boost_delay", "boost_time", "torque_cut", "cut_delay", "cut_time", "torque_ramp")
+
+
+@dataclass(frozen=True)
+class ShiftTemplate:
+    fill_time: float = 0.1
+    fill_level: float = 0.1
+    ramp_time: float = 0.5
+    ramp_end: float = 0.6
+    hold_time: float = 0.6
+    final_time: float = 0.2
+    offgoing_delay: float = 0.15
+    offgoing_level: float = 0.3
+    offgoing_ramp: float = 0.2
+    torque_boost: float = 1.0
+    boost_delay: float = 0.0
+    boost_time: float = 0.0
+    torque_cut: float = 1.0
+    cut_delay: float = 0.0
+    cut_time: float = 0.0
+    torque_ramp: float = 0.05
+
+    def __post_init__(self):
+        for name in self.__dataclass_fields__:
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+                raise ValueError(f"shift template: {name} must be a finite number >= 0, not {v!r}")
+
+    def as_data(self) -> dict:
+        """The template as plain data for a scenario file or a JSON document: every field, but the
+        engine torque intervention's only where it intervenes (a clutch-only template writes its
+        nine apply fields)."""
+        data = {k: getattr(self, k) for k in self.__dataclass_fields__}
+        if not self.torque_intervention:
+            for k in TORQUE_FIELDS:
+                del data[k]
+        return data
+
+    @property
+    def torque_intervention(self) -> bool:
+        """Whether the template asks the engine for another torque than its own at some time."""
+        return ((self.torque_boost != 1.0 and self.boost_time + self.torque_ramp > 0)
+                or (self.torque_cut != 1.0 and self.cut_time + self.torque_ramp > 0))
+
+    def torque_request(self, t0: float) -> list[tuple[float, float]]:
+        """Corner points ``(t [s], factor [-])`` of the engine torque-request factor of a shift
+        commanded at ``t0`` (1 before the first and after the last point); ``[]`` without an
+        intervention. See the module docstring."""
+        if not self.torque_intervention:
+            return []
+        ramp = max(self.torque_ramp, 1e-6)  # 0: a step, as the apply jumps (1 us)
+        t_r = t0 + self.fill_time + self.offgoing_delay
+        t_e = t_r + self.offgoing_ramp
+        trapezoids = [(t_r + self.boost_delay, self.boost_time, self.torque_boost - 1.0),
+                      (t_e + self.cut_delay, self.cut_time, self.torque_cut - 1.0)]
+        trapezoids = [tp for tp in trapezoids if tp[2] != 0.0]
+        corners = []
+        for c in sorted({c for a, hold, _ in trapezoids for c in (a, a + ramp, a + ramp + hold, a + 2 * ramp + hold)}):
+            if not corners or c - corners[-1] > 1e-9:  # one corner where two meet but for round-off
+                corners.append(c)
+
+        def shape(t, a, hold):
+            return float(np.clip(min((t - a) / ramp, (a + 2 * ramp + hold - t) / ramp), 0.0, 1.0))
+
+        return [(t, max(0.0, 1.0 + sum(d * shape(t, a, hold) for a, hold, d in trapezoids))) for t in corners]
+
+    def oncoming(self, t0: float) -> list[tuple[float, float]]:
+        t1 = t0 + self.fill_time
+        t2 = t1 + self.ramp_time
+        t3 = t2 + self.hold_time
+        return [(t0, 0.0), (t0 + 1e-6, self.fill_level), (t1, self.fill_level), (t2, self.ramp_end),
+                (t3, self.ramp_end), (t3 + self.final_time, 1.0)]
+
+    def offgoing(self, t0: float) -> list[tuple[float, float]]:
+        t1 = t0 + self.fill_time + self.offgoing_delay
+        return [(t1, 1.0), (t1 + 1e-6, self.offgoing_level), (t1 + self.offgoing_ramp, 0.0)]
+
+
+@dataclass(frozen=True)
+class ShiftEvent:
+    """Shift from gear ``source`` to gear ``target`` commanded at ``t`` [s]."""
+
+    t: float
+    source: str
+    target: str
+    template: ShiftTemplate = ShiftTemplate()
+
+
+MAX_SWAP = 2
+"""Most elements a shift applies (and releases) at once: single and double swaps."""
+
+
+def gear_swap(gears: dict[str, tuple[str, ...]], source: str, target: str,
+              oneway: frozenset[str] = frozenset()) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """(oncoming, offgoing) elements a shift from ``source`` to ``target`` commands, each sorted.
+
+    Elements in ``oneway`` (one-way clutches) are left out: they need no command. Raises
+    ``ValueError`` naming the gears when the shift is not schedulable: more than
+    :data:`MAX_SWAP` elements change on either side, or nothing is left to command.
+    """
+    a, b = set(gears[source]), set(gears[target])
+    on, off = b - a, a - b
+    engaged = f"(engaged {' '.join(sorted(a))} -> {' '.join(sorted(b))})"
+    if len(on) > MAX_SWAP or len(off) > MAX_SWAP:
+        raise ValueError(f"shift {source}-{target} is not schedulable: it swaps {len(off)} element(s) for "
+                         f"{len(on)}, at most a double swap (2 off, 2 on) is supported {engaged}")
+    on, off = tuple(sorted(on - oneway)), tuple(sorted(off - oneway))
+    if not on and not off:
+        raise ValueError(f"shift {source}-{target} is not schedulable: no clutch or brake to command {engaged}")
+    return on, off
+
+
+def gear_elements(gears: dict[str, tuple[str, ...]], source: str, target: str) -> tuple[str, str]:
+    """(oncoming, offgoing) element of a single-swap shift between two gears of the gear table."""
+    a, b = set(gears[source]), set(gears[target])
+    if len(b - a) != 1 or len(a - b) != 1:
+        raise ValueError(f"shift {source}-{target} is not a single swap of one element "
+                         f"(engaged {' '.join(sorted(a))} -> {' '.join(sorted(b))})")
+    (on,), (off,) = gear_swap(gears, source, target)
+    return on, off
+
+
+def _merge(points: list[tuple[float, float]]) -> Table:
+    points = sorted(points)
+    times, values = [], []
+    for t, v in points:
+        if times and t <= times[-1]:
+            t = times[-1] + 1e-9
+        times.append(t)
+        values.append(v)
+    return Table(tuple(times), tuple(values))
+
+
+def shift_trajectories(gears: dict[str, tuple[str, ...]], initial_gear: str, events: list[ShiftEvent],
+                       elements: list[str]) -> dict[str, Table]:
+    """Apply signals of every element for a sequence of shift events starting in ``initial_gear``."""
+    points = {e: [(0.0, 1.0 if e in gears[initial_gear] else 0.0)] for e in elements}
+    current = initial_gear
+    for ev in sorted(events, key=lambda e: e.t):
+        if ev.source != current:
+            raise ValueError(f"shift at t={ev.t:g} s starts from gear {ev.source} but gear {current} is engaged")
+        on, off = gear_elements(gears, ev.source, ev.target)
+        points[on] += ev.template.oncoming(ev.t)
+        points[off] += ev.template.offgoing(ev.t)
+        current = ev.target
+    return {e: _merge(p) for e, p in points.items()}
+
+
+def request_table(profiles: list[list[tuple[float, float]]]) -> Table | None:
+    """The torque-request factor of several shifts' profiles (``(t, factor)`` corners, 1 outside
+    each) as one table: their product at every corner (profiles that overlap multiply); None when
+    there is none."""
+    profiles = [p for p in profiles if p]
+    if not profiles:
+        return None
+    tables = [_merge([(p[0][0] - 1.0, 1.0)] + p) for p in profiles]
+    times = sorted({t for tb in tables for t in tb.times})
+    return Table(tuple(times), tuple(float(np.prod([tb.value(t) for tb in tables])) for t in times))
+
+
+def torque_request_signal(events: list[ShiftEvent]) -> Table | None:
+    """The engine torque-request factor [-] of a sequence of shift events (None: no event's
+    template intervenes, the engine runs on its own)."""
+    return request_table([ev.template.torque_request(ev.t) for ev in events])
+
+
+class ControllerRequest(Signal):
+    """The torque-request factor that a controller (:class:`AutoShift`) commands: its current
+    ``torque_request`` signal, read at every evaluation (the controller splices each shift's
+    profile into it when it commands the shift; its saved state restores it)."""
+
+    piecewise_linear = True
+
+    def __init__(self, controller=None):
+        self.controller = controller
+
+    def value(self, t: float) -> float:
+        return self.controller.torque_request.value(t)
+
+    def breakpoints(self, t0: float = -math.inf, t1: float = math.inf) -> tuple[float, ...]:
+        return self.controller.torque_request.breakpoints(t0, t1)
+
+    def upper_bound(self, t0: float, t1: float) -> float:
+        return self.controller.torque_request.upper_bound(t0, t1)
+
+
+@dataclass
+class AutoShift:
+    """An automatic shift schedule: shift lines over output speed and throttle.
+
+    ``upshift[k]``: output-link speeds [rad/s] at ``throttle_points`` above which gear ``order[k]``
+    shifts up to ``order[k+1]``; ``downshift[k]``: speeds below which ``order[k+1]`` shifts down
+    (must lie below the upshift line: hysteresis). ``min_interval``: no new shift within this time
+    after one starts [s]. Commands shifts with :class:`ShiftTemplate` trajectories by replacing the
+    apply signals of the elements concerned from the command time on: ``templates["1-2"]`` for the
+    shift from gear 1 to 2 where given (a calibration per shift), else ``template``.
+    """
+
+    order: list[str]
+    throttle_points: list[float]
+    upshift: list[list[float]]
+    downshift: list[list[float]]
+    throttle: Signal
+    output: int
+    gears: dict[str, tuple[str, ...]]
+    template: ShiftTemplate = ShiftTemplate()
+    min_interval: float = 2.0
+    gear: str = ""
+    last_shift: float = -1e9
+    history: list = field(default_factory=list)
+    templates: dict = field(default_factory=dict)  # "SOURCE-TARGET" -> the template of that shift
+    torque_request: Signal = field(default_factory=lambda: Table((0.0,), (1.0,)))  # engine torque-request factor
+    slips: dict = field(default_factory=dict)  # element -> coefficients of its slip over the link speeds
+    speed_first: dict = field(default_factory=dict)  # "SOURCE-TARGET" -> template of a speed-phase-first shift
+    pending: dict = field(default_factory=dict)  # a speed-phase-first shift waiting for synchronism
+
+    def __post_init__(self):
+        for up, down in zip(self.upshift, self.downshift):
+            if np.any(np.asarray(down) >= np.asarray(up)):
+                raise ValueError("every downshift speed must lie below the upshift speed (hysteresis)")
+        for source, target in zip(self.order, self.order[1:]):
+            gear_swap(self.gears, source, target)  # refuses a sequence with an unschedulable shift
+        self.gear = self.gear or self.order[0]
+
+    def _line(self, table, k, t):
+        return interp_like_numpy(float(self.throttle.value(t)), self.throttle_points, table[k])
+
+    def _wait(self, t: float) -> float:
+        """Time [s] left before ``min_interval`` allows the next shift (<= 0: allowed)."""
+        return self.last_shift + self.min_interval - t
+
+    def event_functions(self):
+        """(function of (t, w), name) pairs; a zero crossing from above commands a shift. A line
+        crossed while ``min_interval`` still blocks shifts commands the shift when the interval
+        ends (the function is the later of the two conditions), so no shift is lost."""
+        k = self.order.index(self.gear)
+        funcs = []
+        if k + 1 < len(self.order):
+            funcs.append((lambda t, w, k=k: max(self._line(self.upshift, k, t) - w[self.output], self._wait(t)), "up"))
+        if k > 0:
+            funcs.append((lambda t, w, k=k: max(w[self.output] - self._line(self.downshift, k - 1, t), self._wait(t)),
+                          "down"))
+        if self.pending:
+            funcs.append((self._sync_margin, "sync"))
+        return funcs
+
+    def _slip(self, name: str, w) -> float:
+        return float(sum(c * x for c, x in zip(self.slips[name], w)))
+
+    def _sync_margin(self, t: float, w) -> float:
+        """Falls through zero when the waiting oncoming element nears synchronism or its deadline passes."""
+        p = self.pending
+        return min(max(abs(self._slip(n, w)) for n in p["elements"]) - p["band"], p["deadline"] - t)
+
+    def _synchronise(self, t: float, elements: dict) -> str:
+        """Apply the oncoming element(s) of the waiting shift: from their level to full over its ramp."""
+        p, self.pending = self.pending, {}
+        for names, level, ramp in ((p["elements"], 1.0, max(p["ramp"], 1e-6)), (p["offgoing"], 0.0, SYNC_RELEASE)):
+            for name in names:
+                e = elements[name]
+                now = e.apply.value(t)
+                if level > 0 or now > 0:
+                    e.apply = Spliced(t, e.apply, _merge([(t, now), (t + ramp, level)]))
+        return (f"synchronism: apply {' '.join(p['elements'])}" + (f", release {' '.join(p['offgoing'])}"
+                                                                   if p["offgoing"] else "") + f" ({p['shift']})")
+
+    def fire(self, kind: str, t: float, elements: dict, w=None) -> str | None:
+        """Command the shift ``kind`` ('up'/'down') at ``t``, or ('sync') apply a waiting oncoming
+        element; returns a description or None when blocked by ``min_interval``. ``elements``:
+        name -> ElementConfig (apply replaced); ``w``: the link speeds [rad/s] at ``t`` (a
+        speed-phase-first shift needs them, module docstring)."""
+        if kind == "sync":
+            return self._synchronise(t, elements) if self.pending else None
+        if self._wait(t) > 1e-9 * max(1.0, abs(t)):
+            return None
+        k = self.order.index(self.gear)
+        target = self.order[k + 1] if kind == "up" else self.order[k - 1]
+        oneway = frozenset(name for name, e in elements.items() if e.kind == "oneway")
+        on, off = gear_swap(self.gears, self.gear, target, oneway)
+        template = self.templates.get(f"{self.gear}-{target}", self.template)
+        oncoming = template.oncoming(t)
+        if self.pending:  # a shift still waiting for synchronism: its oncoming element is applied now
+            self._synchronise(t, elements)
+        power = "on" if float(self.throttle.value(t)) >= POWER_ON_THROTTLE else "off"
+        if (on and w is not None and all(n in self.slips for n in on)
+                and speed_phase_first(kind, float(self.throttle.value(t)))):
+            template = self.speed_first.get(f"{self.gear}-{target}", template)
+            oncoming = template.oncoming(t)[:3]  # the fill alone, held until synchronism
+            slip = max(abs(self._slip(n, w)) for n in on)
+            self.pending = {"elements": on, "offgoing": off, "band": max(SYNC_FRACTION * slip, SYNC_MIN),
+                            "ramp": template.final_time,
+                            "deadline": t + template.fill_time + template.ramp_time + template.hold_time,
+                            "shift": f"{self.gear}-{target}"}
+        for names, pts in ((on, oncoming), (off, template.offgoing(t))):
+            for name in names:
+                e = elements[name]
+                e.apply = Spliced(t, e.apply, _merge([(t, e.apply.value(t))] + pts[1:]))
+        profile = template.torque_request(t)
+        if profile:  # the profile from the command on (an earlier shift's leftover is dropped)
+            self.torque_request = Spliced(t, self.torque_request, _merge([(t, 1.0)] + profile))
+        self.history.append((t, self.gear, target))
+        description = (f"{kind}shift {self.gear}-{target} (on {' '.join(on) or 'none: one-way clutch locks'}, "
+                       f"off {' '.join(off) or 'none: one-way clutch overruns'}; power-{power})")
+        self.gear, self.last_shift = target, t
+        return description

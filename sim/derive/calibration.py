@@ -1,0 +1,218 @@
+"""A default upshift calibration from the gearbox's own physics (``transgen scenario new``).
+
+For an upshift from gear A to gear B under drive, :func:`upshift_calibration` derives the shift
+template (:class:`~transgen.sim.control.schedule.ShiftTemplate`, apply levels as fractions of full apply)
+from four things the mechanism and the vehicle class fix (the method, with its reasoning, is in
+``docs/calibration.md``):
+
+* the **statics of the two gears**: each element's torque per unit input torque, ``k`` (the
+  numbers ``transgen powerflow`` and ``scenario new`` print: :func:`~transgen.sim.derive.launch.static_element_torques`).
+  While the offgoing element is still locked, its torque falls linearly with the oncoming
+  element's torque and reaches zero when the oncoming element carries its gear-B share
+  ``|k_on^B| * T_in`` (the gear-B torque distribution is the only static balance with the
+  offgoing torque zero). That is the **handover**;
+* the **expected input torque** ``T_in`` at the shift point (the engine/converter match at the
+  turbine speed of the upshift line: :func:`~transgen.sim.derive.launch.derive_launch`);
+* the **inertia to synchronise**: ``J_eff = sum_i J_i (dw_i / dw_in)^2`` over the links, with
+  ``dw_i`` the change of link i's speed from gear A to gear B at a fixed output speed (the
+  vehicle hardly changes speed during a shift), and the input's speed change ``dw_in = w_in (1 -
+  r_B/r_A)`` (the ratio step);
+* the class's **target times**: torque phase ``t_tp`` and inertia phase ``t_ip``.
+
+The template: the oncoming element ramps from zero so that it reaches the handover level
+``a_h = lam |k_on^B| T_in / T_dyn`` after ``t_tp`` (``lam``: where the handover lies with the
+gearbox accelerating as in the launch, :func:`handover`; 1 at rest) and goes on to the
+inertia-phase level ``a_ip = |k_on^B| (T_ip + J_eff dw_in / t_ip) / T_dyn`` (``T_ip`` the mean input
+torque of the phase, which the converter raises as the turbine slows; the extra torque
+decelerates the input side in ``t_ip``), holds it until the element locks and then applies fully.
+The offgoing element drops, when the oncoming ramp starts, to ``OFFGOING_MARGIN`` times the
+static level that holds its torque before the shift and falls linearly to zero a little
+(``RELEASE_LEAD`` of the torque phase) *before* the handover: its capacity stays above the torque
+it must still carry until shortly before, so it never holds against the oncoming element (bindup)
+and lets go while the input torque it leaves uncarried is a few percent (a flare of some rpm).
+Where the inertia-phase level would exceed :data:`MAX_LEVEL`, the level is capped and the inertia
+phase lasts longer. Several oncoming (offgoing) elements of a double swap share one profile: the
+largest level of them. A one-way clutch needs no command; a dog clutch (no finite capacity)
+holds at any apply, so only its release time matters.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from transgen.graph import build_graph
+
+from transgen.kinematics import link_speeds
+from transgen.model import Mechanism
+
+from ..control.schedule import ShiftTemplate
+
+__all__ = ["ShiftTiming", "UpshiftCalibration", "upshift_calibration", "synchronised_inertia",
+           "OFFGOING_MARGIN", "RELEASE_LEAD", "MAX_LEVEL"]
+
+OFFGOING_MARGIN = 2.0
+"""Offgoing static capacity over the torque it carries while the torque is handed over."""
+RELEASE_LEAD = 0.1
+"""Fraction of the torque phase by which the offgoing apply reaches zero before the handover."""
+MAX_LEVEL = 0.95
+"""Highest inertia-phase apply level (a reserve to full apply)."""
+MIN_LEVEL = 1e-4
+"""Lowest handover level (a floor for an oncoming element with no static torque share)."""
+
+
+@dataclass(frozen=True)
+class ShiftTiming:
+    """Target times of a vehicle class's upshifts [s]: ``fill`` (oncoming stroke, no torque),
+    ``torque_phase`` (the handover), ``inertia_phase`` (the speed change), ``final`` (ramp to
+    full apply after the lock)."""
+
+    fill: float = 0.05
+    torque_phase: float = 0.2
+    inertia_phase: float = 0.4
+    final: float = 0.2
+
+
+@dataclass(frozen=True)
+class UpshiftCalibration:
+    """The derived numbers of one upshift and its template. Torques in N*m, speeds in rad/s,
+    inertia in kg*m^2, times in s, levels as fractions of full apply."""
+
+    source: str
+    target: str
+    input_torque: float
+    input_speed: float
+    speed_change: float
+    inertia: float
+    handover_level: float
+    inertia_level: float
+    offgoing_level: float
+    inertia_phase: float
+    template: ShiftTemplate
+
+    def as_data(self) -> dict:
+        return {"from": self.source, "to": self.target, "input_torque": self.input_torque,
+                "input_speed": self.input_speed, "speed_change": self.speed_change, "inertia": self.inertia,
+                "handover_level": self.handover_level, "inertia_level": self.inertia_level,
+                "offgoing_level": self.offgoing_level, "inertia_phase": self.inertia_phase,
+                "template": self.template.as_data()}
+
+
+def synchronised_inertia(mech: Mechanism, source: tuple[str, ...], target: tuple[str, ...], graph=None) -> float:
+    """Inertia [kg*m^2] referred to the input that a shift from the gear ``source`` to ``target``
+    (engaged elements) speeds up or slows down at a fixed output speed: ``sum J_i (dw_i/dw_in)^2``
+    with ``dw_i`` the change of link i's speed per unit output speed between the two gears. A
+    member that floats in either gear is counted with the speed of the other (its own inertia
+    moves it freely)."""
+    a, b = link_speeds(mech, source, graph), link_speeds(mech, target, graph)
+    out = mech.output
+    ra, rb = 1.0 / a[out], 1.0 / b[out]  # input/output ratios
+    d_in = ra - rb
+    if abs(d_in) < 1e-12:
+        return 0.0
+    total = 0.0
+    for link in mech.links:
+        wa, wb = a.get(link.name), b.get(link.name)
+        if wa is None or wb is None:
+            continue
+        total += link.inertia * ((wa * ra - wb * rb) / d_in) ** 2
+    return total
+
+
+def handover(mech: Mechanism, source_engaged, oncoming: dict, offgoing, input_torque: float,
+             output_accel: float = 0.0, graph=None) -> tuple[float, dict]:
+    """``(lam, before)``: the handover of a torque phase from the gear ``source_engaged`` with the
+    gearbox accelerating as in that gear (output link ``output_accel`` [rad/s^2]).
+
+    In the torque-phase mode (the source gear's elements locked, the oncoming ones slipping) every
+    locked torque is linear in the input torque, the output torque and the oncoming torques
+    (:func:`transgen.modes.mode_model`). The oncoming elements carry ``lam`` times their gear-B
+    static torque ``oncoming[e] * input_torque``; the output torque is the one that keeps the
+    output's acceleration. ``lam`` is the smallest value at which an offgoing element's torque
+    vanishes (1 at zero acceleration: the statics), ``before`` each offgoing element's torque
+    [N*m] at ``lam = 0`` (before the shift)."""
+    from transgen.graph import link_nodes
+    from transgen.modes import Mode, mode_model
+
+    g = graph if graph is not None else build_graph(mech)
+    model = mode_model(mech, Mode("torque phase", tuple(source_engaged)), g)
+    eq = model.equations
+    names = list(eq.u)
+    i_out = list(link_nodes(g)).index(mech.output)
+    base = np.zeros(len(names))
+    base[names.index("T_in")] = input_torque
+    e_out = np.zeros(len(names))
+    e_out[names.index("T_out")] = 1.0
+    e_on = np.zeros(len(names))
+    for name, k in oncoming.items():
+        e_on[names.index(f"t_{name}")] = k * input_torque
+    acc, clu = np.asarray(eq.G_accel, float), np.asarray(eq.G_clutches, float)
+    a0, a1, a2 = acc[i_out] @ base, acc[i_out] @ e_out, acc[i_out] @ e_on
+    if abs(a1) < 1e-12:
+        raise ValueError("the output torque does not act on the output in the torque phase")
+    lams, before = [], {}
+    for name in offgoing:
+        if name not in model.locked:
+            continue
+        row = clu[list(model.locked).index(name)]
+        b0, b1, b2 = row @ base, row @ e_out, row @ e_on
+        t0 = b0 + b1 * (output_accel - a0) / a1
+        before[name] = float(t0)
+        slope = b2 - b1 * a2 / a1
+        if abs(slope) > 1e-12 and -t0 / slope > 0:
+            lams.append(-t0 / slope)
+    return (float(min(lams)) if lams else 1.0), before
+
+
+def _capacity(mech: Mechanism, name: str, kind: str) -> float:
+    e = mech.element(name)
+    value = getattr(e, kind, None)
+    return float(value) if value is not None and math.isfinite(value) and value > 0 else math.inf
+
+
+def upshift_calibration(mech: Mechanism, source, target, oncoming: tuple[str, ...], offgoing: tuple[str, ...],
+                        input_torque: float, input_speed: float, timing: ShiftTiming = ShiftTiming(),
+                        graph=None, output_accel: float = 0.0, torque_after: float | None = None) -> UpshiftCalibration:
+    """The calibration of the upshift from ``source`` to ``target`` (:class:`~transgen.sim.derive.launch.ForwardGear`:
+    ratio, engaged elements, static torque factors) with the commanded ``oncoming`` and
+    ``offgoing`` elements, at the expected input torque ``input_torque`` [N*m] and input speed
+    ``input_speed`` [rad/s] at the shift command, the output link's acceleration there
+    ``output_accel`` [rad/s^2] (the handover, :func:`handover`) and the input torque expected at
+    the end of the inertia phase ``torque_after`` [N*m] (None: ``input_torque``); see the module
+    docstring."""
+    t_in = max(float(input_torque), 1e-6)
+    step = source.ratio / target.ratio
+    dw = max(float(input_speed), 0.0) * (1.0 - 1.0 / step)
+    j_eff = synchronised_inertia(mech, source.engaged, target.engaged, graph)
+
+    def level(names, factors, torque, kind):
+        levels = [abs(factors.get(n, 0.0)) * torque / _capacity(mech, n, kind) for n in names]
+        return max(levels, default=0.0)
+
+    factors = {n: target.torque_factors.get(n, 0.0) for n in oncoming}
+    lam, before = handover(mech, source.engaged, factors, offgoing, t_in, output_accel, graph)
+    a_h = max(lam * level(oncoming, target.torque_factors, t_in, "dynamic"), MIN_LEVEL)
+    # in the inertia phase the input torque rises towards the converter's at the new gear's turbine
+    # speed (``torque_after``): its mean over the phase
+    t_ip_in = 0.5 * (t_in + max(t_in, float(torque_after))) if torque_after is not None else t_in
+    a_ip = level(oncoming, target.torque_factors, t_ip_in + j_eff * dw / timing.inertia_phase, "dynamic")
+    a_ip = min(max(a_ip, 1.05 * a_h), MAX_LEVEL)
+    # the inertia phase at the level reached: J dw / (extra torque referred to the input)
+    a_static = level(oncoming, target.torque_factors, t_ip_in, "dynamic")
+    extra = (a_ip / a_static - 1.0) * t_ip_in if a_static > 0 else 0.0
+    t_ip = j_eff * dw / extra if extra > 0 else timing.inertia_phase
+    off = max((abs(t) / _capacity(mech, n, "static") for n, t in before.items()), default=0.0)
+    off_level = min(1.0, OFFGOING_MARGIN * off) if off > 0 else 1.0  # a dog holds at any apply
+    ramp_time = timing.torque_phase * a_ip / a_h
+    template = ShiftTemplate(
+        fill_time=timing.fill, fill_level=0.0, ramp_time=_round(ramp_time), ramp_end=_round(a_ip),
+        hold_time=_round(max(1.5 * t_ip, 0.1)), final_time=timing.final, offgoing_delay=0.0,
+        offgoing_level=_round(off_level), offgoing_ramp=_round(timing.torque_phase * (1.0 - RELEASE_LEAD)))
+    return UpshiftCalibration(source.name, target.name, t_in, float(input_speed), dw, j_eff, a_h, a_ip, off_level,
+                              t_ip, template)
+
+
+def _round(x: float) -> float:
+    """Four significant digits (the scenario file's numbers stay readable)."""
+    return float(f"{x:.4g}")
