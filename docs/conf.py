@@ -51,5 +51,14 @@ add_module_names = False
 napoleon_google_docstring = False
 napoleon_numpy_docstring = True
 
-doctest_global_setup = "import os\nos.environ.setdefault('MPLBACKEND', 'Agg')"
-suppress_warnings = []
+# The Python examples run in a fresh folder holding the files the pages show (``:caption:`` blocks)
+# and ``mechanisms/``, as the shell examples do (docs/_ext/docs_examples.py).
+doctest_global_setup = """
+import os, tempfile
+os.environ.setdefault("MPLBACKEND", "Agg")
+from pathlib import Path
+import docs_examples as _examples
+_folder = Path(tempfile.mkdtemp(prefix="transgen-doctest-"))
+_examples.prepare(_folder, {name: text for page in _examples.pages() for name, text in _examples.parse_page(page)[1].items()})
+os.chdir(_folder)
+"""
