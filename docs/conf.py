@@ -53,6 +53,7 @@ napoleon_numpy_docstring = True
 
 # The Python examples run in a fresh folder holding the files the pages show (``:caption:`` blocks)
 # and ``mechanisms/``, as the shell examples do (docs/_ext/docs_examples.py).
+doctest_test_doctest_blocks = ""  # docstrings: tests/test_docstring_examples.py runs them in their modules
 doctest_global_setup = """
 import os, tempfile
 os.environ.setdefault("MPLBACKEND", "Agg")
