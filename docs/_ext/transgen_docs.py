@@ -7,6 +7,7 @@ At ``config-inited`` (before Sphinx looks for source files and autosummary reads
   options as argparse formats them (no help text copied by hand);
 * ``scenario_keys.md`` — every table and dotted key a scenario file may have, from the schema
   module's ``key_tree()`` and ``SIGNAL_KEYS`` (the lists the scenario reader checks files against);
+* ``grammar.md`` — every ``.lark`` grammar of :mod:`transgen.grammars`, as it is;
 * ``schemas.md`` — every JSON Schema shipped in :mod:`transgen.schemas`, with its title, rendered
   from the files;
 * ``api.md`` — one autosummary entry per module of the ``transgen`` package, found by walking the
@@ -188,6 +189,21 @@ def schemas_page() -> str:
     return "\n".join(parts) + "\n"
 
 
+# --- the grammar -----------------------------------------------------------------------------------
+
+def grammar_page() -> str:
+    """Markdown: every ``.lark`` grammar shipped in :mod:`transgen.grammars`, as it is."""
+    import transgen.grammars as grammars
+
+    parts = ["# The `.mech` grammar", "",
+             "The parser of `.mech` files is generated from these grammars (lark, LALR), shipped in the wheel "
+             "in `transgen/grammars/`; what each statement means is in [The .mech language](../language.md). "
+             "Included at build time from the installed files.", ""]
+    for path in sorted(Path(grammars.__file__).parent.glob("*.lark")):
+        parts += [f"## `{path.name}`", "", "```text", path.read_text(encoding="utf-8").rstrip(), "```", ""]
+    return "\n".join(parts)
+
+
 # --- API ------------------------------------------------------------------------------------------------
 
 def api_page() -> str:
@@ -215,6 +231,7 @@ def generate(app, config=None) -> None:
     _write(folder / "cli.md", cli_page())
     _write(folder / "scenario_keys.md", scenario_keys_page())
     _write(folder / "schemas.md", schemas_page())
+    _write(folder / "grammar.md", grammar_page())
     _write(folder / "api.md", api_page())
 
 
