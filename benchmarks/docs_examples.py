@@ -44,7 +44,7 @@ def main() -> int:
                 try:
                     for command in block.commands:
                         code, output, wall, errors = ex.run_command(command, folder)
-                        ok = code == block.exit_code and ex.matches(command.expected, output)
+                        ok = code == block.exit_code and ex.shown(command.expected, output, errors)
                         failures += not ok
                         print(f"{wall:7.2f} s  {'ok  ' if ok else 'FAIL'}  {block.page}:{block.line}  "
                               f"{command.text.splitlines()[0][:90]}", flush=True)

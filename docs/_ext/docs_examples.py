@@ -2,7 +2,8 @@
 
 A page's examples are its ```` ```console ```` blocks: a line ``$ COMMAND`` is a command (a
 trailing ``\\`` continues it on the next line), the lines after it down to the next command are
-its expected output (none shown: only the exit code is checked). A line ``...`` in the expected
+its expected output (none shown: only the exit code is checked) on standard output, or on
+standard error for messages. A line ``...`` in the expected
 output stands for any number of lines; every other line must equal the output's line (trailing
 blanks ignored). The comment line right before a block (``% docs-example: WORDS``) says more:
 
@@ -124,6 +125,12 @@ def matches(expected: list[str], actual: list[str]) -> bool:
     return bool(actual) and actual[0].rstrip() == expected[0] and matches(expected[1:], actual[1:])
 
 
+def shown(expected: list[str], output: list[str], errors: str) -> bool:
+    """The page shows standard output, or a message (errors and warnings go to standard error)."""
+    return matches(expected, output) or matches(expected, errors.splitlines()) \
+        or matches(expected, output + errors.splitlines())
+
+
 def prepare(folder: Path, files: dict[str, str]) -> None:
     """The page's folder: the shown files and ``mechanisms/`` as in a clone."""
     from transgen.library import bundled_mechanisms  # noqa: F401  (the package is importable)
@@ -183,7 +190,7 @@ def check_block(block: Block, folder: Path) -> list[str]:
         if code != block.exit_code:
             problems.append(f"{block.page}:{block.line}: `{command.text}` exited {code}, expected "
                             f"{block.exit_code}:\n" + "\n".join(output[-10:]) + "\n" + errors[-2000:])
-        elif not matches(command.expected, output):
+        elif not shown(command.expected, output, errors):
             problems.append(f"{block.page}:{block.line}: `{command.text}` printed other output than the page "
                             "shows:\n" + "\n".join(output[:40]))
     return problems
