@@ -423,7 +423,7 @@ def power_flow(mech: Mechanism, eta0: float | None = None, input_rpm: float | No
     >>> from transgen.language import load_mechanism
     >>> flow = power_flow(load_mechanism("zf8hp70"), eta0=1.0)
     >>> g1 = flow.gear("1")
-    >>> round(g1.ratio, 4), round(g1.torque_ratio, 4), g1.efficiency
+    >>> round(g1.ratio, 4), round(g1.torque_ratio, 4), round(g1.efficiency, 12)
     (4.6957, 4.6957, 1.0)
     """
     eta0 = _check_number("eta0", eta0, 0.0, 1.0)

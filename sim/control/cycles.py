@@ -2,11 +2,11 @@
 ``scenario new --maneuver cycle`` text is :func:`~.maneuver.cycle_scenario`'s).
 
 Bundled traces (``sim/data/cycles/*.csv``, ``time_s,speed_kmh`` at 1 Hz, each with a header
-naming its regulation and where the numbers were extracted from):
+naming its regulation and where the numbers were extracted from)::
 
-``wltc_class3b``  WLTC class 3b, 0-1800 s, 23.27 km (UN GTR No. 15, UN ECE R154);
-``ftp75``         FTP-75, 0-1874 s, 17.77 km: the UDDS (40 CFR Part 86 Appendix I) 0-1369 s and its
-                  first 505 s again (hot start), the 10 min soak between them left out.
+    ``wltc_class3b``  WLTC class 3b, 0-1800 s, 23.27 km (UN GTR No. 15, UN ECE R154);
+    ``ftp75``         FTP-75, 0-1874 s, 17.77 km: the UDDS (40 CFR Part 86 Appendix I) 0-1369 s and its
+                      first 505 s again (hot start), the 10 min soak between them left out.
 
 A trace is piecewise linear between its points (the regulations give 1 Hz values; the driver
 follows the line between them). :func:`tracking` applies the WLTP speed-trace tolerance (UN GTR

@@ -7,22 +7,22 @@ asked for all of them (``breakpoints()``); a periodic signal has infinitely many
 ``ValueError`` unless the window is finite. Signals are right-continuous: at a jump the value is
 the one after it.
 
-Kinds (as written in a scenario file, see README "Scenario files"):
+Kinds (as written in a scenario file, see docs/reference/scenario_files.md)::
 
-``constant``  ``value``
-``step``      ``t``, ``before``, ``after``
-``ramp``      ``t0``, ``t1``, ``v0``, ``v1`` (constant outside ``[t0, t1]``)
-``table``     ``t = [...]``, ``value = [...]``: piecewise linear, constant beyond the ends; two
-              equal consecutive times are a jump (``t = [0, 1, 1, 2]``, ``value = [0, 0, 1, 1]``
-              steps from 0 to 1 at 1 s)
-``sine``      ``offset``, ``amplitude``, ``frequency`` [Hz], ``phase`` [rad]
-``pulse``     ``t0``, ``width``, ``low`` (default 0), ``high`` (default 1), ``period`` (optional):
-              ``high`` on ``[t0, t0 + width)``, repeated every ``period`` from ``t0`` on when given
-``square``    ``period``, ``low`` (default 0), ``high`` (default 1), ``duty`` (fraction of the
-              period at ``high``, default 0.5), ``t0`` (a rising edge, default 0): a pulse train
-``periodic``  ``t = [...]``, ``value = [...]`` (a table, jumps allowed), ``period`` (default
-              ``t[-1] - t[0]``, at least that): the table over ``[t[0], t[0] + period)`` repeated
-              for all times, holding its last value to the end of each period
+    ``constant``  ``value``
+    ``step``      ``t``, ``before``, ``after``
+    ``ramp``      ``t0``, ``t1``, ``v0``, ``v1`` (constant outside ``[t0, t1]``)
+    ``table``     ``t = [...]``, ``value = [...]``: piecewise linear, constant beyond the ends; two
+                  equal consecutive times are a jump (``t = [0, 1, 1, 2]``, ``value = [0, 0, 1, 1]``
+                  steps from 0 to 1 at 1 s)
+    ``sine``      ``offset``, ``amplitude``, ``frequency`` [Hz], ``phase`` [rad]
+    ``pulse``     ``t0``, ``width``, ``low`` (default 0), ``high`` (default 1), ``period`` (optional):
+                  ``high`` on ``[t0, t0 + width)``, repeated every ``period`` from ``t0`` on when given
+    ``square``    ``period``, ``low`` (default 0), ``high`` (default 1), ``duty`` (fraction of the
+                  period at ``high``, default 0.5), ``t0`` (a rising edge, default 0): a pulse train
+    ``periodic``  ``t = [...]``, ``value = [...]`` (a table, jumps allowed), ``period`` (default
+                  ``t[-1] - t[0]``, at least that): the table over ``[t[0], t[0] + period)`` repeated
+                  for all times, holding its last value to the end of each period
 
 The values are :func:`~.jit.compilable` functions of the signal's numbers, and every kind has a
 ``kernel_form()``: ``(kind, numbers, parts)``, its description as data, with which the compiled

@@ -173,7 +173,7 @@ class LaunchShift:
 
 @dataclass(frozen=True)
 class ElementSizing:
-    """Capacity check of one friction element [N*m]: ``factor`` = largest |k| over the forward
+    """Capacity check of one friction element [N*m]: ``factor`` = largest ``|k|`` over the forward
     gears where it holds; ``required`` = HOLD_FACTOR * factor * the class's largest input torque."""
 
     element: str

@@ -2,26 +2,26 @@
 
 ``transgen scenario new FILE --maneuver KIND`` starts from the launch that
 :func:`~transgen.sim.derive.launch.derive_launch` derives (forward gears, final drive, shift lines,
-template, vehicle class) and changes what the maneuver needs:
+template, vehicle class) and changes what the maneuver needs::
 
-``launch``     from rest through every gear (:func:`~transgen.sim.derive.launch.launch_scenario`, unchanged);
-``kickdown``   cruising at the road-load throttle in the highest gear in which the schedule holds
-               a speed its full-throttle downshift line lies above; at :data:`T_STEP` the throttle
-               goes to 1 in :data:`PEDAL_TIME`: power-on downshifts (speed phase first: the
-               offgoing element releases, the input flares to the new synchronous speed, the
-               oncoming element is applied near synchronism, :mod:`.schedule`);
-``coastdown``  the same cruise; at :data:`T_STEP` the throttle goes to 0 and the wheel brakes to a
-               torque giving :attr:`ManeuverClass.brake_decel`, or less where the schedule could
-               not keep pace (one downshift per ``min_interval`` between its throttle-0 lines,
-               with 20 % margin) (:mod:`.brake`): power-off downshifts (torque phase first)
-               down the throttle-0 lines to low speed;
-``tipin``      the same cruise; the throttle rises to the highest level that does not cross a
-               downshift line (no shift: the driveline's response to the torque step);
-``tipout``     cruising in a middle gear at a speed between its upshift line at throttle 0 and
-               at 0.9 x :data:`~.schedule.POWER_ON_THROTTLE`; the throttle goes to 0 and crosses
-               the line below the power-on throttle: a power-off upshift (speed phase first);
-``cycle``      a drive cycle (:mod:`.cycles`): the driver model of :mod:`.driver` follows a
-               standard speed trace, from rest in first gear.
+    ``launch``     from rest through every gear (:func:`~transgen.sim.derive.launch.launch_scenario`, unchanged);
+    ``kickdown``   cruising at the road-load throttle in the highest gear in which the schedule holds
+                   a speed its full-throttle downshift line lies above; at :data:`T_STEP` the throttle
+                   goes to 1 in :data:`PEDAL_TIME`: power-on downshifts (speed phase first: the
+                   offgoing element releases, the input flares to the new synchronous speed, the
+                   oncoming element is applied near synchronism, :mod:`.schedule`);
+    ``coastdown``  the same cruise; at :data:`T_STEP` the throttle goes to 0 and the wheel brakes to a
+                   torque giving :attr:`ManeuverClass.brake_decel`, or less where the schedule could
+                   not keep pace (one downshift per ``min_interval`` between its throttle-0 lines,
+                   with 20 % margin) (:mod:`.brake`): power-off downshifts (torque phase first)
+                   down the throttle-0 lines to low speed;
+    ``tipin``      the same cruise; the throttle rises to the highest level that does not cross a
+                   downshift line (no shift: the driveline's response to the torque step);
+    ``tipout``     cruising in a middle gear at a speed between its upshift line at throttle 0 and
+                   at 0.9 x :data:`~.schedule.POWER_ON_THROTTLE`; the throttle goes to 0 and crosses
+                   the line below the power-on throttle: a power-off upshift (speed phase first);
+    ``cycle``      a drive cycle (:mod:`.cycles`): the driver model of :mod:`.driver` follows a
+                   standard speed trace, from rest in first gear.
 
 The cruise state is quasi-static: the road load at the speed ``v`` (:func:`~.launch_estimate._road_force`)
 equals the turbine torque (the engine/converter match, :func:`~.launch_estimate._converter_match`) times

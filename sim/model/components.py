@@ -4,33 +4,33 @@ loads, the driveline and vehicle.
 Causality (thesis 2.4): the transmission links are inertial (they take torques, give speeds);
 every component here takes the link speeds and gives torques, and may have states of its own.
 The simulator calls, with ``w`` the array of all link speeds [rad/s] (``link_index`` maps names
-to positions):
+to positions)::
 
-``state_names``                    names of the component's states
-``initial_state(w)``               their values at the start
-``derivatives(t, x, w)``           d/dt of the states
-``torques(t, x, w)``               ``{input name: torque}`` for the mechanism inputs it drives
-                                   (``T_in``, ``T_out`` or a named load), sign as in the model:
-                                   ``T_in`` and loads drive, ``T_out`` is delivered by the output
-``power_in(t, x, w)``              power it feeds into the mechanism from outside [W]
-``dissipation(t, x, w)``           power it dissipates internally [W] (energy balance)
-``energy(x, w)``                   energy stored in its own states [J] (energy balance)
-``load_power(t, x, w)``            power it passes to an external load (the road) [W]
-``signals(t, x, w)``               named outputs for the result
-``breakpoints(t0, t1)``             times in ``[t0, t1]`` where its inputs are not smooth
-``evaluate(t, x, w)``              ``(torques, derivatives, power_in, dissipation, load_power)``
-                                   in one call: what the right-hand side needs at one point
-                                   (components override it to share work between the parts)
-``sample(ts, X, W)``               ``(torques, signals, energy)`` as arrays over the output
-                                   times ``ts`` (``X``, ``W``: one column per time); the default
-                                   calls the scalar methods at each time, components override it
-                                   with array arithmetic
-``sample_rates(ts, X, W, A)``      signals that need the link accelerations ``A`` [rad/s^2]
-                                   too (one column per time), e.g. the vehicle's jerk; ``{}``
-                                   by default
-``kernel_form()``                  the component as data for the compiled right-hand side
-                                   (:mod:`.kernel`), or None: it is then evaluated in Python
-                                   and combined with the compiled rest
+    ``state_names``                    names of the component's states
+    ``initial_state(w)``               their values at the start
+    ``derivatives(t, x, w)``           d/dt of the states
+    ``torques(t, x, w)``               ``{input name: torque}`` for the mechanism inputs it drives
+                                       (``T_in``, ``T_out`` or a named load), sign as in the model:
+                                       ``T_in`` and loads drive, ``T_out`` is delivered by the output
+    ``power_in(t, x, w)``              power it feeds into the mechanism from outside [W]
+    ``dissipation(t, x, w)``           power it dissipates internally [W] (energy balance)
+    ``energy(x, w)``                   energy stored in its own states [J] (energy balance)
+    ``load_power(t, x, w)``            power it passes to an external load (the road) [W]
+    ``signals(t, x, w)``               named outputs for the result
+    ``breakpoints(t0, t1)``             times in ``[t0, t1]`` where its inputs are not smooth
+    ``evaluate(t, x, w)``              ``(torques, derivatives, power_in, dissipation, load_power)``
+                                       in one call: what the right-hand side needs at one point
+                                       (components override it to share work between the parts)
+    ``sample(ts, X, W)``               ``(torques, signals, energy)`` as arrays over the output
+                                       times ``ts`` (``X``, ``W``: one column per time); the default
+                                       calls the scalar methods at each time, components override it
+                                       with array arithmetic
+    ``sample_rates(ts, X, W, A)``      signals that need the link accelerations ``A`` [rad/s^2]
+                                       too (one column per time), e.g. the vehicle's jerk; ``{}``
+                                       by default
+    ``kernel_form()``                  the component as data for the compiled right-hand side
+                                       (:mod:`.kernel`), or None: it is then evaluated in Python
+                                       and combined with the compiled rest
 
 The scalar formulas are :func:`~.jit.compilable` functions (below the classes) that the methods
 and the compiled right-hand side both call.

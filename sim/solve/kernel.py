@@ -33,18 +33,18 @@ Layout of the powertrain arrays ``P`` (int64) and ``F`` (float64)::
              of parts or index in ``ext``), parts before the whole: a reference is the (start,
              end) offsets of the run in P, evaluated as a stack machine (:func:`signal_value`)
 
-The integers and numbers of each component kind, as its ``kernel_form()`` gives them:
+The integers and numbers of each component kind, as its ``kernel_form()`` gives them::
 
-``input_torque``      (link), ()
-``engine_on_link``    (link, n_speeds, n_throttles, has_request), speeds + throttles + torque rows;
-                      signals: the throttle and, where ``has_request``, the shifts' torque request
-``engine_converter``  (link, n_speeds, n_throttles, n_drive, n_coast, has_request), (J_engine, idle)
-                      + the engine map as above + the converter's tables (``kernel_numbers``)
-``link_load``         (link), (c0, c1, c2)
-``driveline``         (output link), (stiffness, damping, J_v, mass, rolling, grade, air density,
-                      cd_a, wheel radius, final drive)
-``converter``         (pump link, turbine link, n_drive, n_coast), the converter's tables
-``braked_driveline``  as ``driveline``; signal: the wheel brake torque (:mod:`.brake`)
+    ``input_torque``      (link), ()
+    ``engine_on_link``    (link, n_speeds, n_throttles, has_request), speeds + throttles + torque rows;
+                          signals: the throttle and, where ``has_request``, the shifts' torque request
+    ``engine_converter``  (link, n_speeds, n_throttles, n_drive, n_coast, has_request), (J_engine, idle)
+                          + the engine map as above + the converter's tables (``kernel_numbers``)
+    ``link_load``         (link), (c0, c1, c2)
+    ``driveline``         (output link), (stiffness, damping, J_v, mass, rolling, grade, air density,
+                          cd_a, wheel radius, final drive)
+    ``converter``         (pump link, turbine link, n_drive, n_coast), the converter's tables
+    ``braked_driveline``  as ``driveline``; signal: the wheel brake torque (:mod:`.brake`)
 
 Size: about 530 lines, over the project's 500: the kernel and the description it reads are one
 concept, kept together so that the layout written and the layout read cannot drift apart.

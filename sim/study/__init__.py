@@ -8,7 +8,7 @@ per shift (``shift1.torque_hole``, ...) and the turbocharger figures where an en
 * :mod:`.design` - grids, Latin-hypercube samples and the row key (a hash of the parameters);
 * :mod:`.task` - one run: scenario texts + overrides -> row (what a worker executes);
 * :mod:`.executors` - serial, local process pool, Dask distributed;
-* :mod:`.table` - :class:`SweepTable`, CSV in and out, units of the columns;
+* :mod:`~.study.table` - :class:`SweepTable`, CSV in and out, units of the columns;
 * :mod:`.runner` - :func:`sweep`: validation, resume, progress, atomic results file;
 * :mod:`.plots` - metrics over one parameter, heat maps over two;
 * :mod:`.optimize` - :func:`~.optimize.optimize`: shift calibration, one shift window per candidate from a

@@ -1,5 +1,5 @@
 """Design synthesis: planetary tooth counts from target ratios (:mod:`.teeth`) and gear tables
-from a mechanism's gearsets and shift elements (:mod:`.table`).
+from a mechanism's gearsets and shift elements (:mod:`~.synthesis.table`).
 
 The names below load their module on first use, so that ``transgen --help`` stays fast.
 """
