@@ -30,13 +30,14 @@ _TURBO_COMPARISONS = ("comparison", "decoupled")
 
 
 def warm_up() -> None:
-    """Load the simulator's compiled code into this process (numba's cached machine code of the
-    right-hand side, the event values and the output sampling; compiled on the first use after an
-    install) with a 0.2-s run of a bundled scenario: a worker pays for it when it starts (about
-    0.7 s), not in its first task, as it pays for its imports (:data:`PRELOAD`). A failure here is
-    left to the tasks to report."""
-    from transgen.sim.jit import jit_enabled
+    """Load the simulator's compiled code into this process (its kernels built ahead of time, or
+    built now after an install: :func:`~transgen.sim.jit.jit_enabled`) and import what a run
+    needs, with a 0.2-s run of a bundled scenario: a worker pays for it when it starts, not in its
+    first task, as it pays for its imports (:data:`PRELOAD`). A failure here is left to the tasks
+    to report."""
+    from transgen.sim.jit import expect_many_runs, jit_enabled
 
+    expect_many_runs()  # a study's worker: its runs pay for compiled kernels (built here once if need be)
     if not jit_enabled():
         return
     from transgen.sim.scenario import load_scenario
