@@ -11,7 +11,7 @@ detached process while a first run goes on in Python (:mod:`.jit` says when whic
 The module's name carries a digest of the sources it was compiled from (an edit builds a new
 one); it is kept in the package's ``__pycache__`` where that is writable, else in the user's
 cache folder (``$XDG_CACHE_HOME/transgen`` or ``~/.cache/transgen``), or where
-``TRANSGEN_KERNEL_CACHE`` says. ``python -m transgen.sim.aot`` builds it in the foreground.
+``TRANSGEN_KERNEL_CACHE`` says. ``python -m transgen.sim.build_kernels`` builds it in the foreground.
 """
 from __future__ import annotations
 
@@ -47,6 +47,8 @@ EXPORTS = {
 the argument types the simulator passes (float64 numbers and arrays, int64 index arrays)."""
 _SOURCES = ("kernel", "signals", "components", "dense", "interp", "transmission", "brake", "engine.torque_converter",
             "jit", "aot")
+"""The modules whose text the digest covers: every one with compilable code, the rules of the
+clone (.jit) and the signatures (here)."""
 _STALE_LOCK = 900.0  # s: a build lock older than this is an abandoned build's
 _LOADED: dict = {}
 
@@ -130,9 +132,9 @@ def _lock(folder: Path):
             lock.unlink()
 
 
-def build(wait: bool = True):
+def build(clone, wait: bool = True):
     """Build the module (numba.pycc: 30-60 s of CPU) where :func:`folders` says, unless it is
-    there; returns it loaded, or None where numba or a compiler is missing, no folder is writable
+    there, compiling ``clone(f)`` of each function ``f`` (:func:`~.jit.numba_clone`); returns it loaded, or None where numba or a compiler is missing, no folder is writable
     or (``wait`` False) another process is building it. Where another process builds it and
     ``wait``, waits for that one (up to the lock's age limit)."""
     module = kernels()
@@ -146,7 +148,7 @@ def build(wait: bool = True):
         with _lock(folder) as mine:
             if mine is not None:
                 if not _file_in(folder).is_file():
-                    _compile_into(folder)
+                    _compile_into(folder, clone)
                 return kernels()
         if not wait or time.monotonic() > deadline:
             return None
@@ -155,14 +157,12 @@ def build(wait: bool = True):
             return kernels()
 
 
-def _compile_into(folder: Path) -> None:
+def _compile_into(folder: Path, clone) -> None:
     """Compile :data:`EXPORTS` into ``folder`` (written under a temporary name, then renamed: a
     reader never sees half a file)."""
     import importlib as _importlib
 
     from numba.pycc import CC
-
-    from . import jit
 
     cc = CC(_module_name())
     cc.verbose = False
@@ -170,7 +170,7 @@ def _compile_into(folder: Path) -> None:
         cc.output_dir = scratch
         for name, (module, signature) in EXPORTS.items():
             func = getattr(_importlib.import_module(f"{__package__}.{module}"), name)
-            cc.export(name, signature)(jit.numba_clone(func))
+            cc.export(name, signature)(clone(func))
         cc.compile()
         built = Path(scratch) / os.path.basename(cc.output_file)
         os.replace(built, _file_in(folder))
@@ -185,7 +185,7 @@ def build_in_background() -> bool:
     _LOADED["started"] = True
     env = dict(os.environ, PYTHONWARNINGS="ignore")
     try:
-        subprocess.Popen([sys.executable, "-m", f"{__package__}.aot", "--quiet"], stdin=subprocess.DEVNULL,
+        subprocess.Popen([sys.executable, "-m", f"{__package__}.build_kernels", "--quiet"], stdin=subprocess.DEVNULL,
                          stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True,
                          close_fds=True, cwd=tempfile.gettempdir(), env=env, preexec_fn=_lower_priority)
     except OSError:
@@ -196,18 +196,3 @@ def build_in_background() -> bool:
 def _lower_priority() -> None:
     with contextlib.suppress(OSError, AttributeError):
         os.nice(10)
-
-
-def main(argv: list[str] | None = None) -> int:
-    """``python -m transgen.sim.aot [--quiet]``: build the module now; exit 1 where it cannot be."""
-    quiet = "--quiet" in (argv if argv is not None else sys.argv[1:])
-    start = time.perf_counter()
-    module = build(wait=True)
-    if not quiet:
-        where = module.__file__ if module is not None else "not built (numba, a C compiler or a writable folder missing)"
-        print(f"transgen kernels: {where} ({time.perf_counter() - start:.1f} s)")
-    return 0 if module is not None else 1
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -83,7 +83,7 @@ def _decide() -> bool:
     if not _COMPILED.get("many"):
         aot.build_in_background()
         return False
-    aot.build(wait=True)  # None without a C compiler: numba compiles just in time then
+    aot.build(numba_clone, wait=True)  # None without a C compiler: numba compiles just in time then
     return True
 
 
