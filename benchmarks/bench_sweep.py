@@ -50,7 +50,7 @@ from transgen.sim.study import DaskExecutor, LocalExecutor, SerialExecutor, Swee
 
 
 def grid(runs: int, t_end: float | None) -> dict:
-    side = max(1, int(round(math.sqrt(runs))))
+    side = max(d for d in range(1, math.isqrt(max(runs, 1)) + 1) if runs % d == 0)  # side * other = runs
     other = max(1, runs // side)
     g = {"driveline.vehicle_mass": [20000 + i * (16000 // max(side - 1, 1)) for i in range(side)],
          "input.throttle_signal": [round(0.55 + j * 0.35 / max(other - 1, 1), 4) for j in range(other)]}
