@@ -7,6 +7,12 @@ warm-up run (the state of an installed transgen: bytecode and the grammar's pars
 cached). Prints figures; asserts nothing.
 
     python benchmarks/bench_startup.py [--repeats N] [--instructions]
+    python benchmarks/bench_startup.py --first-run [--fresh-install] [--repeats N]
+
+``--first-run`` (issue 23): the first ``transgen simulate ht740_improved`` (with
+``--fresh-install``: in a new virtual environment after a non-editable ``pip install`` of this
+checkout, about 3 minutes), then, once the kernels built in the background are there, later cold
+runs, and the first simulation in a process against a warm one.
 
 ``--instructions`` also counts the instructions of one run of each command under valgrind's
 callgrind (slow: about a minute per command; independent of the machine's load, so the figure to
@@ -108,6 +114,83 @@ def main(repeats: int = 7, count_instructions: bool = False) -> None:
         print(line, flush=True)
 
 
+FIRST_RUN = ["-m", "transgen", "simulate", "ht740_improved"]
+FIRST_GOALS = {"first": 3.0, "later": 1.0, "ratio": 2.0}
+"""Issue 23: the first ``transgen simulate ht740_improved`` after an install <= 3 s, a later cold
+one <= 1 s, the first simulation in a process <= 2x a warm one (idle machine, wall time)."""
+_IN_PROCESS = """
+import os, sys, time
+if sys.argv[1] == "cli":
+    for v in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"): os.environ.setdefault(v, "1")
+from transgen.sim.scenario import load_scenario
+out = []
+for k in range(6):
+    s = load_scenario("ht740_improved")
+    t, c = time.perf_counter(), time.process_time()
+    s.run()
+    out.append((time.perf_counter() - t, time.process_time() - c))
+from transgen.sim.jit import jit_enabled
+print(out[0][0], out[0][1], sorted(w for w, _ in out[1:])[2], sorted(c for _, c in out[1:])[2], jit_enabled())
+"""
+
+
+def _kernels_built(python: str) -> bool:
+    code = "from transgen.sim import aot; print(aot.kernels() is not None)"
+    done = subprocess.run([python, "-c", code], capture_output=True, text=True, env=ENV, cwd=CWD, check=False)
+    return done.stdout.strip() == "True"
+
+
+def first_run(fresh: bool, repeats: int) -> None:
+    """The first run after an install and later cold runs (issue 23). ``fresh``: a new virtual
+    environment with a non-editable ``pip install`` of this checkout (its numba cache and its
+    kernels built ahead of time empty: the state after an install); else this Python as it is
+    (the first command then is a "first" one only where nothing was built yet)."""
+    python = sys.executable
+    with tempfile.TemporaryDirectory() as folder:
+        if fresh:
+            venv = os.path.join(folder, "venv")
+            subprocess.run([sys.executable, "-m", "venv", venv], check=True)
+            python = os.path.join(venv, "bin", "python")
+            start = time.perf_counter()
+            subprocess.run([python, "-m", "pip", "install", "-q", os.path.dirname(os.path.dirname(
+                os.path.abspath(__file__)))], check=True, stdout=subprocess.DEVNULL)
+            print(f"fresh venv, `pip install .` (not editable): {time.perf_counter() - start:.0f} s")
+        built = _kernels_built(python)
+        wall, cpu = _run_with(python, FIRST_RUN)
+        label = "first run (kernels not built)" if not built else "first run (kernels were built already)"
+        print(f"  {label:<46} {wall:7.2f} s wall {cpu:6.2f} s CPU  goal {FIRST_GOALS['first']:g} s", flush=True)
+        end = time.monotonic() + 900
+        while not _kernels_built(python) and time.monotonic() < end:  # the background build
+            time.sleep(2)
+        print(f"  kernels built in the background: {_kernels_built(python)} (after "
+              f"{900 - (end - time.monotonic()):.0f} s more)", flush=True)
+        runs = [_run_with(python, FIRST_RUN) for _ in range(repeats)]
+        print(f"  later cold run, median of {repeats}:{'':<20} {statistics.median(w for w, _ in runs):7.2f} s wall "
+              f"{statistics.median(c for _, c in runs):6.2f} s CPU  goal {FIRST_GOALS['later']:g} s", flush=True)
+        for how in ("cli", "script"):
+            out = subprocess.run([python, "-c", _IN_PROCESS, how], capture_output=True, text=True, env=ENV, cwd=CWD,
+                                 check=True).stdout.split()
+            w0, c0, w, c = map(float, out[:4])
+            print(f"  in one process ({how}{', one BLAS thread' if how == 'cli' else ''}): first simulation "
+                  f"{w0:.3f} s wall {c0:.3f} s CPU, warm {w:.3f} s wall {c:.3f} s CPU: {w0 / w:.2f}x wall "
+                  f"{c0 / c:.2f}x CPU (goal {FIRST_GOALS['ratio']:g}x; compiled: {out[4]})", flush=True)
+
+
+def _run_with(python: str, args: list[str]) -> tuple[float, float]:
+    """Wall and CPU time of ``python args`` as a fresh process (its children waited for included;
+    a detached background build is not)."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t = time.perf_counter()
+    subprocess.run([python, *args], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=ENV, cwd=CWD,
+                   check=True)
+    wall = time.perf_counter() - t
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+
+
 if __name__ == "__main__":
     n = int(sys.argv[sys.argv.index("--repeats") + 1]) if "--repeats" in sys.argv else 7
-    main(n, "--instructions" in sys.argv)
+    if "--first-run" in sys.argv:
+        first_run("--fresh-install" in sys.argv, n if "--repeats" in sys.argv else 5)
+    else:
+        main(n, "--instructions" in sys.argv)

@@ -30,6 +30,11 @@ Goals (issue 11): on an idle 2-core machine 2 local workers at least 1.8x faster
 at most 10 % per run over the local pool.
 
     python benchmarks/bench_sweep.py [--runs 64] [--t-end 20] [--no-dask]
+    python benchmarks/bench_sweep.py --commands 8,64 [--pairs 3]
+
+``--commands``: issue 23's figures only: per size, the median of ``--pairs`` pairs of whole
+``transgen sweep`` commands with 1 and 2 workers (goals 1.3x at 8 runs, 1.8x at 64), and the
+processes left in a 2-worker command's process group after it ended (goal: none).
 """
 import argparse
 import contextlib
@@ -45,7 +50,7 @@ from transgen.sim.study import DaskExecutor, LocalExecutor, SerialExecutor, Swee
 
 
 def grid(runs: int, t_end: float | None) -> dict:
-    side = max(1, int(round(math.sqrt(runs))))
+    side = max(d for d in range(1, math.isqrt(max(runs, 1)) + 1) if runs % d == 0)  # side * other = runs
     other = max(1, runs // side)
     g = {"driveline.vehicle_mass": [20000 + i * (16000 // max(side - 1, 1)) for i in range(side)],
          "input.throttle_signal": [round(0.55 + j * 0.35 / max(other - 1, 1), 4) for j in range(other)]}
@@ -98,6 +103,63 @@ def commands(design: dict, repetitions: int = 2) -> tuple[list[float], list[floa
                 results.append(cells(table))
     assert all(r == results[0] for r in results), "the commands' results differ"
     return times[1], times[2], results[0]
+
+
+def _group_members(pgid: int) -> list[int]:
+    """The processes of the process group ``pgid`` still alive (Linux: /proc)."""
+    members = []
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                with open(f"/proc/{entry}/stat") as fh:
+                    fields = fh.read().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            if int(fields[2]) == pgid and fields[0] != "Z":
+                members.append(int(entry))
+    return members
+
+
+def command_pairs(runs: int, pairs: int = 3) -> tuple[float, float, float, list[int]]:
+    """``pairs`` pairs of whole ``transgen sweep`` commands of ``runs`` runs, ``--workers 1`` then
+    ``--workers 2``, each in a process group of its own; returns the median wall time [s] with 1
+    and with 2 workers, the median of the pairs' speed-ups and the processes left in the groups
+    of the 2-worker commands once they ended (none expected)."""
+    design = grid(runs, None)
+    options = [f"--grid={key}={','.join(str(v) for v in values)}" for key, values in design.items()]
+    times: dict[int, list[float]] = {1: [], 2: []}
+    left: list[int] = []
+    with tempfile.TemporaryDirectory() as folder:
+        for pair in range(pairs):
+            for workers in (1, 2):
+                out = os.path.join(folder, f"p{workers}_{pair}.csv")
+                start = time.perf_counter()
+                child = subprocess.Popen([sys.executable, "-m", "transgen", "sweep", "ht740_improved", *options,
+                                          "--workers", str(workers), "--quiet", "-o", out], cwd=folder,
+                                         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                                         start_new_session=True)
+                _, err = child.communicate()
+                times[workers].append(time.perf_counter() - start)
+                assert child.returncode == 0, err
+                if workers == 2:
+                    time.sleep(0.2)  # what a shell's next prompt sees
+                    left += _group_members(child.pid)
+    ratios = sorted(a / b for a, b in zip(times[1], times[2]))
+    median = lambda xs: sorted(xs)[len(xs) // 2]  # noqa: E731
+    return median(times[1]), median(times[2]), ratios[len(ratios) // 2], left
+
+
+def commands_only(sizes: list[int], pairs: int) -> None:
+    """The issue-23 figures: ``transgen sweep`` commands, 1 against 2 workers, per size."""
+    goals = {8: 1.3, 64: 1.8}
+    print(f"`transgen sweep ht740_improved` commands on {os.cpu_count()} cores, median of {pairs} pairs "
+          f"(--workers 1, then --workers 2; cold interpreters, spawned workers):", flush=True)
+    for runs in sizes:
+        one, two, ratio, left = command_pairs(runs, pairs)
+        goal = goals.get(runs)
+        print(f"  {runs:3d} runs: 1 worker {one:6.2f} s, 2 workers {two:6.2f} s: {ratio:.2f}x"
+              + (f" (goal >= {goal}x)" if goal else "") + f"; processes left in the 2-worker commands' groups: "
+              f"{len(left)}", flush=True)
 
 
 @contextlib.contextmanager
@@ -216,7 +278,13 @@ def main() -> None:
     ap.add_argument("--runs", type=int, default=64)
     ap.add_argument("--t-end", type=float, default=None, help="simulated time per run (default: the scenario's 20 s)")
     ap.add_argument("--no-dask", action="store_true")
+    ap.add_argument("--commands", metavar="SIZES", help="only the `transgen sweep` command pairs of these sizes "
+                    "(e.g. 8,64: issue 23's figures)")
+    ap.add_argument("--pairs", type=int, default=3, help="pairs of commands per size with --commands (default 3)")
     args = ap.parse_args()
+    if args.commands:
+        commands_only([int(x) for x in args.commands.split(",")], args.pairs)
+        return
     design = grid(args.runs, args.t_end)
     print(f"sweep of {args.runs} ht740_improved runs on {os.cpu_count()} cores:", flush=True)
     uncached = _without_bytecode()

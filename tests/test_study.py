@@ -258,14 +258,33 @@ def test_a_second_thread_makes_the_pool_spawn_its_workers(serial):
     assert executor.start_method == "spawn" and _numbers(spawned) == _numbers(serial)
 
 
-def test_a_cold_process_spawns_its_workers(tmp_path):
+def _start_method_of_a_cold_process(tmp_path, **env) -> list[str]:
     code = ("from transgen.sim.study import LocalExecutor\n"
             "executor = LocalExecutor(1)\n"
             "executor._new_pool().shutdown()\n"  # no task: no worker started
             "print(executor.start_method)")
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=tmp_path,
+                          env={**os.environ, **env})
     assert done.returncode == 0, done.stderr
-    assert done.stdout.split() == ["spawn"]
+    return done.stdout.split()
+
+
+def test_a_cold_process_spawns_its_workers_where_they_would_load_numba(tmp_path):
+    empty = tmp_path / "no-kernels"  # the kernels built ahead of time not found: numba just in time
+    assert _start_method_of_a_cold_process(tmp_path, TRANSGEN_KERNEL_CACHE=str(empty)) == ["spawn"]
+
+
+def test_a_cold_process_forks_its_workers_where_the_kernels_are_built(tmp_path):
+    pytest.importorskip("numba")
+    from transgen.sim import aot
+    from transgen.sim.jit import numba_clone
+
+    if aot.build(numba_clone, wait=True) is None:
+        pytest.skip("the kernels cannot be built here")
+    env = {k: v for k, v in os.environ.items() if k != "TRANSGEN_JIT"}
+    assert _start_method_of_a_cold_process(tmp_path, **env) == ["fork"]
+    assert _start_method_of_a_cold_process(tmp_path, TRANSGEN_JIT="0",
+                                           TRANSGEN_KERNEL_CACHE=str(tmp_path / "none")) == ["fork"]
 
 
 def test_dask_cluster_gives_the_same_numbers(serial):

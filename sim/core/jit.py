@@ -3,9 +3,11 @@
 The formulas of the right-hand side (table look-ups, signal values, a torque converter's torques,
 a driveline's rates, a shift element's torque and holding margin, ...) are plain Python functions
 marked :func:`compilable`. The Python classes (:mod:`.components`, :mod:`.signals`,
-:mod:`.transmission`, ...) call them as they are; :mod:`.kernel` compiles them with numba
-(:func:`compiled`) into one right-hand side per powertrain. numba is imported only there, on the
-first compiled run: reading a scenario or a command that does not simulate never loads it.
+:mod:`.transmission`, ...) call them as they are; :mod:`.kernel` calls them compiled
+(:func:`compiled`): built ahead of time into an extension module (:mod:`.aot`, loaded in
+milliseconds), or by numba just in time. :func:`jit_enabled` is the one rule for which path a
+run takes: compile only where many runs pay for it. Reading a scenario or a command that does not
+simulate never loads either.
 
 A compilable function is written in the subset of Python that numba compiles: scalars, and
 sequences indexed by position (tuples in the Python path, float64 arrays in the compiled one). The
@@ -23,7 +25,7 @@ import types
 from bisect import bisect_left, bisect_right
 
 __all__ = ["compilable", "compiled_as", "compiled", "jit_enabled", "compiled_loop", "settle_after_loading",
-           "compiled_loaded"]
+           "compiled_loaded", "expect_many_runs", "numba_clone"]
 
 _COMPILABLE: set = set()
 _COMPILED: dict = {}
@@ -48,39 +50,72 @@ def compiled_as(replacement):
 
 
 def jit_enabled() -> bool:
-    """Whether the simulator compiles its right-hand side: numba is installed and the environment
-    variable ``TRANSGEN_JIT`` is not ``0`` (``TRANSGEN_JIT=0`` runs the Python path alone, e.g. to
-    compare the two)."""
-    if os.environ.get("TRANSGEN_JIT", "1") == "0":
+    """Whether this run of the simulator uses its compiled right-hand side; one rule, decided once
+    per process (the runs of a process give the same numbers):
+
+    * ``TRANSGEN_JIT=0``: never (the Python path alone, e.g. to compare the two);
+    * the kernels built ahead of time are there (:func:`.aot.kernels`: they load in milliseconds):
+      always;
+    * else, where many runs will pay for a compilation (:func:`expect_many_runs`: a sweep, an
+      optimization, a study's worker): build them now (:func:`.aot.build`, 30-60 s once per
+      install), or, without a C compiler, compile with numba just in time;
+    * else (one run after an install): not; this run goes on in Python, while a detached process
+      builds the kernels for the next ones (:func:`.aot.build_in_background`).
+    """
+    setting = os.environ.get("TRANSGEN_JIT", "1")
+    if setting == "0":
         return False
+    key = ("enabled", setting, bool(_COMPILED.get("many")))
+    if key not in _COMPILED:
+        _COMPILED[key] = _decide()
+    return _COMPILED[key]
+
+
+def _decide() -> bool:
+    from . import aot
+
+    if aot.kernels() is not None:
+        return True
     try:
-        import numba  # noqa: F401  (here, not at import: ~0.3 s, only a simulation needs it)
+        import numba  # noqa: F401  (~0.3 s: only a compiled simulation needs it)
     except ImportError:
         return False
+    if not _COMPILED.get("many"):
+        aot.build_in_background()
+        return False
+    aot.build(numba_clone, wait=True)  # None without a C compiler: numba compiles just in time then
     return True
+
+
+def expect_many_runs() -> None:
+    """Say that this process will simulate many times (a sweep, an optimization, a worker of a
+    study): from now on :func:`jit_enabled` compiles where the kernels are not built yet."""
+    _COMPILED["many"] = True
 
 
 def compiled_loop(func, n: int):
     """The compiled form of the compilable loop ``func`` when a compiled simulation is under way
-    (numba loaded by it, :func:`jit_enabled`) and its ``n`` points are worth a call (output
+    (:func:`jit_enabled`, its kernels loaded) and its ``n`` points are worth a call (output
     sampling); None otherwise (the caller runs ``func`` in Python: e.g. reading a scenario,
-    which samples one point to learn the signal names, never loads numba)."""
-    if n >= 16 and "numba" in sys.modules and jit_enabled():
+    which samples one point to learn the signal names, never loads a compiled kernel)."""
+    if n >= 16 and compiled_loaded() and jit_enabled():
         return compiled(func)
     return None
 
 
 def settle_after_loading() -> None:
-    """Once per process, after the compiled kernels are loaded: move the objects that exist then
-    (numba's and llvmlite's ~75,000, the modules') out of the cyclic garbage collector's view
-    (``gc.freeze``). They live as long as the process; without this every full collection walks
-    them, about 60 ms each on the simulator's runs, a tenth of a 20-s run's time on average.
-    Objects alive now that die later are still freed by reference counting; only their cycles wait
-    (``gc.unfreeze`` undoes it)."""
+    """Once per process, after the compiled kernels are loaded: where numba is loaded, move the
+    objects that exist then (numba's and llvmlite's ~75,000, the modules') out of the cyclic
+    garbage collector's view (``gc.freeze``). They live as long as the process; without this every
+    full collection walks them, about 60 ms each on the simulator's runs, a tenth of a 20-s run's
+    time on average. Objects alive now that die later are still freed by reference counting; only
+    their cycles wait (``gc.unfreeze`` undoes it). The kernels built ahead of time bring no such
+    objects: nothing to move then."""
     if not _COMPILED.get("settled"):
         _COMPILED["settled"] = True
-        gc.collect()
-        gc.freeze()
+        if "numba" in sys.modules:
+            gc.collect()
+            gc.freeze()
 
 
 def compiled_loaded() -> bool:
@@ -122,16 +157,11 @@ def _stand_ins() -> dict:
     return {bisect_right: search_right, bisect_left: search_left, math.ulp: ulp}
 
 
-def compiled(func):
-    """The numba-compiled form of the compilable function ``func`` (``cache=True``: compiled
-    machine code is kept on disk, a second process loads it). The compilable functions it calls
-    are compiled too and called compiled; so are the library stand-ins."""
-    done = _COMPILED.get(func)
-    if done is not None:
-        return done
-    if not hasattr(func, "__code__"):  # a built-in numba knows (math.tanh, ...)
-        return func
-    import numba
+def numba_clone(func):
+    """A copy of the compilable function ``func`` whose globals name the numba-compiled forms of
+    the compilable functions it calls (and the library stand-ins): what numba compiles, just in
+    time (:func:`compiled`) or ahead of time (:mod:`.aot`)."""
+    import numba  # noqa: F401  (the stand-ins and the callees are numba dispatchers)
 
     if "stand-ins" not in _COMPILED:
         _COMPILED["stand-ins"] = _stand_ins()
@@ -141,9 +171,9 @@ def compiled(func):
         value = namespace.get(name)
         try:
             if value in _REPLACED:
-                namespace[name] = compiled(_REPLACED[value])
+                namespace[name] = _jitted(_REPLACED[value])
             elif value in _COMPILABLE:
-                namespace[name] = compiled(value)
+                namespace[name] = _jitted(value)
             elif value in stand_ins:
                 namespace[name] = stand_ins[value]
         except TypeError:  # unhashable globals are no functions
@@ -153,5 +183,33 @@ def compiled(func):
     # code in the name makes an edit of a function it calls (in another file) compile afresh
     clone.__qualname__ = f"{func.__qualname__}_{_sources_digest()}"
     clone.__module__, clone.__doc__ = func.__module__, func.__doc__
-    done = _COMPILED[func] = numba.njit(cache=True)(clone)
+    return clone
+
+
+def _jitted(func):
+    """``func`` compiled by numba just in time (``cache=True``: its machine code kept on disk)."""
+    done = _COMPILED.get(func)
+    if done is not None:
+        return done
+    if not hasattr(func, "__code__"):  # a built-in numba knows (math.tanh, ...)
+        return func
+    import numba
+
+    done = _COMPILED[func] = numba.njit(cache=True)(numba_clone(func))
     return done
+
+
+def compiled(func):
+    """The compiled form of the compilable function ``func``: from the kernels built ahead of time
+    (:func:`.aot.kernels`, loaded in milliseconds) where they export it, else compiled by numba
+    (``cache=True``: compiled machine code is kept on disk, a second process loads it). The
+    compilable functions it calls are compiled too and called compiled; so are the library
+    stand-ins."""
+    from . import aot
+
+    name = getattr(func, "__name__", "")
+    if name in aot.EXPORTS and func.__module__ == f"{__package__}.{aot.EXPORTS[name][0]}":
+        module = aot.kernels()
+        if module is not None:
+            return getattr(module, name)
+    return _jitted(func)

@@ -223,7 +223,7 @@ class Table(Signal):
         return "table", self.times + self.values, ()
 
     def sample(self, ts: np.ndarray) -> np.ndarray:
-        xs, ys = np.asarray(self.times), np.asarray(self.values)
+        xs, ys = np.asarray(self.times, dtype=float), np.asarray(self.values, dtype=float)
         ts = np.asarray(ts, dtype=float)
         loop = compiled_loop(table_values, len(ts)) if ts.ndim == 1 else None
         if loop is not None:  # the values of :meth:`value`, in one compiled loop

@@ -10,11 +10,12 @@ error, Ctrl-C) cancels the runs not started.
 * :class:`SerialExecutor` - one after the other in this process;
 * :class:`LocalExecutor` - a :class:`concurrent.futures.ProcessPoolExecutor` (``workers``, default
   :func:`os.cpu_count`), each worker on one BLAS thread. The workers are forked from this process
-  where it has the simulator's compiled code loaded already (it has simulated) and runs no other
-  thread: they start in milliseconds with the simulator in their memory. Otherwise (a fresh
-  process, such as a ``transgen sweep`` command's; a Dask client or a Jupyter kernel's threads
-  alive) they are spawned and each imports the simulator and loads its compiled code once, about
-  0.6 s CPU (why fork is safe then and why spawn otherwise: :func:`_can_fork` and
+  where it has the simulator's compiled code loaded already, or can load it in milliseconds (the
+  kernels built ahead of time, :mod:`transgen.sim.aot`: also a ``transgen sweep`` command's fresh
+  process imports the simulator once and forks), and runs no other thread: they start in
+  milliseconds with the simulator in their memory. Otherwise (numba would compile or load its
+  cache; a Dask client or a Jupyter kernel's threads alive) they are spawned and each imports the
+  simulator and loads its compiled code once (why fork is safe then and why spawn otherwise: :func:`_can_fork` and
   ``LocalExecutor._new_pool``; :attr:`LocalExecutor.start_method` says which);
 * :class:`DaskExecutor` - a Dask distributed cluster by scheduler address
   (``tcp://HOST:PORT``) or an existing ``distributed.Client``; the optional extra
@@ -458,8 +459,8 @@ def _stopped(timeout: float) -> bool:
 
 def _can_fork() -> bool:
     """Whether a local pool's workers can be forked from this process: the platform has fork, the
-    simulator's compiled code is loaded here (:func:`~transgen.sim.core.jit.compiled_loaded`; a cold
-    process gains nothing from fork), only the main thread runs and no OpenMP runtime is loaded.
+    workers need no numba compiled code this process has not loaded (:func:`_forking_pays`), only
+    the main thread runs and no OpenMP runtime is loaded.
 
     Fork copies the memory of this process but only the thread that calls it, so it is safe where
     no other thread can hold a lock or run a pool the child would need: the only Python thread is
@@ -472,9 +473,7 @@ def _can_fork() -> bool:
     import multiprocessing
     import threading
 
-    from transgen.sim.core.jit import compiled_loaded
-
-    if not compiled_loaded() or "fork" not in multiprocessing.get_all_start_methods():
+    if not _forking_pays() or "fork" not in multiprocessing.get_all_start_methods():
         return False
     # the previous pool's thread outlives it briefly: a script's next sweep would spawn without this
     if not _stopped(timeout=0.5) or threading.active_count() != 1:
@@ -484,14 +483,31 @@ def _can_fork() -> bool:
     return not any(library.get("user_api") == "openmp" for library in threadpool_info())
 
 
+def _forking_pays() -> bool:
+    """Whether workers forked from this process start with what they need: the compiled code is
+    loaded here (:func:`~transgen.sim.jit.compiled_loaded`), or the runs need none that takes time
+    to load: the kernels built ahead of time are there (:func:`~transgen.sim.aot.kernels`: this
+    process loads them in milliseconds with the imports, :func:`_preload`) or ``TRANSGEN_JIT=0``.
+    Otherwise (numba would compile or load its cache) each spawned worker loads it in parallel,
+    which a fork from this cold process would not save."""
+    from transgen.sim import aot
+    from transgen.sim.jit import compiled_loaded
+
+    return compiled_loaded() or os.environ.get("TRANSGEN_JIT") == "0" or aot.kernels() is not None
+
+
 def _preload() -> None:
-    """The modules a worker needs (:data:`~.task.PRELOAD`) imported."""
+    """The modules a worker needs (:data:`~.task.PRELOAD`) imported and the kernels built ahead
+    of time loaded (where they are)."""
     import importlib
+
+    from transgen.sim import aot
 
     from .task import PRELOAD
 
     for name in PRELOAD:
         importlib.import_module(name)
+    aot.kernels()
 
 
 def _worker_start(parent: int, spawned: bool) -> None:

@@ -169,6 +169,10 @@ def sweep(scenario: str | Path, grid: Mapping[str, Sequence], samples: int | Non
     failed = sum(1 for r in rows if r is not None and not r.get("success"))
     if executor is None and todo:
         executor = LocalExecutor()
+    if len(todo) > 1:  # many runs: they pay for the compiled kernels (transgen.sim.jit.jit_enabled)
+        from transgen.sim.jit import expect_many_runs
+
+        expect_many_runs()
     with executor.opened() if isinstance(executor, LocalExecutor) and todo else contextlib.nullcontext():
         # a local pool's workers start here and import the simulator while the design is checked
         files = validate_variants(path, unique, force)

@@ -38,12 +38,15 @@ The names listed in ``__all__`` here are the public API; the modules' own names 
 """
 from __future__ import annotations
 
-from .dot_graphml import graph_to_dot, graph_to_graphml, std_to_dot
-from .figure import FIGURE_FORMATS, save_figure
-from .graph_figure import draw_graph
-from .lever import Lever, LeverNode, lever_layout, lever_speeds
-from .lever_figure import draw_levers, draw_speed_chart
-from .std_figure import draw_std
+from ..lazy import lazy_module_attributes
+
+_WHERE = {"graph_to_dot": "dot_graphml", "graph_to_graphml": "dot_graphml", "std_to_dot": "dot_graphml",
+          "FIGURE_FORMATS": "figure", "save_figure": "figure", "draw_graph": "graph_figure", "Lever": "lever",
+          "LeverNode": "lever", "lever_layout": "lever", "lever_speeds": "lever", "draw_levers": "lever_figure",
+          "draw_speed_chart": "lever_figure", "draw_std": "std_figure"}
+# each name loaded from its module on first use: checking a plot format (the simulator's command
+# line) needs FIGURE_FORMATS, not networkx, which the graph exports import (0.1-0.3 s)
+__getattr__, __dir__ = lazy_module_attributes(__name__, _WHERE)
 
 __all__ = [
     "draw_graph",
