@@ -98,7 +98,7 @@ def test_a_run_in_a_mode_named_1_gives_a_text_mode_column(tmp_path):
     write_result(result, tmp_path / "r.csv")
     write_result(result, tmp_path / "r.mat")
     df = pd.read_csv(tmp_path / "r.csv")
-    assert pd.api.types.is_string_dtype(df["mode"]) and df["mode"].tolist() == ["m_1", "m_1"]
+    assert pd.api.types.is_string_dtype(df["mode"]) and df["mode"].tolist() == ["mode 1", "mode 1"]  # no gear given
     assert df["t_C1 [N*m]"].dtype == np.float64
     m = scipy.io.loadmat(tmp_path / "r.mat", simplify_cells=True)
     assert list(np.atleast_1d(m["mode_names"])) == ["1"] and list(np.atleast_1d(m["mode_fields"])) == ["m_1"]

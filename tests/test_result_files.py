@@ -12,10 +12,9 @@ import scipy.io
 
 from transgen.cli import main
 from transgen.describe import modes_report
-from transgen.export import field_names
 from transgen.language import load_mechanism
-from transgen.sim.analysis.result_files import result_columns, write_result
-from transgen.sim.scenario.load import Scenario, load_scenario
+from transgen.sim.result_files import csv_mode_text, result_columns, write_result
+from transgen.sim.scenario import Scenario, load_scenario
 
 NAME = "simple2_upshift"
 
@@ -59,10 +58,10 @@ def test_mode_column_names_the_modes_as_transgen_modes_does(run, tmp_path):
     modes = [r[1] for r in rows]
     # named by gear (transgen.names); each joins a mode of `transgen modes` by its locked set and gear
     known = {frozenset(m["locked"]): m for m in modes_report(load_mechanism(scenario.mechanism.source))["modes"]}
-    # the CSV's mode column holds each mode's field name (transgen.export.field_names: text that no
-    # reader takes for a number, e.g. m_1 for gear 1), the other formats the names themselves
-    field = dict(zip([s.name for s in result.modes], field_names([s.name for s in result.modes])))
-    assert set(modes) == {field["1"], field["none"], field["2"]} == {"m_1", "none", "m_2"}
+    # the CSV's mode column holds each mode's name, a name that a reader takes for a number written
+    # with its gear (csv_mode_text: "gear 1"), the other formats the names themselves
+    field = {s.name: csv_mode_text(s.name, s.gear) for s in result.modes}
+    assert set(modes) == {field["1"], field["none"], field["2"]} == {"gear 1", "none", "gear 2"}
     for span in result.modes:
         assert known[frozenset(span.locked)]["gear"] == span.gear
         assert span.name == (span.gear or "+".join(span.locked) or "none")
@@ -86,7 +85,8 @@ def test_every_format_holds_the_same_columns(run, tmp_path):
     mat = scipy.io.loadmat(files["mat"], squeeze_me=True)
     assert list(mat["names"]) == names
     assert [u if isinstance(u, str) else "" for u in mat["units"]] == units    # MATLAB's '' is an empty array
-    field = dict(zip(mat["mode_names"], mat["mode_fields"]))  # the CSV holds the field names, the rest the names
+    gears = [g if isinstance(g, str) else "" for g in mat["mode_gears"]]
+    field = {m: csv_mode_text(m, g) for m, g in zip(mat["mode_names"], gears)}  # the CSV's text of each name
     csv_modes = [r[1] for r in rows]
     assert list(mat["mode_names"]) == ["1", "none", "2"] and [field[m] for m in mat["mode"]] == csv_modes
     assert [g if isinstance(g, str) else "" for g in mat["mode_gears"]] == ["1", "", "2"]
@@ -173,12 +173,12 @@ def test_unique_times_without_a_result_file_is_refused(capsys):
     assert capsys.readouterr().err.startswith("error: --unique-times applies to the result file")
 
 
-@pytest.mark.parametrize("name", sorted(__import__("transgen.sim.scenario.load", fromlist=["x"]).bundled_scenarios()))
+@pytest.mark.parametrize("name", sorted(__import__("transgen.sim.scenario", fromlist=["x"]).bundled_scenarios()))
 def test_every_signal_of_the_bundled_scenarios_is_a_matlab_name(name):
     """In the .mat file the columns are variables by their own names (R.w_L1), none renamed."""
     import re
 
-    from transgen.sim.scenario.load import output_signals
+    from transgen.sim.scenario import output_signals
 
     names = output_signals(load_scenario(name).powertrain)
     assert all(re.fullmatch(r"[A-Za-z][A-Za-z0-9_]{0,62}", n) for n in ["time", "mode", *names]), names

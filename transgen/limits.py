@@ -22,7 +22,8 @@ from dataclasses import dataclass
 from .errors import TransgenError
 
 __all__ = ["Limit", "LIMITS", "LimitExceeded", "limit", "add_force_option", "check_limit",
-           "check_workers", "check_optimize", "available_memory", "human_bytes", "human_time", "WORKER_MEMORY"]
+           "check_workers", "check_optimize", "check_time", "available_memory", "human_bytes", "human_time", "WORKER_MEMORY",
+           "EVALUATION_CPU"]
 
 
 @dataclass(frozen=True)
@@ -51,6 +52,10 @@ class Limit:
         return number + (f" {self.unit}" if self.unit else "")
 
 
+EVALUATION_CPU = 0.2
+"""CPU time of one optimizer evaluation [s]: a shift window of a bundled scenario, its loading and
+its metrics (0.05-0.5 s measured), for the ``evaluations`` and ``optimize_time`` estimates."""
+
 WORKER_MEMORY = 200e6
 """Resident memory of one worker process [bytes] (a spawned worker with the simulator loaded:
 170-200 MB measured, issue 22), for the ``workers`` estimate."""
@@ -59,6 +64,11 @@ _LIMITS = (
     Limit("runs", "sweep --grid, --samples", 100_000, "runs", "max", True,
           "each run is a simulation (0.1 s to minutes) and a results row; beyond it a typing slip "
           "(K=1:2:100000000000) would run for years"),
+    Limit("sweep_time", "sweep --grid, --samples (the runs times the estimated CPU time of one)", 86_400,
+          "CPU seconds", "max", True,
+          "a sweep's runs at the estimated cost of the costliest checked run (its simulated time, periodic "
+          "inputs and output samples: transgen.sim.run_limits.run_seconds); beyond a day of CPU a slip "
+          "of the design, not a study, is the likelier cause"),
     Limit("grid_values", "sweep --grid KEY=LO:HI:N", 2_000_000, "values", "max", False,
           "the values of one key are made before the runs; more would not fit in memory"),
     Limit("design_memory", "sweep --grid, --samples", 4e9, "bytes", "max", False,
@@ -68,6 +78,9 @@ _LIMITS = (
           "evaluated together, so a larger one only delays the first improvement"),
     Limit("evaluations", "optimize --evaluations", 100_000, "simulations per shift", "max", True,
           "each evaluation simulates a shift window (about 0.05-0.5 s CPU)"),
+    Limit("optimize_time", "optimize --evaluations, the shifts tuned", 86_400, "CPU seconds", "max", True,
+          "the evaluations of every shift tuned at the cost of one (a shift window, timed on the scenario's "
+          "own run); beyond a day of CPU a slip of the budget is the likelier cause"),
     Limit("min_teeth", "synthesize teeth --min-teeth", 3, "teeth", "min", False,
           "a gear needs teeth: 0 divides by zero in the ring/sun bounds, fewer than 3 is no gear"),
     Limit("max_teeth", "synthesize teeth --max-teeth", 1000, "teeth", "max", False,
@@ -180,10 +193,25 @@ def check_optimize(evaluations: int, population: int, force: bool | None = False
     ``population``, or a population larger than the evaluations it has to fit in."""
     check_limit("population", population, f"--population {population}")
     check_limit("evaluations", evaluations, f"--evaluations {evaluations}",
-                f"about {human_time(evaluations * 0.2)} of simulation CPU per shift at 0.2 s an evaluation", force)
+                f"about {human_time(evaluations * EVALUATION_CPU)} of simulation CPU per shift at "
+                f"{EVALUATION_CPU:g} s an evaluation", force)
     if population > evaluations:
         raise ValueError(f"--population {population}: error: a generation is larger than --evaluations "
                          f"{evaluations}: give a population of at most the evaluations")
+
+
+def check_time(name: str, seconds: float, what: str, detail: str, workers: int | None = None,
+               force: bool | None = False) -> str:
+    """The estimate ``about 3.2 h of CPU (detail), about 1.6 h on 2 workers`` of work of
+    ``seconds`` CPU seconds, refused over the time limit ``name`` (``sweep_time``,
+    ``optimize_time``; ``force`` passes it) with that estimate. ``workers``: processes sharing
+    the work (None: one per core)."""
+    share = max(1, min(workers or os.cpu_count() or 1, os.cpu_count() or 1))
+    text = f"about {human_time(seconds)} of CPU ({detail})"
+    if share > 1:
+        text += f", about {human_time(seconds / share)} on {share} workers"
+    check_limit(name, float(math.ceil(seconds)), what, text, force, hint="give a smaller design or budget, or a shorter run")
+    return text
 
 
 def available_memory() -> float:

@@ -12,13 +12,16 @@ Every format holds the same columns, in the same order (see :func:`result_column
 The CSV header is ``time [s],mode,w_L1 [rad/s],...``: every numeric column is ``NAME [UNIT]``
 (``1`` for a pure number), the text column ``mode`` has no unit. The time is written with every
 digit (shortest round trip), the signals with 9 significant digits, every number as a float
-(``0.0``, not ``0``: :func:`csv_float`). The CSV's mode column holds each mode's *field name*
-(:func:`transgen.export.field_names`: the name where it is an identifier, ``M3``, ``SP``;
-``m_1`` for a mode named ``1``, ``C1_C4`` for ``C1+C4``): a reader that guesses column types
-(``pandas.read_csv``, MATLAB ``readtable``) reads a column of names like ``1`` as numbers
-whatever the quoting, and a field name is text in every reader. The other formats hold the
-names themselves and, beside ``mode_names``, ``mode_fields`` (the same order): the map between
-the two, and the field names of the ``.mat``/``.npz`` matrices files.
+(``0.0``, not ``0``: :func:`csv_float`). The CSV's mode column holds each mode's *name*, as
+the other formats, ``transgen modes`` and the matrices files name it (``M3``, ``1L``, ``R``,
+``C1+C4``, ``none``), except a name that a reader guessing column types (``pandas.read_csv``,
+MATLAB ``readtable``) takes for a number, a boolean or a missing value whatever the quoting
+(``1``, ``10``, ``NA``, ``True``): such a name is written ``gear 1`` where the mode is that gear
+(``mode_gears`` of the other formats, ``gear`` of the matrices files) and ``mode 1`` otherwise
+(:func:`csv_mode_text`), so that the column is text in every reader and still joins the other
+files: by the name, or by the gear after ``gear ``. The other formats hold the names and,
+beside ``mode_names``, ``mode_fields`` (the same order): the field names of the ``.mat``/``.npz``
+matrices files (:func:`transgen.export.field_names`, ``m_1`` for ``1``).
 
 At an event (a mode change) and at a jump of an input signal a run records the instant twice:
 the state before and after it, so the time column repeats that value. ``unique_times=True``
@@ -39,7 +42,8 @@ from transgen.names import locked_text
 if TYPE_CHECKING:
     from ..core.result import Result
 
-__all__ = ["RESULT_FORMATS", "SIGNALS_SCHEMA", "result_format", "result_columns", "write_result", "csv_float"]
+__all__ = ["RESULT_FORMATS", "SIGNALS_SCHEMA", "result_format", "result_columns", "write_result", "csv_float",
+           "csv_mode_text", "reads_as_text"]
 
 RESULT_FORMATS = {".csv": "csv", ".mat": "mat", ".npz": "npz", ".json": "json"}
 """Result file formats by file-name suffix."""
@@ -93,8 +97,36 @@ def csv_float(x: float, digits: int = 9) -> str:
     return text if any(c in text for c in ".eEn") else text + ".0"  # n: nan, inf
 
 
+NOT_TEXT = frozenset({
+    "", "#N/A", "#N/A N/A", "#NA", "-1.#IND", "-1.#QNAN", "-NaN", "-nan", "1.#IND", "1.#QNAN", "<NA>", "N/A", "NA",
+    "NULL", "NaN", "None", "n/a", "nan", "null", "True", "TRUE", "true", "False", "FALSE", "false"})
+"""Words pandas reads as a missing value (its default ``na_values``) or a boolean."""
+
+
+def reads_as_text(name: str) -> bool:
+    """Whether a column holding ``name`` stays text in a reader that guesses column types: not a
+    number in any spelling Python or pandas accepts (``1``, ``1e3``, ``inf``, ``1_0``), not one of
+    :data:`NOT_TEXT`."""
+    if name.strip() in NOT_TEXT:
+        return False
+    try:
+        float(name)
+    except ValueError:
+        return True
+    return False
+
+
+def csv_mode_text(name: str, gear: str | None = None) -> str:
+    """The text of the mode ``name`` in the CSV's mode column: the name itself where it reads as
+    text (:func:`reads_as_text`); else ``gear NAME`` where the mode is the gear ``gear`` of that
+    name, ``mode NAME`` otherwise (a declared mode or a combination named like a number)."""
+    if reads_as_text(name):
+        return name
+    return f"gear {name}" if gear == name else f"mode {name}"
+
+
 def _csv_text(columns: dict[str, np.ndarray], units: dict[str, str], modes) -> str:
-    """The CSV text: ``modes`` the text of the mode column (the modes' field names)."""
+    """The CSV text: ``modes`` the text of the mode column (:func:`csv_mode_text`)."""
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
     writer.writerow([f"{n} [{units[n]}]" if n in units else n for n in columns])
@@ -142,9 +174,9 @@ def write_result(result: Result, path: str | Path, names: list[str] | None = Non
     fmt = result_format(path)
     columns, units = result_columns(result, names, unique_times)
     header = _header(columns, units, result, unique_times)
-    if fmt == "csv":  # the mode by its field name: text in every reader (a name like 1 is m_1)
-        field = dict(zip(header["mode_names"], header["mode_fields"]))
-        write_text(path, _csv_text(columns, units, [field[m] for m in columns["mode"].tolist()]))
+    if fmt == "csv":  # the mode by its name, text in every reader (a name like 1 is written gear 1)
+        text = {m: csv_mode_text(m, g) for m, g in zip(header["mode_names"], header["mode_gears"])}
+        write_text(path, _csv_text(columns, units, [text[m] for m in columns["mode"].tolist()]))
     elif fmt == "json":
         from transgen.schemas import json_document
 

@@ -25,4 +25,7 @@ def bundled_data(name: str) -> Path | None:
     if p.name != name or p.suffix not in ("", ".toml"):
         return None
     path = DATA_FOLDER / f"{p.stem}.toml"
-    return path if path.is_file() else None
+    try:
+        return path if path.is_file() else None
+    except OSError:  # a name the file system cannot hold (longer than 255 bytes): no bundled file
+        return None

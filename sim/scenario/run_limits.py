@@ -19,7 +19,8 @@ from transgen.limits import check_limit, human_bytes, human_time
 
 from ..core.signals import Sine
 
-__all__ = ["RunEstimate", "run_estimate", "check_run", "RHS_PER_PERIOD", "RHS_SECONDS"]
+__all__ = ["RunEstimate", "run_estimate", "check_run", "run_seconds", "RHS_PER_PERIOD", "RHS_SECONDS",
+           "SIMULATED_SECOND_CPU"]
 
 RHS_PER_PERIOD = 30
 """Right-hand-side evaluations a period of a periodic input takes (DOP853, rtol = atol = 1e-8:
@@ -36,6 +37,12 @@ of 29 signals took 156 MB more than at 1e-3 s)."""
 
 SAMPLE_SECONDS = 7.7e-5
 """Wall time of one output sample [s] (the same measurement: 23 s more for 297000 more samples)."""
+
+
+SIMULATED_SECOND_CPU = 0.1
+"""CPU time of one simulated second of a bundled scenario without periodic inputs, its kernel
+compiled [s]: the highest of the bundled scenarios measured (coupled_clutches 0.10, ht740_turbo
+0.054, simple2_upshift 0.027, ht740_improved 0.010; 2 shared cores), the base of :func:`run_seconds`."""
 
 
 @dataclass(frozen=True)
@@ -84,6 +91,15 @@ def run_estimate(scenario) -> RunEstimate:
             frequency, fastest = f, keys
     seconds = periods * RHS_PER_PERIOD * RHS_SECONDS
     return RunEstimate(samples, columns, SAMPLE_BYTES * samples * columns, periods, seconds, frequency, fastest)
+
+
+def run_seconds(scenario, est: RunEstimate | None = None) -> float:
+    """Estimated CPU time of one run of ``scenario`` [s]: its simulated time at
+    :data:`SIMULATED_SECOND_CPU`, the periods of its periodic inputs (``est.seconds``) and its
+    output samples at :data:`SAMPLE_SECONDS` each (the cost a sweep or an optimizer multiplies)."""
+    est = est if est is not None else run_estimate(scenario)
+    o = scenario.options
+    return max(o.t_end - o.t_start, 0.0) * SIMULATED_SECOND_CPU + est.seconds + est.samples * SAMPLE_SECONDS
 
 
 def check_run(scenario, force: bool | None = False) -> RunEstimate:

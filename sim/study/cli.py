@@ -154,6 +154,8 @@ def cmd_sweep(args) -> int:
     last = []
 
     def progress(p) -> None:
+        if p.estimate and not last and not (args.quiet or args.json):  # once, before the first run
+            print(f"sweep: {p.total - p.resumed} runs to do, {p.estimate}", file=sys.stderr, flush=True)
         last[:] = [p]
         line.show(p.text(), final=p.done == p.total)
     start = time.perf_counter()

@@ -757,7 +757,8 @@ def _bounds(template, t_gap: float, names: Sequence[str] = PARAMETERS) -> list[t
 def optimize(path, shifts: Sequence[str] | None = None, objective: Objective = Objective(),
              constraints: Constraints = Constraints(), executor=None, seed: int = 0, max_evaluations: int = 1600,
              population: int = 12, progress: Callable | None = None, overrides: Mapping | None = None,
-             engine_torque: bool | None = None) -> OptimizeResult:
+             engine_torque: bool | None = None, force: bool = False,
+             estimate: Callable[[str], None] | None = None) -> OptimizeResult:
     """Tune the shifts of the scenario ``path`` (all, or those named in ``shifts``: ``1-2`` or a
     number from 1); see the module docstring. ``max_evaluations``: simulations per shift at most
     (the start and every stage; whole generations of ``population`` candidates and compass
@@ -765,7 +766,10 @@ def optimize(path, shifts: Sequence[str] | None = None, objective: Objective = O
     this process); ``progress(OptimizeProgress)`` after every generation; ``overrides``: dotted
     keys set in the scenario first (as ``--set``); ``engine_torque``: tune the engine torque
     intervention too (None: where the input is an engine; False: the clutches only, the
-    scenario's own intervention kept; True: an error without an engine)."""
+    scenario's own intervention kept; True: an error without an engine). Before the first
+    evaluation the budget's time (the shifts tuned x ``max_evaluations`` x
+    :data:`~transgen.limits.EVALUATION_CPU`) is checked against the limit ``optimize_time``
+    (``force`` passes it) and given to ``estimate`` (``about 5.3 min of CPU (...)``)."""
     from transgen.limits import check_optimize
 
     from .executors import SerialExecutor
@@ -777,11 +781,24 @@ def optimize(path, shifts: Sequence[str] | None = None, objective: Objective = O
     executor = executor or SerialExecutor()
     with executor:  # one pool of workers (or Dask client) for all the generations
         return _optimize(path, shifts, objective, constraints, executor, seed, max_evaluations, population, progress,
-                         dict(overrides or {}), engine_torque)
+                         dict(overrides or {}), engine_torque, (force, estimate))
+
+
+def _check_time(shifts: int, evaluations: int, executor, force: bool, estimate) -> None:
+    """The time of the budget (``shifts`` x ``evaluations`` at :data:`~transgen.limits.EVALUATION_CPU`),
+    refused over the limit ``optimize_time`` unless ``force``; the estimate to ``estimate``."""
+    from transgen.limits import EVALUATION_CPU, check_time, human_time
+
+    text = check_time("optimize_time", shifts * evaluations * EVALUATION_CPU,
+                      f"--evaluations {evaluations} ({shifts} shift(s))",
+                      f"{shifts} shift(s) x {evaluations} evaluations at about {human_time(EVALUATION_CPU)} each",
+                      getattr(executor, "workers", 1), force)
+    if estimate is not None:
+        estimate(text)
 
 
 def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluations, population, progress, base,
-              engine_torque=None):
+              engine_torque=None, timing=(False, None)):
     from transgen.sim import load_scenario, scenario_files
     from transgen.sim.scenario.load import scenario_path
 
@@ -806,6 +823,7 @@ def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluati
         calibration = replace(calibration, request=None)
     names = PARAMETERS + (TORQUE_PARAMETERS if engine_torque else ())
     selected = _select(plans, shifts, path)
+    _check_time(len(selected), max_evaluations, executor, *timing)
     limits = reference_limits(constraints.no_worse_than, base, selected) if constraints.no_worse_than else {}
     templates = {p.number: p.template for p in plans if p.number in {s.number for s in selected}}
     history: list[dict] = []

@@ -144,7 +144,9 @@ def cmd_optimize(args) -> int:
     start = time.perf_counter()
     try:
         result = optimize(args.scenario, args.shift, objective, constraints, executor, args.seed, args.evaluations,
-                          args.population, progress, overrides, args.engine_torque)
+                          args.population, progress, overrides, args.engine_torque, args.force,
+                          None if args.quiet or args.json else
+                          lambda text: print(f"optimize: {text}", file=sys.stderr, flush=True))
     except (ScenarioError, ValueError) as exc:
         line.end()
         return _fail(exc)

@@ -23,19 +23,22 @@ from pathlib import Path
 from .design import check_design, full_grid, latin_hypercube, row_key
 from .table import FIRST_COLUMNS, SweepTable, column_shift
 
-__all__ = ["sweep", "SweepProgress", "validate_variants", "design_variants", "scenario_path"]
+__all__ = ["sweep", "SweepProgress", "validate_variants", "design_variants", "scenario_path", "sweep_time"]
 
 
 @dataclass(frozen=True)
 class SweepProgress:
     """Where a sweep is: ``done`` of ``total`` rows (``resumed`` of them from an earlier results
-    file), ``failed`` of the done, ``elapsed`` seconds since the runs started."""
+    file), ``failed`` of the done, ``elapsed`` seconds since the runs started; ``estimate``:
+    before the first run, the estimate of the runs to do (``about 2.1 min of CPU (...)``,
+    :func:`sweep_time`), else ""."""
 
     done: int
     failed: int
     total: int
     resumed: int
     elapsed: float
+    estimate: str = ""
 
     @property
     def rate(self) -> float:
@@ -51,6 +54,8 @@ class SweepProgress:
     def text(self) -> str:
         left = self.remaining
         eta = "" if left is None else f", {_clock(left)} left"
+        if left is None and self.estimate:
+            eta = f", {self.estimate}"
         return (f"{self.done}/{self.total} runs, {self.failed} failed, {self.rate:.2f} runs/s, "
                 f"{_clock(self.elapsed)} elapsed{eta}")
 
@@ -64,7 +69,7 @@ def scenario_path(scenario: str | Path) -> str:
     """The key the workers load the scenario by: the resolved path of the file (or of the bundled
     scenario) ``scenario`` names, which keys its text in :func:`transgen.sim.scenario_files`.
     Raises ScenarioError (with the closest bundled name) when there is none."""
-    from transgen.sim.scenario.load import scenario_path as named_file
+    from transgen.sim.scenario import scenario_path as named_file
 
     return str(named_file(scenario).resolve())
 
@@ -95,14 +100,25 @@ def design_variants(grid: Mapping[str, Sequence], samples: int | None = None, se
     return [{k: fixed[k] if k in fixed else v[k] for k in grid} for v in latin_hypercube(ranges, samples, seed)]
 
 
-def validate_variants(path: str, variants: Sequence[Mapping], force: bool = False) -> dict[str, str]:
+def validate_variants(path: str, variants: Sequence[Mapping], force: bool = False,
+                      costs: list | None = None, budget: Callable[[list], None] | None = None) -> dict[str, str]:
     """Load the scenario with the first variant that has each distinct key/value (every variant
     of a sample; the first row and column of a grid) and return the texts of every file those
     loads read. Raises :class:`~transgen.errors.ScenarioError` (``--set KEY: error: ...`` for a bad key
     or value, or a run over a limit of :mod:`transgen.limits`: ``force`` passes the forceable
-    ones) at the first problem: before any run."""
+    ones) at the first problem: before any run. ``costs``: a list that receives the estimated CPU
+    seconds of each variant loaded (:func:`~transgen.sim.run_limits.run_seconds`); ``budget``: called
+    with that list after each (a design over its time limit is refused at its first variant, not
+    after loading them all)."""
     from transgen.sim import scenario_files
-    from transgen.sim.scenario.run_limits import check_run
+    from transgen.sim.run_limits import check_run, run_seconds
+
+    def check(scenario):
+        est = check_run(scenario, force)
+        if costs is not None:
+            costs.append(run_seconds(scenario, est))
+            if budget is not None:
+                budget(costs)
 
     first: dict[tuple, int] = {}  # each distinct key/value -> the first variant that has it
     for index, variant in enumerate(variants):
@@ -111,8 +127,18 @@ def validate_variants(path: str, variants: Sequence[Mapping], force: bool = Fals
     checks = [variants[i] for i in sorted(set(first.values()))]
     files: dict[str, str] = {}
     for overrides in checks:
-        files.update(scenario_files(path, overrides, check=lambda scenario: check_run(scenario, force)))
+        files.update(scenario_files(path, overrides, check=check))
     return files
+
+
+def sweep_time(runs: int, costs: Sequence[float], workers: int | None, force: bool | None = False) -> str:
+    """The estimate of ``runs`` runs at the costliest of the checked variants' ``costs`` [CPU s]
+    on ``workers`` processes, refused over the limit ``sweep_time`` (``force`` passes it)."""
+    from transgen.limits import check_time, human_time
+
+    each = max(costs, default=0.0)
+    return check_time("sweep_time", runs * each, f"--grid ({runs} runs to do)",
+                      f"{runs} runs at about {human_time(each)} each, estimated from the scenario", workers, force)
 
 
 def sweep(scenario: str | Path, grid: Mapping[str, Sequence], samples: int | None = None, seed: int = 0,
@@ -142,7 +168,7 @@ def sweep(scenario: str | Path, grid: Mapping[str, Sequence], samples: int | Non
     Returns
     -------
     SweepTable
-        Rows in the design's order (see :mod:`~.study.table` for the columns).
+        Rows in the design's order (see :mod:`.table` for the columns).
 
     Raises
     ------
@@ -169,19 +195,18 @@ def sweep(scenario: str | Path, grid: Mapping[str, Sequence], samples: int | Non
     failed = sum(1 for r in rows if r is not None and not r.get("success"))
     if executor is None and todo:
         executor = LocalExecutor()
-    if len(todo) > 1:  # many runs: they pay for the compiled kernels (transgen.sim.jit.jit_enabled)
-        from transgen.sim.jit import expect_many_runs
-
-        expect_many_runs()
     with executor.opened() if isinstance(executor, LocalExecutor) and todo else contextlib.nullcontext():
         # a local pool's workers start here and import the simulator while the design is checked
-        files = validate_variants(path, unique, force)
+        costs: list[float] = []
+        workers = getattr(executor, "workers", 1)
+        files = validate_variants(path, unique, force, costs, lambda c: sweep_time(len(todo), c, workers, force))
+        estimate = sweep_time(len(todo), costs, workers, force) if todo else ""
         return _run(executor, path, files, keys, unique, rows, extra, parameters, todo, resumed, failed, results,
-                    progress)
+                    progress, estimate)
 
 
 def _run(executor, path: str, files: dict, keys: list, unique: list, rows: list, extra: list, parameters: list,
-         todo: list, resumed: int, failed: int, results, progress) -> SweepTable:
+         todo: list, resumed: int, failed: int, results, progress, estimate: str = "") -> SweepTable:
     """The runs of :func:`sweep` (its design checked): rows as they complete, the results file
     rewritten, progress reported."""
     from .task import run_task
@@ -193,7 +218,7 @@ def _run(executor, path: str, files: dict, keys: list, unique: list, rows: list,
     start = time.perf_counter()
     done = resumed
     if progress is not None:
-        progress(SweepProgress(done, failed, len(keys), resumed, 0.0))
+        progress(SweepProgress(done, failed, len(keys), resumed, 0.0, estimate))
     try:
         if todo:
             for index, row in executor.run(run_task, {"path": path, "files": files}, todo, on_crash=_crashed_row):
