@@ -42,7 +42,7 @@ LOSS_UNITS = {
     "slip": "rad/s", "slip_rpm": "rpm", "torque": "N*m", "power": "W", "speed_rpm": "rpm", "speeds_rpm": "rpm",
     "torques": "N*m", "oil_temperature": "degC", "c": "N*m*s/rad", "coefficients": "N*m*(s/rad)^k",
     "displacement": "m^3/rev", "line_pressure": "Pa", "pressure_per_torque": "Pa/(N*m)", "speed_ratio": "1",
-    "loss": "W", "input_power_needed": "W",
+    "loss": "W", "drag_elements": "W",
 }
 """Units of the numeric fields of ``transgen powerflow --losses --json``."""
 
