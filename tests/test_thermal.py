@@ -100,3 +100,17 @@ def test_the_shift_report_gives_each_shifts_rise_and_the_run_its_peaks():
     summary = report_dict(r, [q])["clutch_temperature"]
     assert summary["elements"][on]["peak"] == pytest.approx(thermal.peaks[on])
     assert "Clutch temperatures" in report_text(r, [q])
+
+
+def test_optimize_max_temperature_is_a_constraint():
+    from transgen.sim.study.optimize import Constraints, Objective, score
+
+    ref = {"success": True, "completed": True, "energy": 1000.0, "duration": 0.5, "hole": 40.0, "flare": 0.0,
+           "bindup": False, "bindup_torque": 0.0, "offgoing_torque": 100.0, "chatter": False, "locks": 1, "jerk": None,
+           "temperature": 150.0}
+    c = Constraints(max_temperature=140.0)
+    s, _, violations = score(ref, ref, Objective({"energy": 1.0}), c)
+    assert s > 1e3 and violations == {"max temperature": pytest.approx(10.0 / 140.0)}
+    s, _, violations = score({**ref, "temperature": 130.0}, ref, Objective({"energy": 1.0}), c)
+    assert s == pytest.approx(1.0) and not violations
+    assert "pack temperature <= 140 degC" in c.text()
