@@ -114,3 +114,12 @@ def test_optimize_max_temperature_is_a_constraint():
     s, _, violations = score({**ref, "temperature": 130.0}, ref, Objective({"energy": 1.0}), c)
     assert s == pytest.approx(1.0) and not violations
     assert "pack temperature <= 140 degC" in c.text()
+
+
+def test_a_long_run_over_many_time_constants_reaches_the_steady_state():
+    pack = ClutchPack(0.5, 470.0, 100.0)  # tau 2.35 s; 2000 s is some 850 tau: several blocks
+    t = np.linspace(0.0, 2000.0, 5001)
+    temp, peak, _ = temperature_response(t, np.full(len(t), 3000.0), pack, OIL)
+    exact = OIL + 3000.0 / 100.0 * (1 - np.exp(-t / pack.time_constant))
+    assert np.allclose(temp, exact, rtol=1e-12, atol=1e-9)
+    assert peak == pytest.approx(OIL + 30.0)

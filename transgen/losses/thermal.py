@@ -129,39 +129,67 @@ def _step(theta0: float, p0: float, slope: float, h: float, pack: ClutchPack) ->
     return theta0 * e + p0 * h / c * phi1 + slope * h * h / c * phi2
 
 
+def _phis(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``phi1``, ``phi2`` of the module docstring for an array of ``a >= 0``."""
+    small = a < 1e-4
+    safe = np.where(small, 1.0, a)
+    phi1 = np.where(small, 1.0 - a / 2 + a * a / 6, -np.expm1(-safe) / safe)
+    phi2 = np.where(small, 0.5 - a / 6 + a * a / 24, (safe - 1.0 + np.exp(-safe)) / (safe * safe))
+    return phi1, phi2
+
+
+_CHUNK = 200.0
+"""Most decay exponent summed in one block of the vectorised recurrence (e^200 is far from overflow)."""
+
+
 def temperature_response(time, power, pack: ClutchPack, oil_temperature: float = DEFAULT_OIL_TEMPERATURE,
                          initial: float | None = None) -> tuple[np.ndarray, float, float]:
     """The pack temperature [degC] at every sample of ``time`` [s] for the dissipated ``power``
     [W] (linear between samples; repeated times are allowed), starting at ``initial`` (default
-    the oil temperature); also the peak temperature and its time (between samples included)."""
+    the oil temperature); also the peak temperature and its time (between samples included).
+
+    The steps ``theta[k+1] = e_k theta[k] + b_k`` are summed in closed form, blockwise:
+    ``theta[k] = e^-L_k (theta[k0] + sum_{m<k} b_m e^L_{m+1})``, ``L`` the decay exponent summed
+    from the block's start."""
     t = np.asarray(time, dtype=float)
     p = np.abs(np.asarray(power, dtype=float))
-    theta = np.empty(len(t))
-    theta[0] = (oil_temperature if initial is None else initial) - oil_temperature
-    peak, peak_t = theta[0], float(t[0]) if len(t) else 0.0
+    theta0 = (oil_temperature if initial is None else initial) - oil_temperature
+    if len(t) < 2:
+        return np.full(len(t), theta0 + oil_temperature), theta0 + oil_temperature, float(t[0]) if len(t) else 0.0
     g, c = pack.conductance, pack.heat_capacity
-    for k in range(len(t) - 1):
-        h = t[k + 1] - t[k]
-        if h <= 0.0:
-            theta[k + 1] = theta[k]
-            continue
-        slope = (p[k + 1] - p[k]) / h
-        theta[k + 1] = _step(theta[k], p[k], slope, h, pack)
-        d0, d1 = p[k] - g * theta[k], p[k + 1] - g * theta[k + 1]
-        if d0 > 0.0 > d1:  # a maximum inside the step: bisect the rate P - G theta
-            lo, hi = 0.0, h
-            for _ in range(60):
-                mid = 0.5 * (lo + hi)
-                if p[k] + slope * mid - g * _step(theta[k], p[k], slope, mid, pack) > 0.0:
-                    lo = mid
-                else:
-                    hi = mid
-            value = _step(theta[k], p[k], slope, lo, pack)
-            if value > peak:
-                peak, peak_t = value, float(t[k] + lo)
-        if theta[k + 1] > peak:
-            peak, peak_t = theta[k + 1], float(t[k + 1])
-    return theta + oil_temperature, float(peak + oil_temperature), peak_t
+    h = np.diff(t)
+    valid = h > 0.0
+    h = np.where(valid, h, 0.0)
+    slope = np.where(valid, np.diff(p) / np.where(valid, h, 1.0), 0.0)
+    a = h * g / c
+    phi1, phi2 = _phis(a)
+    b = np.where(valid, p[:-1] * h / c * phi1 + slope * h * h / c * phi2, 0.0)
+    theta = np.empty(len(t))
+    theta[0] = theta0
+    total = np.concatenate([[0.0], np.cumsum(a)])
+    k0 = 0
+    while k0 < len(t) - 1:
+        k1 = int(np.searchsorted(total, total[k0] + _CHUNK, side="right"))
+        k1 = min(max(k1, k0 + 2), len(t))  # samples k0 .. k1-1 in this block
+        lk = total[k0:k1] - total[k0]  # L_k of the block's samples
+        acc = np.concatenate([[0.0], np.cumsum(b[k0:k1 - 1] * np.exp(lk[1:]))])
+        theta[k0:k1] = np.exp(-lk) * (theta[k0] + acc)
+        k0 = k1 - 1
+    peak_k = int(np.argmax(theta))
+    peak, peak_t = float(theta[peak_k]), float(t[peak_k])
+    rate0, rate1 = p[:-1] - g * theta[:-1], p[1:] - g * theta[1:]
+    for k in np.nonzero(valid & (rate0 > 0.0) & (rate1 < 0.0))[0]:  # a maximum inside the step
+        lo, hi = 0.0, float(h[k])
+        for _ in range(60):  # bisect the rate P - G theta on the exact solution
+            mid = 0.5 * (lo + hi)
+            if p[k] + slope[k] * mid - g * _step(theta[k], p[k], slope[k], mid, pack) > 0.0:
+                lo = mid
+            else:
+                hi = mid
+        value = _step(theta[k], p[k], slope[k], lo, pack)
+        if value > peak:
+            peak, peak_t = value, float(t[k] + lo)
+    return theta + oil_temperature, peak + oil_temperature, peak_t
 
 
 @dataclass(frozen=True)
