@@ -70,6 +70,10 @@ def run_losses(args, mech, flow) -> int:
     """The ``--losses`` part of ``transgen powerflow`` (``args`` from its parser)."""
     from ..schemas import dumps, json_document
 
+    from ..outputs import note_input
+
+    if args.losses:
+        note_input(args.losses)
     model = load_losses(args.losses, mech)
     speed = args.speed if args.speed is not None else (args.input_rpm or DEFAULT_SPEED)
     torque = args.torque if args.torque is not None else DEFAULT_TORQUE
@@ -99,16 +103,18 @@ def run_losses(args, mech, flow) -> int:
 
 
 def _write(folder: Path, stem: str, mech, losses, emap, neutrals, doc, speed, torque) -> None:
+    """The JSON and the figures into ``folder``, together or not at all (:mod:`transgen.outputs`)."""
     import matplotlib
 
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
+    from ..outputs import atomic_path, output_set
     from ..schemas import dumps
     from .plots import plot_breakdown, plot_efficiency_map, plot_neutral
 
-    folder.mkdir(parents=True, exist_ok=True)
-    (folder / f"{stem}_losses.json").write_text(dumps(doc) + "\n", encoding="utf-8")
+    if folder.exists() and not folder.is_dir():
+        raise ValueError(f"-o {folder}: not a folder")
     figures = [(plot_breakdown(losses, f"{mech.name}: losses per gear at {speed:g} rpm, {torque:g} N*m"),
                 "loss_breakdown")]
     if emap is not None:
@@ -116,6 +122,13 @@ def _write(folder: Path, stem: str, mech, losses, emap, neutrals, doc, speed, to
                         "efficiency_map"))
         figures.append((plot_neutral(neutrals, f"{mech.name}: neutral parasitic loss (output held)"),
                         "neutral_losses"))
-    for fig, name in figures:
-        fig.savefig(folder / f"{stem}_{name}.png", dpi=120)
-        plt.close(fig)
+    try:
+        with output_set():
+            with atomic_path(folder / f"{stem}_losses.json") as tmp:
+                Path(tmp).write_text(dumps(doc) + "\n", encoding="utf-8")
+            for fig, name in figures:
+                with atomic_path(folder / f"{stem}_{name}.png") as tmp:
+                    fig.savefig(tmp, dpi=120, format="png")
+    finally:
+        for fig, _ in figures:
+            plt.close(fig)
