@@ -123,3 +123,11 @@ def test_a_long_run_over_many_time_constants_reaches_the_steady_state():
     exact = OIL + 3000.0 / 100.0 * (1 - np.exp(-t / pack.time_constant))
     assert np.allclose(temp, exact, rtol=1e-12, atol=1e-9)
     assert peak == pytest.approx(OIL + 30.0)
+
+
+def test_sweep_columns_of_the_pack_temperatures_have_units():
+    from transgen.sim.study.table import column_unit
+
+    assert column_unit("shift.1-2.temperature_peak.C4") == "degC"
+    assert column_unit("shift.1-2.temperature_start.C4") == "degC"
+    assert column_unit("shift.2-3#2.temperature_rise.C3") == "K"

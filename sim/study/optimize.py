@@ -602,8 +602,9 @@ def score(metrics: Mapping, reference: Mapping, objective: Objective, constraint
         violations["max hole"] = (metrics["hole"] - constraints.max_hole_pct) / max(constraints.max_hole_pct, 1.0)
     if constraints.max_energy is not None and metrics["energy"] > constraints.max_energy:
         violations["max energy"] = (metrics["energy"] - constraints.max_energy) / max(constraints.max_energy, 1.0)
-    if constraints.max_temperature is not None and (metrics.get("temperature") or -math.inf) > constraints.max_temperature:
-        violations["max temperature"] = (metrics["temperature"] - constraints.max_temperature) / max(abs(constraints.max_temperature), 1.0)
+    limit = constraints.max_temperature
+    if limit is not None and (metrics.get("temperature") or -math.inf) > limit:
+        violations["max temperature"] = (metrics["temperature"] - limit) / max(abs(limit), 1.0)
     if constraints.max_duration is not None and (metrics["duration"] is None or metrics["duration"] > constraints.max_duration):
         violations["max duration"] = (((metrics["duration"] or 10 * constraints.max_duration) - constraints.max_duration)
                                       / constraints.max_duration)
