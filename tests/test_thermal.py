@@ -131,3 +131,19 @@ def test_sweep_columns_of_the_pack_temperatures_have_units():
     assert column_unit("shift.1-2.temperature_peak.C4") == "degC"
     assert column_unit("shift.1-2.temperature_start.C4") == "degC"
     assert column_unit("shift.2-3#2.temperature_rise.C3") == "K"
+
+
+def test_two_node_model_conserves_energy_and_matches_an_ode_solution():
+    from transgen.losses.thermal import TwoNodePack, two_node_response
+
+    t = np.array([0.0, 0.2, 0.5, 3.0])
+    p = np.array([0.0, 4e4, 1e4, 0.0])
+    adiabatic = TwoNodePack(steel=400.0, lining=60.0, partition=0.7, between=30.0, steel_oil=0.0)
+    temp = two_node_response(t, p, adiabatic, OIL)
+    energy = float(np.sum(0.5 * (p[1:] + p[:-1]) * np.diff(t)))
+    assert (temp[-1] - OIL) @ np.array([400.0, 60.0]) == pytest.approx(energy, rel=1e-12)
+    pack = TwoNodePack(steel=400.0, lining=60.0, partition=0.7, between=30.0, steel_oil=80.0, lining_oil=5.0)
+    a_mat, b_vec = pack.system()
+    ref = solve_ivp(lambda s, y: a_mat @ y + b_vec * np.interp(s, t, p), (0, 3.0), [0.0, 0.0], t_eval=t,
+                    rtol=1e-12, atol=1e-12, max_step=1e-3)
+    assert np.allclose(two_node_response(t, p, pack, OIL) - OIL, ref.y.T, rtol=1e-8, atol=1e-8)

@@ -19,6 +19,10 @@ forms (tested): without cooling the rise is the dissipated energy over ``C``; af
 stops, ``theta`` decays as ``e^(-t/tau)``. A peak between two samples (where ``P = G theta``) is
 found by bisection on the exact solution.
 
+:class:`TwoNodePack` / :func:`two_node_response`: the optional plate/lining model, the friction heat
+split between a steel node and a lining node coupled to each other and to the oil, stepped exactly
+in the modal coordinates of its 2 x 2 system (no peak search, no report hook).
+
 Pack parameters: :class:`ClutchPack`; typical car and truck packs in ``data/clutch_packs.toml``
 (:func:`class_packs`); :func:`default_packs` gives each element of a run the class pack nearest its
 static capacity, scaled by capacity over the class's reference (mass and area grow with the
@@ -34,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["ClutchPack", "ThermalResult", "pack_from_geometry", "class_packs", "default_packs",
+__all__ = ["ClutchPack", "TwoNodePack", "two_node_response", "ThermalResult", "pack_from_geometry", "class_packs", "default_packs",
            "temperature_response", "clutch_temperatures", "shift_temperatures", "DEFAULT_OIL_TEMPERATURE",
            "PACKS_FILE", "THERMAL_UNITS"]
 
@@ -240,3 +244,48 @@ def shift_temperatures(thermal: ThermalResult, t_start: float, t_end: float) -> 
         peak = max(start, float(np.max(temp[window]))) if window.any() else start
         out[e] = (start, peak, peak - start)
     return out
+
+
+@dataclass(frozen=True)
+class TwoNodePack:
+    """Two nodes: the separator steel (``steel``: heat capacity [J/K]) and the friction lining
+    (``lining``); the friction heat splits ``partition`` to the steel, ``1 - partition`` to the
+    lining; conductances [W/K] between them (``between``) and from each to the oil (``steel_oil``,
+    ``lining_oil``). ``C theta' = -K theta + b P`` with ``C = diag(steel, lining)``."""
+
+    steel: float
+    lining: float
+    partition: float
+    between: float
+    steel_oil: float
+    lining_oil: float = 0.0
+
+    def system(self) -> tuple[np.ndarray, np.ndarray]:
+        """``A``, ``B`` of ``theta' = A theta + B P`` (theta = steel, lining over the oil)."""
+        k = np.array([[self.between + self.steel_oil, -self.between],
+                      [-self.between, self.between + self.lining_oil]])
+        c = np.array([self.steel, self.lining])
+        return -k / c[:, None], np.array([self.partition, 1.0 - self.partition]) / c
+
+
+def two_node_response(time, power, pack: TwoNodePack, oil_temperature: float = DEFAULT_OIL_TEMPERATURE) -> np.ndarray:
+    """Steel and lining temperatures [degC], shape ``(samples, 2)``, for the dissipated ``power``
+    [W] linear between samples: exact, in the modal coordinates of ``A`` (symmetrisable, so its
+    eigenvalues are real and <= 0), each a one-node step of the module docstring."""
+    t = np.asarray(time, dtype=float)
+    p = np.abs(np.asarray(power, dtype=float))
+    a_mat, b_vec = pack.system()
+    lam, vec = np.linalg.eig(a_mat)
+    lam, vec = lam.real, vec.real
+    beta = np.linalg.solve(vec, b_vec)
+    z = np.zeros((len(t), 2))
+    for k in range(len(t) - 1):
+        h = t[k + 1] - t[k]
+        if h <= 0.0:
+            z[k + 1] = z[k]
+            continue
+        slope = (p[k + 1] - p[k]) / h
+        a = -lam * h
+        phi1, phi2 = _phis(a)
+        z[k + 1] = z[k] * np.exp(-a) + beta * (p[k] * h * phi1 + slope * h * h * phi2)
+    return z @ vec.T + oil_temperature
