@@ -278,7 +278,7 @@ def optimize_units() -> dict[str, str]:
             "number": "1", "seed": "1", "evaluation": "1", "score": "1", "energy": "J", "energy_total": "J", "duration": "s", "shift_duration": "s",
             "hole": "%", "torque_hole_pct": "%", "hole_torque": "N*m", "flare": "rpm", "flare_max_rpm": "rpm",
             "bindup_torque": "N*m", "offgoing_torque": "N*m", "jerk": "m/s^3", "jerk_max": "m/s^3", "locks": "1",
-            "max_flare_rpm": "rpm", "max_hole_pct": "%", "max_duration": "s", "max_energy": "J", "max_temperature": "degC", "fill_time": "s", "fill_level": "1",
+            "max_flare_rpm": "rpm", "max_hole_pct": "%", "max_duration": "s", "max_energy": "J", "max_temperature": "degC", "temperature": "degC", "fill_time": "s", "fill_level": "1",
             "ramp_time": "s", "ramp_end": "1", "hold_time": "s", "final_time": "s", "offgoing_delay": "s",
             "offgoing_level": "1", "offgoing_ramp": "s", "torque_boost": "1", "boost_delay": "s", "boost_time": "s",
             "torque_cut": "1", "cut_delay": "s", "cut_time": "s", "torque_ramp": "s", "torque_request_min": "1",
