@@ -13,7 +13,7 @@ flow's link speeds and slips per unit input speed, scaled by the input speed) an
             ``P_out = P_abs / eta_mesh + P_drag + P_spin + P_pump``, ``eta = P_abs / P_out``.
 
 The drag and spin torques' reactions are not passed through the meshes a second time (their own
-mesh loss is of the order ``(1 - eta_mesh) * P_drag``, a few watts; see ``docs/losses.md``). A
+mesh loss is of the order ``(1 - eta_mesh) * P_drag``, 1-2 % of the drag; see ``docs/losses.md``). A
 link or element the input speed does not fix (a floating member) has an unknown speed: its loss
 is left out and named in ``unknown``.
 
