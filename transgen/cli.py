@@ -315,6 +315,12 @@ def cmd_powerflow(args) -> int:
     for g in flow.gears:
         for w in g.warnings:
             warnings.warn(f"gear {g.name}: {w}")
+    if args.losses is not None:  # drag, spin and pump losses: transgen.losses
+        from .losses.command import run_losses
+
+        return run_losses(args, mech, flow)
+    if args.map or args.speed is not None or args.torque is not None or args.output:
+        raise ValueError("--speed, --torque, --map and -o need --losses")
     if args.json:
         print_document("transgen.powerflow/1", flow.to_dict(), UNITS)
         return 0
@@ -436,6 +442,14 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--gear", action="append", metavar="NAME", help="only this gear (repeatable; default: every gear)")
     s.add_argument("--coast", action="store_true",
                    help="coast (overrun, engine braking): the driveline drives the output, the input absorbs")
+    s.add_argument("--losses", nargs="?", const="", metavar="LOSSES.toml",
+                   help="add drag, spin and pump losses (parameters from the file, else the defaults; docs/losses.md)")
+    s.add_argument("--speed", type=number_option(0, 1e6), metavar="RPM", help="--losses: input speed (default 2000)")
+    s.add_argument("--torque", type=number_option(0, 1e7), metavar="N*m", help="--losses: input torque (default 200)")
+    s.add_argument("--map", action="store_true", help="--losses: efficiency map per gear, neutral loss over speed")
+    s.add_argument("--map-speed", metavar="MIN:MAX:N", help="--map: input speeds [rpm] (default 500:6000:23)")
+    s.add_argument("--map-torque", metavar="MIN:MAX:N", help="--map: input torques [N*m] (default T/20:2T:40)")
+    s.add_argument("-o", "--output", metavar="DIR", help="--losses: write the JSON and the figures into DIR")
     s.add_argument("--json", action="store_true", help="machine-readable output")
     s.set_defaults(func=cmd_powerflow)
 

@@ -111,11 +111,12 @@ def _shift_text(q: ShiftQuality, downshift: dict | None = None) -> str:
     kv += _comfort_rows(q)
     for k, v in kv:
         lines.append(f"  {k:<24}{v}")
-    lines.append(f"  {'element':<10}{'energy [J]':>14}{'peak power [W]':>17}   "
+    lines.append(f"  {'element':<10}{'energy [J]':>14}{'peak power [W]':>17}{'peak T [degC]':>15}{'rise [K]':>10}   "
                  f"({q.t_start:.3f}-{q.dissipation_end:.3f} s)")
     for e in q.energy:
         mark = " (on)" if e == q.oncoming else (" (off)" if e == q.offgoing else "")
-        lines.append(f"  {e + mark:<10}{q.energy[e]:>14.1f}{q.peak_power.get(e, 0.0):>17.1f}")
+        lines.append(f"  {e + mark:<10}{q.energy[e]:>14.1f}{q.peak_power.get(e, 0.0):>17.1f}"
+                     f"{_f(q.temperature_peak.get(e), '.1f'):>15}{_f(q.temperature_rise.get(e), '.1f'):>10}")
     lines.append(f"  {'total':<10}{q.energy_total:>14.1f}")
     for n in q.notes:
         lines.append(f"  note: {n}")
@@ -184,6 +185,7 @@ def report_text(result: Result, qualities: list[ShiftQuality] | None = None) -> 
         bal.append(f"  {'relative residual':<24}{eb['relative_residual']:>16.3e}")
     bal.append(f"  {'check':<24}{'PASS' if eb.get('passed') else 'FAIL'} "
                f"(|residual| <= {ENERGY_TOL:.1%} of the input work)")
+    bal += _thermal_text(result)
     stats = _invariants_text((result.stats or {}).get("invariants")) + ["", "Run statistics"]
     units = {"wall_time": "s"}
     for k, v in (result.stats or {}).items():
@@ -194,6 +196,28 @@ def report_text(result: Result, qualities: list[ShiftQuality] | None = None) -> 
     if modes:
         stats.append(f"  {'modes':<24}" + ", ".join(modes))
     return "\n".join(head + body + bal + stats) + "\n"
+
+
+def _clutch_temperatures(result: Result) -> dict | None:
+    """The peak pack temperature per element over the run (:mod:`transgen.losses.thermal`)."""
+    if len(result.time) < 2 or not any(k.startswith("P_") for k in result.signals):
+        return None
+    from transgen.losses.thermal import clutch_temperatures
+
+    return clutch_temperatures(result).summary()
+
+
+def _thermal_text(result: Result) -> list[str]:
+    summary = _clutch_temperatures(result)
+    if summary is None:
+        return []
+    lines = ["", f"Clutch temperatures (lumped one-node packs, oil {summary['oil_temperature']:g} degC; "
+                 f"docs/losses.md)"]
+    for e, v in summary["elements"].items():
+        lines.append(f"  {e:<10} peak {v['peak']:8.1f} degC at {v['peak_time']:8.3f} s, final {v['final']:7.1f} degC  "
+                     f"(pack {v['pack']['name']}: m c {v['pack']['heat_capacity']:.0f} J/K, tau "
+                     f"{_f(v['pack']['time_constant'], '.1f', 's')})")
+    return lines
 
 
 def simulate_units(turbo: bool = False) -> dict[str, str]:
@@ -207,7 +231,9 @@ def simulate_units(turbo: bool = False) -> dict[str, str]:
              "dissipated": "J", "work_to_load": "J", "residual": "J", "relative_residual": "1", "tolerance": "J",
              "tolerance_relative": "1", "wall_time": "s", "rhs_evaluations": "1", "input_evaluations": "1", "events": "1", "segments": "1",
              "onset_fraction": "1", "ratio_tol": "1", "bindup_fraction": "1", "flare_fraction": "1", "ramp_tol": "1",
-             "overlap_fraction": "1", "energy_tol": "1"} | CYCLE_UNITS | SHIFT_UNITS | DOWNSHIFT_UNITS
+             "overlap_fraction": "1", "energy_tol": "1", "peak": "degC", "peak_time": "s", "final": "degC",
+             "oil_temperature": "degC", "mass": "kg", "specific_heat": "J/(kg*K)", "conductance": "W/K",
+             "heat_capacity": "J/K", "time_constant": "s"} | CYCLE_UNITS | SHIFT_UNITS | DOWNSHIFT_UNITS
     if turbo:
         from ..engine.turbo_report import TURBO_UNITS
 
@@ -245,6 +271,7 @@ def report_dict(result: Result, qualities: list[ShiftQuality] | None = None) -> 
                        "energy_tol": ENERGY_TOL, "post_window_s": POST_WINDOW, "settle_fraction": SETTLE_FRACTION},
         "shifts": [_shift_dict(result, q) for q in qualities],
         "energy_balance": energy_balance(result),
+        "clutch_temperature": _clutch_temperatures(result),
         "stats": dict(result.stats or {}),
         "modes": [m.to_dict() for m in result.modes],
     })

@@ -116,7 +116,7 @@ and JSON (with the run's energy balance) and re-exports :func:`shift_report` and
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
@@ -238,6 +238,10 @@ class ShiftQuality:
     torque_request_max: float | None = None  # highest factor (> 1: an increase)
     torque_increase_duration: float | None = None  # s with the factor above 1
     torque_reduction_duration: float | None = None  # s with the factor below 1
+    # pack temperatures of the lumped thermal model (transgen.losses.thermal), element -> value
+    temperature_start: dict = field(default_factory=dict, hash=False)  # degC at t_start
+    temperature_peak: dict = field(default_factory=dict, hash=False)  # degC, t_start..dissipation_end
+    temperature_rise: dict = field(default_factory=dict, hash=False)  # K, peak - start
 
     def to_dict(self) -> dict:
         """JSON-ready (floats, NaN/inf as None)."""
@@ -259,7 +263,8 @@ SHIFT_UNITS = ({k: "s" for k in _S} | {k: "N*m" for k in _NM}
                   "peak_power": "W", "energy_total": "J", "accel_before": "m/s^2", "accel_after": "m/s^2",
                   "jerk_max": "m/s^3", "jerk_peak_to_peak": "m/s^3", "vdv": "m/s^1.75", "torque_overshoot": "%",
                   "lock_counts": "1", "unlock_counts": "1", "settle_fraction": "1", "torque_request_min": "1",
-                  "torque_request_max": "1"})
+                  "torque_request_max": "1", "temperature_start": "degC", "temperature_peak": "degC",
+                  "temperature_rise": "K"})
 """Units of the numeric fields of :class:`ShiftQuality` (``energy`` and ``peak_power``: per
 element) and of the report's time thresholds."""
 
@@ -676,4 +681,20 @@ def shift_report(result: Result, shifts: list[Shift] | None = None, input_link: 
     for s in shifts:
         nxt = [x for x in starts if x > float(s.t_start)]
         out_list.append(_analyse(result, s, inp, out, notes, nxt[0] if nxt else None, comfort))
-    return out_list
+    return _with_temperatures(result, out_list)
+
+
+def _with_temperatures(result: Result, qualities: list[ShiftQuality]) -> list[ShiftQuality]:
+    """Each shift with its pack temperatures (start, peak, rise) from the default packs."""
+    if not qualities:
+        return qualities
+    from transgen.losses.thermal import clutch_temperatures, shift_temperatures
+
+    thermal = clutch_temperatures(result)
+    out = []
+    for q in qualities:
+        temps = shift_temperatures(thermal, q.t_start, q.dissipation_end)
+        out.append(replace(q, temperature_start={e: v[0] for e, v in temps.items()},
+                           temperature_peak={e: v[1] for e, v in temps.items()},
+                           temperature_rise={e: v[2] for e, v in temps.items()}))
+    return out

@@ -159,6 +159,7 @@ class Constraints:
     max_duration: float | None = None
     max_energy: float | None = None
     no_worse_than: str | None = None
+    max_temperature: float | None = None  # degC: peak pack temperature of the shift (transgen.losses.thermal)
 
     def for_shift(self, hole_pct: float | None = None, energy: float | None = None) -> Constraints:
         """These constraints with the torque hole [%] and clutch energy [J] of one shift limited to
@@ -175,6 +176,7 @@ class Constraints:
         parts += [f"torque hole <= {self.max_hole_pct:g} %"] if self.max_hole_pct is not None else []
         parts += [f"duration <= {self.max_duration:g} s"] if self.max_duration is not None else []
         parts += [f"clutch energy <= {self.max_energy / 1e3:g} kJ"] if self.max_energy is not None else []
+        parts += [f"pack temperature <= {self.max_temperature:g} degC"] if self.max_temperature is not None else []
         parts += [f"torque hole and clutch energy of each shift <= {self.no_worse_than}'s"] if self.no_worse_than else []
         return ", ".join(parts)
 
@@ -575,7 +577,8 @@ def shift_metrics(result, oncoming: str, offgoing: str, t_start: float, name: st
             "hole_torque": float(q.torque_hole), "flare": float(q.flare_max_rpm), "bindup": bool(q.bindup),
             "bindup_torque": float(q.bindup_torque), "offgoing_torque": abs(float(q.offgoing_torque_before)),
             "chatter": bool(q.chatter), "locks": int(sum(q.lock_counts.values()) + sum(q.unlock_counts.values())),
-            "jerk": None if jerk is None else float(jerk)}
+            "jerk": None if jerk is None else float(jerk),
+            "temperature": max((float(v) for v in q.temperature_peak.values()), default=None)}
 
 
 def score(metrics: Mapping, reference: Mapping, objective: Objective, constraints: Constraints) -> tuple[float, dict, dict]:
@@ -599,6 +602,9 @@ def score(metrics: Mapping, reference: Mapping, objective: Objective, constraint
         violations["max hole"] = (metrics["hole"] - constraints.max_hole_pct) / max(constraints.max_hole_pct, 1.0)
     if constraints.max_energy is not None and metrics["energy"] > constraints.max_energy:
         violations["max energy"] = (metrics["energy"] - constraints.max_energy) / max(constraints.max_energy, 1.0)
+    limit = constraints.max_temperature
+    if limit is not None and (metrics.get("temperature") or -math.inf) > limit:
+        violations["max temperature"] = (metrics["temperature"] - limit) / max(abs(limit), 1.0)
     if constraints.max_duration is not None and (metrics["duration"] is None or metrics["duration"] > constraints.max_duration):
         violations["max duration"] = (((metrics["duration"] or 10 * constraints.max_duration) - constraints.max_duration)
                                       / constraints.max_duration)

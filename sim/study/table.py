@@ -73,6 +73,9 @@ def column_unit(column: str) -> str:
     shift = column_shift(column)
     if shift is not None and len(shift[1]) == 2 and shift[1][0] in ("energy", "peak_power"):
         return "J" if shift[1][0] == "energy" else "W"  # per-element dicts of a shift
+    if shift is not None and len(shift[1]) == 2 and shift[1][0] in ("temperature_start", "temperature_peak",
+                                                                     "temperature_rise"):
+        return "K" if shift[1][0] == "temperature_rise" else "degC"  # pack temperatures per element
     if shift is not None and len(shift[1]) == 2 and shift[1][0] in ("lock_counts", "unlock_counts"):
         return "1"
     name = parts[-1]
