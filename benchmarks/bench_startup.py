@@ -122,14 +122,14 @@ _IN_PROCESS = """
 import os, sys, time
 if sys.argv[1] == "cli":
     for v in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"): os.environ.setdefault(v, "1")
-from transgen.sim.scenario import load_scenario
+from transgen.sim.scenario.load import load_scenario
 out = []
 for k in range(6):
     s = load_scenario("ht740_improved")
     t, c = time.perf_counter(), time.process_time()
     s.run()
     out.append((time.perf_counter() - t, time.process_time() - c))
-from transgen.sim.jit import jit_enabled
+from transgen.sim.core.jit import jit_enabled
 print(out[0][0], out[0][1], sorted(w for w, _ in out[1:])[2], sorted(c for _, c in out[1:])[2], jit_enabled())
 """
 

@@ -8,7 +8,7 @@ import sys
 import time
 
 from . import aot
-from .jit import numba_clone
+from .core.jit import numba_clone
 
 __all__ = ["main"]
 

@@ -271,7 +271,7 @@ def test_mode_matrices_from_inertias_are_the_simulators():
     from transgen.kinematics import constraint_matrix
     from transgen.language import load_mechanism
     from transgen.library import bundled_path
-    from transgen.sim.transmission import Transmission
+    from transgen.sim.model.transmission import Transmission
 
     for name in ("coupled_clutches", "ht740", "zf8hp70", "a340e_like", "idle_hub3", "mb7g_tronic"):
         tr = Transmission(load_mechanism(bundled_path(name)))
@@ -296,7 +296,7 @@ def test_mode_matrices_from_inertias_are_the_simulators():
 def test_inertias_are_tunable(fmi, tmp_path, reference):
     """The FMU of the bundled coupled clutches, its inertias set by the importer, runs as
     ``transgen simulate --set mech.J2.J=...`` (ME and CS): the same events and speeds."""
-    from transgen.sim.scenario import load_scenario
+    from transgen.sim.scenario.load import load_scenario
 
     changes = {"J2": 2.5, "J4": 0.4}
     sc = load_scenario("coupled_clutches", overrides={f"mech.{k}.J": v for k, v in changes.items()})
@@ -345,7 +345,7 @@ def test_driveline_parameters_are_tunable(tmp_path, sources):
     scenario's keys) runs as ``transgen simulate --set`` of the same keys (co-simulation, 10 ms)."""
     from transgen.fmu.codegen import parameters
     from transgen.fmu.export import load_source
-    from transgen.sim.scenario import load_scenario
+    from transgen.sim.scenario.load import load_scenario
 
     src = sources(LAUNCH)
     names = [p[0] for p in parameters(load_source(src, "launch"))]
@@ -365,8 +365,8 @@ def test_periodic_signals_are_built_in(tmp_path):
     """A square-wave apply and a periodic-table torque are built into the FMU (every edge an event,
     also after the scenario's end: the FMU run twice as long as the scenario it was exported from
     matches ``transgen simulate`` of the longer run)."""
-    from transgen.sim.library import bundled_scenarios
-    from transgen.sim.scenario import load_scenario
+    from transgen.sim.scenario.library import bundled_scenarios
+    from transgen.sim.scenario.load import load_scenario
 
     text = bundled_scenarios()["coupled_clutches"].read_text()
     text = text.replace('apply = { type = "sine", offset = 0.0, amplitude = 1.0, frequency = 0.2 }',

@@ -11,8 +11,8 @@ import pytest
 from transgen.cli import main
 from transgen.errors import TransgenError
 from transgen.limits import LIMITS, LimitExceeded
-from transgen.sim.result_files import csv_mode_text, reads_as_text
-from transgen.sim.scenario import bundled_scenarios, load_scenario, parse_scenario
+from transgen.sim.analysis.result_files import csv_mode_text, reads_as_text
+from transgen.sim.scenario.load import bundled_scenarios, load_scenario, parse_scenario
 
 # ------------------------------------------------------------------------- fuzz regressions
 
@@ -85,7 +85,7 @@ def test_sweep_time_estimates_runs_times_the_costliest_run_and_force_passes_it()
 
 
 def test_the_run_cost_grows_with_the_simulated_time():
-    from transgen.sim.run_limits import SAMPLE_SECONDS, SIMULATED_SECOND_CPU, run_seconds
+    from transgen.sim.scenario.run_limits import SAMPLE_SECONDS, SIMULATED_SECOND_CPU, run_seconds
 
     scenario = load_scenario("simple2_upshift")
     short = run_seconds(scenario)

@@ -13,8 +13,8 @@ import scipy.io
 from transgen.cli import main
 from transgen.describe import modes_report
 from transgen.language import load_mechanism
-from transgen.sim.result_files import csv_mode_text, result_columns, write_result
-from transgen.sim.scenario import Scenario, load_scenario
+from transgen.sim.analysis.result_files import csv_mode_text, result_columns, write_result
+from transgen.sim.scenario.load import Scenario, load_scenario
 
 NAME = "simple2_upshift"
 
@@ -178,7 +178,7 @@ def test_every_signal_of_the_bundled_scenarios_is_a_matlab_name(name):
     """In the .mat file the columns are variables by their own names (R.w_L1), none renamed."""
     import re
 
-    from transgen.sim.scenario import output_signals
+    from transgen.sim.scenario.load import output_signals
 
     names = output_signals(load_scenario(name).powertrain)
     assert all(re.fullmatch(r"[A-Za-z][A-Za-z0-9_]{0,62}", n) for n in ["time", "mode", *names]), names

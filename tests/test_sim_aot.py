@@ -1,4 +1,4 @@
-"""The rule that picks the simulator's path (transgen.sim.jit.jit_enabled) and the kernels built
+"""The rule that picks the simulator's path (transgen.sim.core.jit.jit_enabled) and the kernels built
 ahead of time (transgen.sim.aot)."""
 import importlib.machinery
 import os
@@ -73,7 +73,7 @@ def test_a_second_builder_waits_for_the_first(tmp_path):
 def _built():
     """The built kernels (built here once where numba and a compiler are there: ~40 s CPU)."""
     pytest.importorskip("numba")
-    from transgen.sim.jit import numba_clone
+    from transgen.sim.core.jit import numba_clone
 
     module = aot.build(numba_clone, wait=True)
     if module is None:
@@ -83,8 +83,8 @@ def _built():
 
 def test_compiled_forms_come_from_the_built_module():
     module = _built()
-    from transgen.sim.kernel import rhs_kernel
-    from transgen.sim.signals import table_values
+    from transgen.sim.solve.kernel import rhs_kernel
+    from transgen.sim.core.signals import table_values
 
     assert jit.compiled(rhs_kernel) is module.rhs_kernel
     ts = np.linspace(-1.0, 3.0, 41)
@@ -97,9 +97,9 @@ def test_compiled_forms_come_from_the_built_module():
 
 def test_a_run_in_a_new_process_loads_the_built_kernels_without_numba():
     _built()
-    code = ("import sys\nfrom transgen.sim.scenario import load_scenario\n"
+    code = ("import sys\nfrom transgen.sim.scenario.load import load_scenario\n"
             "r = load_scenario('ht740_improved', {'simulation.t_end': 1.0}).run()\n"
-            "from transgen.sim.jit import compiled_loaded\n"
+            "from transgen.sim.core.jit import compiled_loaded\n"
             "print(r.success, compiled_loaded(), 'numba' in sys.modules)")
     env = {k: v for k, v in os.environ.items() if k != "TRANSGEN_JIT"}
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)

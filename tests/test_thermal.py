@@ -83,8 +83,8 @@ def test_pack_from_geometry_and_the_class_packs():
 
 def test_the_shift_report_gives_each_shifts_rise_and_the_run_its_peaks():
     from transgen.sim import load_scenario
-    from transgen.sim.report import report_dict, report_text
-    from transgen.sim.shift_quality import shift_report
+    from transgen.sim.analysis.report import report_dict, report_text
+    from transgen.sim.analysis.shift_quality import shift_report
 
     r = load_scenario("simple2_upshift").run()
     (q,) = shift_report(r)

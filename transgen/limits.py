@@ -67,7 +67,7 @@ _LIMITS = (
     Limit("sweep_time", "sweep --grid, --samples (the runs times the estimated CPU time of one)", 86_400,
           "CPU seconds", "max", True,
           "a sweep's runs at the estimated cost of the costliest checked run (its simulated time, periodic "
-          "inputs and output samples: transgen.sim.run_limits.run_seconds); beyond a day of CPU a slip "
+          "inputs and output samples: transgen.sim.scenario.run_limits.run_seconds); beyond a day of CPU a slip "
           "of the design, not a study, is the likelier cause"),
     Limit("grid_values", "sweep --grid KEY=LO:HI:N", 2_000_000, "values", "max", False,
           "the values of one key are made before the runs; more would not fit in memory"),

@@ -485,13 +485,13 @@ def _can_fork() -> bool:
 
 def _forking_pays() -> bool:
     """Whether workers forked from this process start with what they need: the compiled code is
-    loaded here (:func:`~transgen.sim.jit.compiled_loaded`), or the runs need none that takes time
+    loaded here (:func:`~transgen.sim.core.jit.compiled_loaded`), or the runs need none that takes time
     to load: the kernels built ahead of time are there (:func:`~transgen.sim.aot.kernels`: this
     process loads them in milliseconds with the imports, :func:`_preload`) or ``TRANSGEN_JIT=0``.
     Otherwise (numba would compile or load its cache) each spawned worker loads it in parallel,
     which a fork from this cold process would not save."""
     from transgen.sim import aot
-    from transgen.sim.jit import compiled_loaded
+    from transgen.sim.core.jit import compiled_loaded
 
     return compiled_loaded() or os.environ.get("TRANSGEN_JIT") == "0" or aot.kernels() is not None
 

@@ -781,9 +781,9 @@ def optimize(path, shifts: Sequence[str] | None = None, objective: Objective = O
     from .executors import SerialExecutor
 
     check_optimize(max_evaluations, population, force=True)  # the hard limits; the command line has --force
-    from transgen.sim.jit import expect_many_runs
+    from transgen.sim.core.jit import expect_many_runs
 
-    expect_many_runs()  # the candidates pay for the compiled kernels (transgen.sim.jit.jit_enabled)
+    expect_many_runs()  # the candidates pay for the compiled kernels (transgen.sim.core.jit.jit_enabled)
     executor = executor or SerialExecutor()
     with executor:  # one pool of workers (or Dask client) for all the generations
         return _optimize(path, shifts, objective, constraints, executor, seed, max_evaluations, population, progress,

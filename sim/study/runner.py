@@ -69,7 +69,7 @@ def scenario_path(scenario: str | Path) -> str:
     """The key the workers load the scenario by: the resolved path of the file (or of the bundled
     scenario) ``scenario`` names, which keys its text in :func:`transgen.sim.scenario_files`.
     Raises ScenarioError (with the closest bundled name) when there is none."""
-    from transgen.sim.scenario import scenario_path as named_file
+    from transgen.sim.scenario.load import scenario_path as named_file
 
     return str(named_file(scenario).resolve())
 
@@ -107,11 +107,11 @@ def validate_variants(path: str, variants: Sequence[Mapping], force: bool = Fals
     loads read. Raises :class:`~transgen.errors.ScenarioError` (``--set KEY: error: ...`` for a bad key
     or value, or a run over a limit of :mod:`transgen.limits`: ``force`` passes the forceable
     ones) at the first problem: before any run. ``costs``: a list that receives the estimated CPU
-    seconds of each variant loaded (:func:`~transgen.sim.run_limits.run_seconds`); ``budget``: called
+    seconds of each variant loaded (:func:`~transgen.sim.scenario.run_limits.run_seconds`); ``budget``: called
     with that list after each (a design over its time limit is refused at its first variant, not
     after loading them all)."""
     from transgen.sim import scenario_files
-    from transgen.sim.run_limits import check_run, run_seconds
+    from transgen.sim.scenario.run_limits import check_run, run_seconds
 
     def check(scenario):
         est = check_run(scenario, force)

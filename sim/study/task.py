@@ -8,8 +8,8 @@ same numbers. A failed run (a :class:`~transgen.errors.ScenarioError`, a
 row with ``success = False`` and its message.
 
 The scalars are found generically in the JSON of the reports: the energy balance
-(:func:`transgen.sim.report.energy_balance`) as ``energy.NAME``, every scalar of each shift's
-:meth:`~transgen.sim.shift_quality.ShiftQuality.to_dict` as ``shift.<shift>.NAME`` (the shift
+(:func:`transgen.sim.analysis.report.energy_balance`) as ``energy.NAME``, every scalar of each shift's
+:meth:`~transgen.sim.analysis.shift_quality.ShiftQuality.to_dict` as ``shift.<shift>.NAME`` (the shift
 by its name, ``shift.1-2.torque_hole``, a repeated one ``shift.2-3#2``: :func:`.table.shift_columns`;
 the per-element dicts as ``shift.1-2.energy.C4``), and where a turbodiesel runs the
 :class:`~transgen.sim.engine.turbo_report.TurboReport` as ``turbo.NAME``. Lists (notes) are left out.
@@ -22,9 +22,9 @@ from collections.abc import Mapping
 __all__ = ["run_variant", "run_task", "result_scalars", "flatten", "PRELOAD", "warm_up"]
 
 #: modules a worker needs, imported once when a local worker process starts (not at its first task)
-PRELOAD = ("transgen.sim.study.task", "transgen.sim.scenario", "transgen.sim.report", "transgen.sim.switching",
-           "transgen.sim.compliant", "transgen.sim.powertrain", "transgen.sim.engine.turbo_report",
-           "transgen.sim.ode_solvers")  # the integrator (scipy.integrate): else imported by the first run
+PRELOAD = ("transgen.sim.study.task", "transgen.sim.scenario", "transgen.sim.analysis.report", "transgen.sim.solve.switching",
+           "transgen.sim.solve.compliant", "transgen.sim.model.powertrain", "transgen.sim.engine.turbo_report",
+           "transgen.sim.solve.ode_solvers")  # the integrator (scipy.integrate): else imported by the first run
 
 #: fields of the turbo report that compare two runs (a sweep row is one run)
 _TURBO_COMPARISONS = ("comparison", "decoupled")
@@ -32,16 +32,16 @@ _TURBO_COMPARISONS = ("comparison", "decoupled")
 
 def warm_up() -> None:
     """Load the simulator's compiled code into this process (its kernels built ahead of time, or
-    built now after an install: :func:`~transgen.sim.jit.jit_enabled`) and import what a run
+    built now after an install: :func:`~transgen.sim.core.jit.jit_enabled`) and import what a run
     needs, with a 0.2-s run of a bundled scenario: a worker pays for it when it starts, not in its
     first task, as it pays for its imports (:data:`PRELOAD`). A failure here is left to the tasks
     to report."""
-    from transgen.sim.jit import expect_many_runs, jit_enabled
+    from transgen.sim.core.jit import expect_many_runs, jit_enabled
 
     expect_many_runs()  # a study's worker: its runs pay for compiled kernels (built here once if need be)
     if not jit_enabled():
         return
-    from transgen.sim.scenario import load_scenario
+    from transgen.sim.scenario.load import load_scenario
 
     try:
         load_scenario("ht740_improved", {"simulation.t_end": 0.2}).run()
@@ -65,8 +65,8 @@ def flatten(prefix: str, data: Mapping, out: dict | None = None) -> dict:
 def result_scalars(scenario, result) -> dict:
     """The scalars of a finished run: energy balance, shift report per shift (successful runs
     only: a stopped run has no complete shifts) and turbocharger figures."""
-    from transgen.sim.report import energy_balance, report_dict, shift_report
-    from transgen.sim.shift_quality import jsonable
+    from transgen.sim.analysis.report import energy_balance, report_dict, shift_report
+    from transgen.sim.analysis.shift_quality import jsonable
 
     row = flatten("energy", jsonable(energy_balance(result)))
     if result.success and len(result.time):
