@@ -78,8 +78,7 @@ def test_scenario_reference_uses_known_top_level_tables():
 
 
 def test_command_examples_parse_and_name_bundled_things():
-    from transgen.sim.scenario import bundled_scenarios
-
+    bundled_scenarios = _sim_module("bundled_scenarios", "load_scenario").bundled_scenarios
     parser = build_parser()
     block = next(b for b in _blocks(_page("guide/commands.md"), "console") if "transgen ratios mechanisms/ht740.mech" in b)
     for line in block.strip().splitlines():
