@@ -271,8 +271,9 @@ def _cycle_report(scenario, result):
     if driver is None or not len(result.time):
         return None
     from .cycle_report import cycle_report
+    from .fuel import fuel_of
 
-    return cycle_report(result, driver.trace)
+    return cycle_report(result, driver.trace, fuel=fuel_of(scenario.powertrain))
 
 
 def _with_model(scenario, model: str | None):
