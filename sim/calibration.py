@@ -50,7 +50,8 @@ from transgen.model import Mechanism
 from .schedule import ShiftTemplate
 
 __all__ = ["ShiftTiming", "UpshiftCalibration", "upshift_calibration", "synchronised_inertia",
-           "OFFGOING_MARGIN", "RELEASE_LEAD", "MAX_LEVEL"]
+           "OFFGOING_MARGIN", "RELEASE_LEAD", "MAX_LEVEL", "coast_downshift_calibration", "kickdown_calibration",
+           "KickdownCalibration", "SYNC_FILL", "FLARE_RAMP"]
 
 OFFGOING_MARGIN = 2.0
 """Offgoing static capacity over the torque it carries while the torque is handed over."""
@@ -182,8 +183,8 @@ def upshift_calibration(mech: Mechanism, source, target, oncoming: tuple[str, ..
     the end of the inertia phase ``torque_after`` [N*m] (None: ``input_torque``); see the module
     docstring."""
     t_in = max(float(input_torque), 1e-6)
-    step = source.ratio / target.ratio
-    dw = max(float(input_speed), 0.0) * (1.0 - 1.0 / step)
+    # the input's speed change at a fixed output speed (an upshift slows it, a downshift raises it)
+    dw = max(float(input_speed), 0.0) * abs(1.0 - target.ratio / source.ratio)
     j_eff = synchronised_inertia(mech, source.engaged, target.engaged, graph)
 
     def level(names, factors, torque, kind):
@@ -211,6 +212,88 @@ def upshift_calibration(mech: Mechanism, source, target, oncoming: tuple[str, ..
         offgoing_level=_round(off_level), offgoing_ramp=_round(timing.torque_phase * (1.0 - RELEASE_LEAD)))
     return UpshiftCalibration(source.name, target.name, t_in, float(input_speed), dw, j_eff, a_h, a_ip, off_level,
                               t_ip, template)
+
+
+SYNC_FILL = 0.02
+"""Apply level [-] of a kickdown's oncoming element while the input flares to synchronism."""
+FLARE_RAMP = 2.0
+"""A kickdown's offgoing release lasts this many times its inertia phase (nearly a constant level
+while the input flares; what is left is released at synchronism)."""
+
+
+def coast_downshift_calibration(mech: Mechanism, source, target, oncoming, offgoing, drag_torque: float,
+                                input_speed: float, timing: ShiftTiming = ShiftTiming(), graph=None
+                                ) -> UpshiftCalibration:
+    """A power-off (coast) downshift from ``source`` to ``target``: torque phase first, as an
+    upshift under drive is, with the input torque the engine's drag ``drag_torque`` [N*m, its
+    magnitude is used]. The statics are linear in the input torque, so the handover is the same
+    fraction of the oncoming's gear-B share as under drive; in the inertia phase the oncoming
+    element carries the drag and the torque that raises the input by ``w_in (r_B/r_A - 1)``
+    against ``J_eff`` in the class's inertia-phase time (:func:`upshift_calibration`). At the
+    low speeds of the throttle-0 downshift lines the converter's torque is near zero (the engine
+    idles), the handover level tiny and the ramp through it would take seconds: the oncoming ramp
+    reaches its inertia-phase level by ``t_tp + t_ip`` at the latest (the offgoing element,
+    carrying almost nothing, is let go at once: no bindup to speak of)."""
+    from dataclasses import replace
+
+    cal = upshift_calibration(mech, source, target, oncoming, offgoing, abs(float(drag_torque)), input_speed,
+                              timing, graph)
+    ramp = min(cal.template.ramp_time, _round(timing.torque_phase + timing.inertia_phase))
+    return replace(cal, template=replace(cal.template, ramp_time=ramp))
+
+
+@dataclass(frozen=True)
+class KickdownCalibration:
+    """The derived numbers of a power-on downshift (speed phase first) and its template: the
+    input torque ``input_torque`` [N*m] (mean over the flare), ``speed_change`` [rad/s],
+    ``inertia`` [kg*m^2] referred to the input, ``offgoing_level`` [-] of its dynamic capacity,
+    ``inertia_phase`` [s] (the target flare time)."""
+
+    source: str
+    target: str
+    input_torque: float
+    input_speed: float
+    speed_change: float
+    inertia: float
+    offgoing_level: float
+    inertia_phase: float
+    template: ShiftTemplate
+
+    def as_data(self) -> dict:
+        return {"from": self.source, "to": self.target, "input_torque": self.input_torque,
+                "input_speed": self.input_speed, "speed_change": self.speed_change, "inertia": self.inertia,
+                "offgoing_level": self.offgoing_level, "inertia_phase": self.inertia_phase,
+                "template": self.template.as_data()}
+
+
+def kickdown_calibration(mech: Mechanism, source, target, oncoming, offgoing, input_torque: float,
+                         input_speed: float, timing: ShiftTiming = ShiftTiming(), graph=None,
+                         torque_after: float | None = None) -> KickdownCalibration:
+    """A power-on downshift (kickdown) from ``source`` to ``target`` (speed phase first,
+    :mod:`.schedule`): the input must rise by ``dw = w_in (r_B/r_A - 1)`` against the inertia
+    ``J_eff`` (:func:`synchronised_inertia`) in the class's inertia-phase time ``t_ip``, so the
+    offgoing element, slipping, holds the rest of the input torque: its level is
+    ``|k_off^A| (T_in - J_eff dw / t_ip) / T_dyn`` (``T_in`` the mean of the turbine torque
+    before, ``input_torque``, and at synchronism, ``torque_after``), released linearly over
+    :data:`FLARE_RAMP` x ``t_ip`` (raised so that its mean over ``t_ip`` is that level). The
+    oncoming element fills at :data:`SYNC_FILL` and is applied at synchronism over the class's
+    ``final`` time. The jerk at the lock is the inertia torque ``J_eff dw / t_ip`` handed to the
+    output, so sizing the flare for ``t_ip`` (not as fast as the engine can) is what keeps it low."""
+    t_in = max(float(input_torque), 1e-6)
+    t_mean = 0.5 * (t_in + max(float(torque_after), 0.0)) if torque_after is not None else t_in
+    dw = max(float(input_speed), 0.0) * abs(target.ratio / source.ratio - 1.0)
+    j_eff = synchronised_inertia(mech, source.engaged, target.engaged, graph)
+    t_ip = timing.inertia_phase
+    held = max(t_mean - j_eff * dw / t_ip, 0.0)
+    ramp = FLARE_RAMP * t_ip
+    mean = 1.0 - t_ip / (2.0 * ramp)  # mean of the linear release over t_ip
+    levels = [abs(source.torque_factors.get(n, 0.0)) * held / _capacity(mech, n, "dynamic") / mean for n in offgoing]
+    off = min(max(levels, default=0.0), 1.0)
+    template = ShiftTemplate(
+        fill_time=timing.fill, fill_level=SYNC_FILL, ramp_time=_round(t_ip), ramp_end=_round(MAX_LEVEL),
+        hold_time=_round(t_ip), final_time=timing.final, offgoing_delay=0.0,
+        offgoing_level=_round(max(off, 1e-3)), offgoing_ramp=_round(ramp))
+    return KickdownCalibration(source.name, target.name, t_mean, float(input_speed), dw, j_eff, off, t_ip, template)
 
 
 def _round(x: float) -> float:
