@@ -276,8 +276,11 @@ def kickdown_calibration(mech: Mechanism, source, target, oncoming, offgoing, in
     ``|k_off^A| (T_in - J_eff dw / t_ip) / T_dyn`` (``T_in`` the mean of the turbine torque
     before, ``input_torque``, and at synchronism, ``torque_after``), released linearly over
     :data:`FLARE_RAMP` x ``t_ip`` (raised so that its mean over ``t_ip`` is that level). The
-    oncoming element fills at :data:`SYNC_FILL` and is applied at synchronism over the class's
-    ``final`` time. The jerk at the lock is the inertia torque ``J_eff dw / t_ip`` handed to the
+    oncoming element fills at :data:`SYNC_FILL` and is applied at synchronism (when its slip is
+    down to :data:`~.schedule.SYNC_FRACTION` of what it was, about ``SYNC_FRACTION t_ip`` before
+    synchronism at the flare's rate), ramping to full so that it reaches 1.2 x its static share
+    in gear B, ``|k_on^B| T_in / T_dyn``, by synchronism (at most over the class's ``final``
+    time): an element sized close to the torque needs a fast ramp or the input overshoots. The jerk at the lock is the inertia torque ``J_eff dw / t_ip`` handed to the
     output, so sizing the flare for ``t_ip`` (not as fast as the engine can) is what keeps it low."""
     t_in = max(float(input_torque), 1e-6)
     t_mean = 0.5 * (t_in + max(float(torque_after), 0.0)) if torque_after is not None else t_in
@@ -289,9 +292,16 @@ def kickdown_calibration(mech: Mechanism, source, target, oncoming, offgoing, in
     mean = 1.0 - t_ip / (2.0 * ramp)  # mean of the linear release over t_ip
     levels = [abs(source.torque_factors.get(n, 0.0)) * held / _capacity(mech, n, "dynamic") / mean for n in offgoing]
     off = min(max(levels, default=0.0), 1.0)
+    from .schedule import SYNC_FRACTION
+
+    share = max((abs(target.torque_factors.get(n, 0.0)) * t_mean / _capacity(mech, n, "dynamic") for n in oncoming),
+                default=0.0)
+    final = timing.final
+    if 1.2 * share > SYNC_FILL:
+        final = min(final, max((1.0 - SYNC_FILL) * SYNC_FRACTION * t_ip / (1.2 * share - SYNC_FILL), 0.02))
     template = ShiftTemplate(
         fill_time=timing.fill, fill_level=SYNC_FILL, ramp_time=_round(t_ip), ramp_end=_round(MAX_LEVEL),
-        hold_time=_round(t_ip), final_time=timing.final, offgoing_delay=0.0,
+        hold_time=_round(t_ip), final_time=_round(final), offgoing_delay=0.0,
         offgoing_level=_round(max(off, 1e-3)), offgoing_ramp=_round(ramp))
     return KickdownCalibration(source.name, target.name, t_mean, float(input_speed), dw, j_eff, off, t_ip, template)
 
