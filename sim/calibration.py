@@ -34,6 +34,11 @@ Where the inertia-phase level would exceed :data:`MAX_LEVEL`, the level is cappe
 phase lasts longer. Several oncoming (offgoing) elements of a double swap share one profile: the
 largest level of them. A one-way clutch needs no command; a dog clutch (no finite capacity)
 holds at any apply, so only its release time matters.
+
+Downshifts use the same pieces: :func:`coast_downshift_calibration` (power-off, torque phase
+first: the upshift method with the engine's drag as the input torque) and
+:func:`kickdown_calibration` (power-on, speed phase first: the slipping offgoing element holds
+what the flare does not need to raise ``J_eff`` by ``dw`` in ``t_ip``).
 """
 from __future__ import annotations
 
@@ -280,7 +285,8 @@ def kickdown_calibration(mech: Mechanism, source, target, oncoming, offgoing, in
     down to :data:`~.schedule.SYNC_FRACTION` of what it was, about ``SYNC_FRACTION t_ip`` before
     synchronism at the flare's rate), ramping to full so that it reaches 1.2 x its static share
     in gear B, ``|k_on^B| T_in / T_dyn``, by synchronism (at most over the class's ``final``
-    time): an element sized close to the torque needs a fast ramp or the input overshoots. The jerk at the lock is the inertia torque ``J_eff dw / t_ip`` handed to the
+    time): an element sized close to the torque needs a fast ramp or the input overshoots. The
+    jerk at the lock is the inertia torque ``J_eff dw / t_ip`` handed to the
     output, so sizing the flare for ``t_ip`` (not as fast as the engine can) is what keeps it low."""
     t_in = max(float(input_torque), 1e-6)
     t_mean = 0.5 * (t_in + max(float(torque_after), 0.0)) if torque_after is not None else t_in

@@ -29,8 +29,8 @@ uses these functions on it. Times in s, accelerations in m/s^2, jerk in m/s^3, V
   steady state (the weighting has no DC gain: a constant acceleration gives no weighted output).
 * **Filtered jerk** - the jerk as an accelerometer measurement gives it: the acceleration,
   resampled like the weighting's, through a 2nd-order Butterworth low-pass at
-  :data:`JERK_FILTER_HZ` (10 Hz) and differentiated (both exactly, in the frequency domain:
-  ``j_f = IFFT(j 2 pi f H_LP(f) A(f))``). Measured shift jerk is the derivative of a low-pass
+  :data:`JERK_FILTER_HZ` (10 Hz; exactly, in the frequency domain, like the weighting) and
+  differentiated by central differences on the 1 kHz grid. Measured shift jerk is the derivative of a low-pass
   filtered acceleration (SAE 2016-01-1681: a Butterworth low-pass on the vehicle's acceleration
   before differentiating); 10 Hz passes the driveline's shuffle modes (2-8 Hz) and the shift's
   own transient and removes what a model's instantaneous lock puts above them (the exact jerk,
@@ -186,7 +186,10 @@ def filtered_jerk(t: np.ndarray, a: np.ndarray, cutoff: float = JERK_FILTER_HZ, 
     s = 2j * math.pi * np.fft.rfftfreq(size, 1.0 / fs)
     wc = 2.0 * math.pi * cutoff
     h = wc ** 2 / (s ** 2 + math.sqrt(2.0) * wc * s + wc ** 2)
-    return grid, np.fft.irfft(np.fft.rfft(x - x[0], size) * h * s, size)[:n]
+    filtered = np.fft.irfft(np.fft.rfft(x - x[0], size) * h, size)[:n]
+    if n < 2:
+        return grid, np.zeros(n)
+    return grid, np.gradient(filtered, 1.0 / fs)  # central differences: the filter left no noise to amplify
 
 
 def vdv(t: np.ndarray, a: np.ndarray, t0: float, t1: float) -> float:

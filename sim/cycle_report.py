@@ -30,7 +30,8 @@ from .result import Result
 __all__ = ["CycleReport", "cycle_report", "cycle_text", "CYCLE_UNITS", "SHIFT_KINDS"]
 
 SHIFT_KINDS = ("upshift power-on", "upshift power-off", "downshift power-on", "downshift power-off")
-CYCLE_UNITS = {"energy": "J", "fuel": "kg", "fuel_volume": "L", "fuel_per_100km": "L/100 km", "distance": "m", "trace_distance": "m", "wall_time": "s", "t0": "s",
+CYCLE_UNITS = {"energy": "J", "fuel": "kg", "fuel_volume": "L", "fuel_per_100km": "L/100 km",
+               "distance": "m", "trace_distance": "m", "wall_time": "s", "t0": "s",
                "t1": "s", "outside_time": "s", "worst": "km/h", "worst_time": "s", "rms_error": "km/h",
                "max_error": "km/h", "inside": "1", "shifts": "1"}
 
