@@ -221,7 +221,8 @@ def _coast_templates(launch: Launch, mech: Mechanism) -> dict:
         on, off = gear_swap(table, b, a, oneway)
         w_in = _line(launch.downshift_rpm, k, 0.0) * high.ratio
         drag = _turbine_torque(launch, 0.0, w_in)
-        out[f"{b}-{a}"] = coast_downshift_calibration(mech, high, low, on, off, drag, w_in, timing).template
+        out[f"{b}-{a}"] = coast_downshift_calibration(mech, high, low, on, off, drag, w_in, timing,
+                                                      engine_inertia=launch.vehicle.J_engine).template
     return out
 
 
