@@ -18,12 +18,13 @@ import time
 from pathlib import Path
 
 from transgen import load_mechanism
-from transgen.sim.analysis.cycle_report import cycle_report, cycle_text
-from transgen.sim.control.driver import Driver
-from transgen.sim.derive.launch import derive_launch
-from transgen.sim.derive.maneuver import maneuver_scenario
-from transgen.sim.analysis.report import energy_balance
-from transgen.sim.scenario.load import load_scenario
+from transgen.sim.cycle_report import cycle_report, cycle_text
+from transgen.sim.driver import Driver
+from transgen.sim.fuel import fuel_of
+from transgen.sim.launch import derive_launch
+from transgen.sim.maneuver import maneuver_scenario
+from transgen.sim.report import energy_balance
+from transgen.sim.scenario import load_scenario
 
 
 def main(argv=None) -> int:
@@ -49,7 +50,7 @@ def main(argv=None) -> int:
     result = scenario.run()
     wall = time.perf_counter() - wall
     driver = next(c for c in scenario.powertrain.controllers if isinstance(c, Driver))
-    report = cycle_report(result, driver.trace)
+    report = cycle_report(result, driver.trace, fuel=fuel_of(scenario.powertrain))
     balance = energy_balance(result)
     if args.json:
         print(json.dumps({"success": result.success, "message": result.message, "wall_time": wall,

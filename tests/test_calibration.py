@@ -8,10 +8,11 @@ import math
 import pytest
 
 from transgen import load_mechanism
-from transgen.sim.derive.acceptance import FLARE_LIMIT_RPM, UpshiftVerdict, hole_limit, judge_upshift, launch_acceptance
-from transgen.sim.derive.calibration import handover, synchronised_inertia
-from transgen.sim.derive.driveline_class import DrivelineParts
-from transgen.sim.derive.launch import VEHICLES, derive_launch, launch_scenario, static_element_torques
+from transgen.sim.acceptance import FLARE_LIMIT_RPM, UpshiftVerdict, hole_limit, judge_upshift, launch_acceptance
+from transgen.sim.calibration import (FLARE_RAMP, SYNC_FILL, ShiftTiming, coast_downshift_calibration, handover,
+                                      kickdown_calibration, synchronised_inertia, upshift_calibration)
+from transgen.sim.driveline_class import DrivelineParts
+from transgen.sim.launch import VEHICLES, derive_launch, launch_scenario, static_element_torques
 
 
 def test_synchronised_inertia_of_the_two_speed_is_its_input_inertia():
@@ -34,6 +35,43 @@ def test_the_handover_at_rest_is_the_statics_of_the_two_gears(name):
             assert lam == pytest.approx(1.0, rel=1e-9), (name, s)
         for e, t in before.items():
             assert t == pytest.approx(100.0 * static_element_torques(mech, a.engaged)[e], rel=1e-9)
+
+
+def test_a_kickdown_holds_what_the_flare_does_not_need():
+    """simple2 2-1 (the input's 2.9 kg*m^2 raised by w_in (r1/r2 - 1) in t_ip): the offgoing C2,
+    slipping, holds T_in - J dw / t_ip through its static share; its release over FLARE_RAMP t_ip
+    has that mean over t_ip."""
+    launch = derive_launch(load_mechanism("simple2"), "car")
+    mech, first, second = launch.mechanism, launch.gear("1"), launch.gear("2")
+    timing = ShiftTiming(inertia_phase=0.4)
+    w_in, t_in = 20.0, 300.0
+    cal = kickdown_calibration(mech, second, first, ("C1",), ("C2",), t_in, w_in, timing)
+    dw = w_in * (first.ratio / second.ratio - 1.0)
+    assert cal.speed_change == pytest.approx(dw) and cal.inertia == pytest.approx(2.9)
+    held = t_in - 2.9 * dw / 0.4
+    mean = 1.0 - 0.4 / (2 * FLARE_RAMP * 0.4)
+    level = abs(second.torque_factors["C2"]) * held / mech.element("C2").dynamic / mean
+    assert 0.0 < level < 1.0 and cal.offgoing_level == pytest.approx(level, rel=1e-9)
+    tpl = cal.template
+    assert tpl.fill_level == SYNC_FILL and tpl.offgoing_delay == 0.0 and tpl.offgoing_ramp == pytest.approx(0.8)
+    # more inertia to raise, less to hold; a flare the engine cannot make releases at once
+    assert kickdown_calibration(mech, second, first, ("C1",), ("C2",), t_in, 2 * w_in, timing).offgoing_level < level
+    assert kickdown_calibration(mech, second, first, ("C1",), ("C2",), 10.0, w_in, timing).offgoing_level == 0.0
+
+
+def test_a_coast_downshift_is_sized_as_an_upshift_with_the_drag():
+    launch = derive_launch(load_mechanism("simple2"), "car")
+    mech, first, second = launch.mechanism, launch.gear("1"), launch.gear("2")
+    timing = ShiftTiming()
+    cal = coast_downshift_calibration(mech, second, first, ("C1",), ("C2",), -40.0, 150.0, timing)
+    own = upshift_calibration(mech, second, first, ("C1",), ("C2",), 40.0, 150.0, timing)
+    # the input rises by w_in (r1/r2 - 1); the levels are the upshift method's with |drag|
+    assert cal.speed_change == pytest.approx(150.0 * (first.ratio / second.ratio - 1.0))
+    assert cal.inertia_level == own.inertia_level and cal.handover_level == own.handover_level
+    assert cal.template.ramp_time <= timing.torque_phase
+    # almost no drag (the engine idles): the ramp still reaches its level in t_tp
+    tiny = coast_downshift_calibration(mech, second, first, ("C1",), ("C2",), 0.0, 150.0, timing)
+    assert tiny.template.ramp_time == pytest.approx(timing.torque_phase)
 
 
 def test_the_scenario_holds_each_upshifts_derived_template():

@@ -131,6 +131,19 @@ def test_no_worse_than_limits_each_shift_by_the_reference_calibration(tmp_path, 
     assert "limits (no worse than simple2_upshift): torque hole <=" in out.read_text()
 
 
+def test_max_jerk_limits_each_shift_where_the_scenario_measures_it():
+    ref = {"success": True, "completed": True, "energy": 1000.0, "duration": 0.5, "hole": 40.0, "flare": 0.0,
+           "bindup": False, "bindup_torque": 0.0, "offgoing_torque": 100.0, "chatter": False, "locks": 1, "jerk": 30.0}
+    limit = Constraints(max_jerk=10.0)
+    s, _, violations = score({**ref, "jerk": 15.0}, ref, Objective({"energy": 1.0}), limit)
+    assert s > 1e3 and violations == {"max jerk": pytest.approx(0.5)}
+    s, _, violations = score({**ref, "jerk": 9.0, "energy": 600.0}, ref, Objective({"energy": 1.0}), limit)
+    assert s == pytest.approx(0.6) and not violations
+    s, _, violations = score({**ref, "jerk": None}, {**ref, "jerk": None}, Objective({"energy": 1.0}), limit)
+    assert not violations                                  # no vehicle: nothing to limit
+    assert "jerk <= 10 m/s^3" in limit.text()
+
+
 def test_trade_off_keeps_the_feasible_candidates_no_other_beats_on_both():
     rows = [{"hole": 20.0, "energy": 5.0, "feasible": True}, {"hole": 10.0, "energy": 9.0, "feasible": True},
             {"hole": 15.0, "energy": 9.5, "feasible": True},  # beaten on both by 10 % / 9 kJ
@@ -216,6 +229,7 @@ def test_infeasible_constraints_name_the_binding_one(tmp_path, capsys):
     (["--evaluations", "1"], "--evaluations: error"),
     (["--seed", "-1"], "--seed: error"),
     (["--max-energy", "0"], "--max-energy: error"),
+    (["--max-jerk", "-1"], "--max-jerk: error"),
     (["--no-worse-than", "no_such_scenario"], "no such scenario file"),
     (["--no-worse-than", "zf3hp22_manual_first_coast"], "--no-worse-than zf3hp22_manual_first_coast: error: its run "
                                                         "has no shift 1-2 to compare with"),

@@ -116,3 +116,22 @@ def test_vdv_scales_with_amplitude_and_is_shift_invariant(amplitude, f, phase):
     tw, aw = weighted(t, a, "Wd")
     _, aw2 = weighted(t, -amplitude * a, "Wd")
     assert vdv(tw, aw2, 0.5, 2.0) == pytest.approx(amplitude * vdv(tw, aw, 0.5, 2.0), rel=1e-9)
+
+
+def test_filtered_jerk_is_the_derivative_of_the_10_hz_low_pass():
+    from transgen.sim.comfort import JERK_FILTER_HZ, filtered_jerk
+
+    t = np.linspace(0.0, 4.0, 4001)
+    # a constant jerk of 3 m/s^3 (a ramp of acceleration): the filter passes it once settled
+    tg, j = filtered_jerk(t, 3.0 * t)
+    late = tg > 0.5
+    assert np.allclose(j[late & (tg < 3.9)], 3.0, rtol=1e-3)
+    # a 2 Hz sine: jerk amplitude 2 pi f A |H(2 Hz)| (2nd-order Butterworth at 10 Hz)
+    f, amp = 2.0, 0.5
+    tg, j = filtered_jerk(t, amp * np.sin(2 * np.pi * f * t))
+    gain = 1.0 / np.sqrt(1.0 + (f / JERK_FILTER_HZ) ** 4)
+    assert np.max(np.abs(j[(tg > 1.0) & (tg < 3.9)])) == pytest.approx(2 * np.pi * f * amp * gain, rel=2e-3)
+    # a 100 Hz ripple on top is cut ~100 times (the exact jerk would show 2 pi 100 x 0.05 = 31 m/s^3)
+    tg, j2 = filtered_jerk(t, amp * np.sin(2 * np.pi * f * t) + 0.05 * np.sin(2 * np.pi * 100.0 * t))
+    ripple = np.max(np.abs((j2 - j)[(tg > 1.0) & (tg < 3.9)]))
+    assert ripple < 0.5

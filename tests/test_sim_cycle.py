@@ -11,13 +11,14 @@ import pytest
 from transgen import load_mechanism
 from transgen.cli import main
 from transgen.errors import ScenarioError
-from transgen.sim.analysis.cycle_report import SHIFT_KINDS, cycle_report
-from transgen.sim.control.cycles import SpeedTrace, band, bundled_cycles, load_trace, tracking
-from transgen.sim.control.driver import Driver
-from transgen.sim.derive.launch import derive_launch
-from transgen.sim.derive.maneuver import maneuver_scenario
-from transgen.sim.analysis.report import energy_balance
-from transgen.sim.scenario.load import parse_scenario
+from transgen.sim.cycle_report import SHIFT_KINDS, cycle_report
+from transgen.sim.cycles import SpeedTrace, band, bundled_cycles, load_trace, tracking
+from transgen.sim.driver import Driver
+from transgen.sim.fuel import fuel_of
+from transgen.sim.launch import derive_launch
+from transgen.sim.maneuver import maneuver_scenario
+from transgen.sim.report import energy_balance
+from transgen.sim.scenario import parse_scenario
 
 
 def test_bundled_traces_match_the_regulations():
@@ -87,7 +88,19 @@ def test_the_driver_follows_the_wltc_start_inside_the_tolerance(wltc_start):
     assert e["engine"] > e["wheels_positive"] + e["clutches"]            # the losses come out of the engine's work
     stand = (result.time > 1.0) & (result.time < 10.4)   # the trace stands until 11 s (the driver sees 0.5 s ahead)
     assert np.max(result.signals["vehicle_speed"][stand]) < 0.1 / 3.6     # held by the brakes
-    assert c.fuel is None                                                # an engine torque map has no fuel map
+    # the car class's fuel map: the Willans-line estimate over its torque map (transgen.sim.fuel)
+    fuel = fuel_of(scenario.powertrain)
+    assert fuel is not None and fuel[1] == "Willans-line estimate"
+    c = cycle_report(result, driver.trace, fuel=fuel)
+    sig = result.signals
+    engine = next(x for x in scenario.powertrain.components if getattr(x, "fuel", None) is not None).engine
+    t0 = np.interp(sig["omega_engine"], engine.speeds, engine.torque[0])
+    own = np.where(sig["throttle"] > 1e-9, np.maximum(sig["T_engine"] - t0, 0.0) * sig["omega_engine"], 0.0)
+    assert c.fuel == pytest.approx(np.trapezoid(own, result.time) / (0.38 * 42.7e6), rel=1e-9)
+    assert c.fuel_volume == pytest.approx(1000 * c.fuel / 745.0)
+    assert 4.0 < c.fuel_per_100km < 20.0                               # a 1700 kg petrol car in town
+    # brake efficiency of the engine over the run: below the Willans slope, above zero
+    assert 0.05 < e["engine"] / (c.fuel * 42.7e6) < 0.38
     brake = result.signals["brake_torque"]
     assert np.all(brake >= 0) and np.all(result.signals["throttle"] <= 1.0)
 
@@ -110,4 +123,5 @@ def test_cli_cycle_scenario_and_json_report(tmp_path, capsys):
     assert main(["simulate", str(out), "--set", "simulation.t_end=25", "--json", "--quiet"]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["cycle"]["trace"] == "ftp75" and doc["cycle"]["tracking"]["inside"] == 1.0
-    assert doc["units"]["fuel"] == "kg"
+    assert doc["units"]["fuel"] == "kg" and doc["units"]["fuel_per_100km"] == "L/100 km"
+    assert doc["cycle"]["fuel"] > 0 and doc["cycle"]["fuel_source"] == "Willans-line estimate"

@@ -12,8 +12,10 @@ For a run with a :class:`~.driver.Driver` (``scenario new --maneuver cycle``):
   gearbox, engine braking), the wheel brakes (``P_brake``), the road load (``road_torque *
   omega_v``), the shift elements (each ``P_<element>``, their sum ``clutches``) and the torque
   converter (``T_pump * omega_engine - T_in * w_input``);
-* fuel [kg] where the engine gives a fuel flow (the turbodiesel's ``m_dot_fuel``), else None
-  (an engine torque map has no fuel map);
+* fuel [kg] where the engine gives a fuel flow (``m_dot_fuel``: the turbodiesel's, or an engine
+  torque map's with ``[input] fuel_map``, :mod:`.fuel`), else None; with the fuel's density
+  (:func:`.fuel.fuel_of`) its volume [L] and the consumption [L/100 km] over the distance driven,
+  and ``fuel_source`` says where the flow comes from (a measured map or the Willans estimate);
 * the distance [m] driven and the trace's, and the run's wall time [s].
 """
 from __future__ import annotations
@@ -28,7 +30,8 @@ from ..core.result import Result
 __all__ = ["CycleReport", "cycle_report", "cycle_text", "CYCLE_UNITS", "SHIFT_KINDS"]
 
 SHIFT_KINDS = ("upshift power-on", "upshift power-off", "downshift power-on", "downshift power-off")
-CYCLE_UNITS = {"energy": "J", "fuel": "kg", "distance": "m", "trace_distance": "m", "wall_time": "s", "t0": "s",
+CYCLE_UNITS = {"energy": "J", "fuel": "kg", "fuel_volume": "L", "fuel_per_100km": "L/100 km",
+               "distance": "m", "trace_distance": "m", "wall_time": "s", "t0": "s",
                "t1": "s", "outside_time": "s", "worst": "km/h", "worst_time": "s", "rms_error": "km/h",
                "max_error": "km/h", "inside": "1", "shifts": "1"}
 
@@ -46,6 +49,9 @@ class CycleReport:
     distance: float
     trace_distance: float
     wall_time: float | None
+    fuel_volume: float | None = None
+    fuel_per_100km: float | None = None
+    fuel_source: str | None = None
 
     def to_dict(self) -> dict:
         from .shift_quality import jsonable
@@ -72,8 +78,10 @@ def shift_counts(result: Result) -> dict:
     return counts
 
 
-def cycle_report(result: Result, trace: SpeedTrace, input_link: str | None = None) -> CycleReport:
-    """The :class:`CycleReport` of ``result`` following ``trace``."""
+def cycle_report(result: Result, trace: SpeedTrace, input_link: str | None = None,
+                 fuel: tuple[float, str] | None = None) -> CycleReport:
+    """The :class:`CycleReport` of ``result`` following ``trace``; ``fuel``: the fuel's density
+    [kg/m^3] and the source of its flow (:func:`.fuel.fuel_of`), for the volume."""
     t, sig = result.time, result.signals
     v = sig["vehicle_speed"]
     track = tracking(trace, t, v)
@@ -93,13 +101,20 @@ def cycle_report(result: Result, trace: SpeedTrace, input_link: str | None = Non
     link = input_link or (result.meta or {}).get("input_link")
     if {"T_pump", "omega_engine", "T_in"} <= set(sig) and link and f"w_{link}" in sig:
         energy["converter"] = _integral(t, sig["T_pump"] * sig["omega_engine"] - sig["T_in"] * sig[f"w_{link}"])
+    fuel_info = fuel
     fuel = _integral(t, sig["m_dot_fuel"]) if "m_dot_fuel" in sig else None
     counts = shift_counts(result)
     t0, t1 = float(t[0]), float(t[-1])
     inside = (np.asarray(trace.times) >= t0) & (np.asarray(trace.times) <= t1)
     trace_distance = float(np.trapezoid(np.asarray(trace.speeds)[inside], np.asarray(trace.times)[inside]))
-    return CycleReport(trace.name, track, counts, sum(counts.values()), energy, fuel, _integral(t, v), trace_distance,
-                       (result.stats or {}).get("wall_time"))
+    distance = _integral(t, v)
+    volume = per_100km = source = None
+    if fuel is not None and fuel_info is not None:
+        density, source = fuel_info
+        volume = 1000.0 * fuel / density
+        per_100km = volume / (distance / 1e5) if distance > 0 else None
+    return CycleReport(trace.name, track, counts, sum(counts.values()), energy, fuel, distance, trace_distance,
+                       (result.stats or {}).get("wall_time"), volume, per_100km, source)
 
 
 def cycle_text(c: CycleReport) -> str:
@@ -115,8 +130,17 @@ def cycle_text(c: CycleReport) -> str:
              "  energy [kJ]"]
     for k, x in c.energy.items():
         lines.append(f"    {k:<30}{x / 1000:>12.1f}")
-    lines.append("  fuel                             " + (f"{c.fuel:.4f} kg" if c.fuel is not None else
-                                                          "- (no fuel map: an engine torque map)"))
+    if c.fuel is None:
+        text = "- (no fuel map: an engine torque map without [input] fuel_map)"
+    else:
+        text = f"{c.fuel:.4f} kg"
+        if c.fuel_volume is not None:
+            text += f", {c.fuel_volume:.3f} L"
+        if c.fuel_per_100km is not None:
+            text += f", {c.fuel_per_100km:.2f} L/100 km"
+        if c.fuel_source:
+            text += f" ({c.fuel_source})"
+    lines.append("  fuel                             " + text)
     if c.wall_time is not None:
         lines.append(f"  run time                         {c.wall_time:.1f} s wall for {tk.t1 - tk.t0:.0f} s simulated")
     return "\n".join(lines)

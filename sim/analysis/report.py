@@ -132,7 +132,8 @@ def _comfort_rows(q: ShiftQuality) -> list[tuple[str, str]]:
         rows = [("vehicle acceleration", f"{_f(q.accel_before, '.3f')} m/s^2 before -> {_f(q.accel_after, '.3f')} "
                                          f"m/s^2 after (mean to {q.window_end:.3f} s)"),
                 ("jerk", f"max |jerk| {_f(q.jerk_max, '.2f')} m/s^3 at {_f(q.jerk_max_time)} s, peak-to-peak "
-                         f"{_f(q.jerk_peak_to_peak, '.2f')} m/s^3 ({window})"),
+                         f"{_f(q.jerk_peak_to_peak, '.2f')} m/s^3 ({window}); filtered (10 Hz low-pass) "
+                         f"max {_f(q.jerk_filtered_max, '.2f')} m/s^3"),
                 ("vibration dose value", f"{q.vdv:.4f} m/s^1.75 ("
                                          + ("unweighted" if q.vdv_weighting == "none" else f"ISO 2631-1 {q.vdv_weighting}")
                                          + f", {window})")]

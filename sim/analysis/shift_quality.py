@@ -87,8 +87,10 @@ Comfort figures (:mod:`transgen.sim.analysis.comfort` has the arithmetic):
   (with the output link's acceleration from the transmission; both sides of an event sampled),
   so the figures do not depend on the output sampling; a result without it has the acceleration
   differenced between unique samples instead (repeated time stamps at events: the value after
-  the event), resolved only at the output sampling. ``jerk_max`` = max ``|jerk|`` in the window (at
-  ``jerk_max_time``), ``jerk_peak_to_peak`` = max - min;
+  the event), resolved only at the output sampling. ``jerk_max`` = max |jerk| in the window (at
+  ``jerk_max_time``), ``jerk_peak_to_peak`` = max - min; ``jerk_filtered_max`` = max |jerk| of
+  the acceleration low-pass filtered at 10 Hz first, as a measurement gives it
+  (:func:`~.comfort.filtered_jerk`: what published shift-jerk figures are comparable with);
 * vibration dose value ``vdv`` = (integral of a_w^4 dt over the window)^(1/4) [m/s^1.75] of the
   acceleration weighted with ``vdv_weighting``: ISO 2631-1 **Wd** by default (the weighting of
   fore-aft, x-axis vibration of a seated person: the vehicle's longitudinal acceleration), ``Wk``
@@ -120,8 +122,8 @@ from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
-from ..core.result import Result
-from .comfort import check_weighting, jerk, settling_time, vdv, weighted
+from .result import Result
+from .comfort import check_weighting, filtered_jerk, jerk, settling_time, vdv, weighted
 from .samples import duration_above, integrate, value_at, window
 from .shifts import APPLY_ZERO, Shift, infer_shifts, lock_time, lock_times, shift_name
 
@@ -219,6 +221,7 @@ class ShiftQuality:
     jerk_max: float | None  # m/s^3, max |jerk| in the window
     jerk_max_time: float | None
     jerk_peak_to_peak: float | None  # m/s^3, max jerk - min jerk in the window
+    jerk_filtered_max: float | None  # m/s^3, max |jerk| of the 10 Hz low-pass filtered acceleration
     vdv: float | None  # m/s^1.75, vibration dose value of the weighted acceleration over the window
     vdv_weighting: str  # "Wd" (ISO 2631-1, fore-aft), "Wk" (ISO 2631-1, vertical) or "none"
     output_torque_final: float | None  # N*m, mean over the last PRE_WINDOW of the window
@@ -261,7 +264,7 @@ SHIFT_UNITS = ({k: "s" for k in _S} | {k: "N*m" for k in _NM}
                   "flare_max": "rad/s", "flare_max_rpm": "rpm", "oncoming_apply_final": "1",
                   "offgoing_energy_share": "%", "offgoing_energy_after_lock": "J", "energy": "J",
                   "peak_power": "W", "energy_total": "J", "accel_before": "m/s^2", "accel_after": "m/s^2",
-                  "jerk_max": "m/s^3", "jerk_peak_to_peak": "m/s^3", "vdv": "m/s^1.75", "torque_overshoot": "%",
+                  "jerk_max": "m/s^3", "jerk_peak_to_peak": "m/s^3", "jerk_filtered_max": "m/s^3", "vdv": "m/s^1.75", "torque_overshoot": "%",
                   "lock_counts": "1", "unlock_counts": "1", "settle_fraction": "1", "torque_request_min": "1",
                   "torque_request_max": "1", "temperature_start": "degC", "temperature_peak": "degC",
                   "temperature_rise": "K"})
@@ -359,7 +362,8 @@ def _comfort_signals(result: Result, weighting: str) -> dict | None:
     else:  # a result without it (e.g. read from a file): differenced
         tj, j = jerk(result.time, a)
     tw, aw = weighted(result.time, a, weighting)
-    return {"a": a, "tj": tj, "j": j, "tw": tw, "aw": aw, "weighting": weighting}
+    tf, jf = filtered_jerk(result.time, a)
+    return {"a": a, "tj": tj, "j": j, "tw": tw, "aw": aw, "tf": tf, "jf": jf, "weighting": weighting}
 
 
 def _comfort_figures(result: Result, c: dict | None, ts: float, t_end: float | None, t_win: float,
@@ -367,7 +371,7 @@ def _comfort_figures(result: Result, c: dict | None, ts: float, t_end: float | N
     """Acceleration, jerk, VDV, overshoot and settling of one shift (see the module doc)."""
     t, T_out = result.time, result.signals["T_out"]
     out = dict(accel_before=None, accel_after=None, jerk_max=None, jerk_max_time=None, jerk_peak_to_peak=None,
-               vdv=None, vdv_weighting=c["weighting"] if c else "none", output_torque_final=None,
+               jerk_filtered_max=None, vdv=None, vdv_weighting=c["weighting"] if c else "none", output_torque_final=None,
                torque_overshoot=None, settling_time=None)
     if c is None:
         notes.append("no vehicle in the run (no vehicle_accel signal): no acceleration, jerk or VDV")
@@ -384,6 +388,9 @@ def _comfort_figures(result: Result, c: dict | None, ts: float, t_end: float | N
             k = int(np.argmax(np.abs(j)))
             out.update(jerk_max=float(abs(j[k])), jerk_max_time=float(c["tj"][jw][k]),
                        jerk_peak_to_peak=float(np.max(j) - np.min(j)))
+        fw = (c["tf"] >= ts) & (c["tf"] <= t_win)
+        if np.any(fw):
+            out["jerk_filtered_max"] = float(np.max(np.abs(c["jf"][fw])))
         out["vdv"] = vdv(c["tw"], c["aw"], ts, t_win)
     if t_end is not None and t_win - t_end > PRE_WINDOW:
         final = integrate(t, T_out, t_win - PRE_WINDOW, t_win) / PRE_WINDOW

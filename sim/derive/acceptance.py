@@ -45,7 +45,8 @@ def hole_limit(step: float) -> float:
 class UpshiftVerdict:
     """One upshift judged: ``bindup`` [N*m] the peak reversed offgoing torque when the report flags
     bindup (0 otherwise), ``flare`` [rpm], ``hole`` and ``limit`` [%], ``jerk`` [m/s^3] (largest
-    ``|jerk|`` in the comfort window, None without a vehicle), ``completed``: the oncoming locked."""
+    |jerk| in the comfort window, None without a vehicle; ``jerk_filtered``: the same of the 10 Hz
+    low-pass filtered acceleration), ``completed``: the oncoming locked."""
 
     name: str
     step: float
@@ -55,6 +56,7 @@ class UpshiftVerdict:
     limit: float
     jerk: float | None
     completed: bool
+    jerk_filtered: float | None = None
 
     @property
     def acceptable(self) -> bool:
@@ -72,11 +74,13 @@ def judge_upshift(name: str, step: float, qualities) -> UpshiftVerdict:
         return UpshiftVerdict(name, step, 0.0, 0.0, math.inf, hole_limit(step), None, False)
     holes = [q.torque_hole_pct if q.torque_hole_pct is not None else math.inf for q in qs]
     jerks = [q.jerk_max for q in qs if q.jerk_max is not None]
+    filtered = [q.jerk_filtered_max for q in qs if getattr(q, "jerk_filtered_max", None) is not None]
     return UpshiftVerdict(
         name, step,
         bindup=max((q.bindup_torque for q in qs if q.bindup), default=0.0),
         flare=max(q.flare_max_rpm for q in qs), hole=max(holes), limit=hole_limit(step),
-        jerk=max(jerks) if jerks else None, completed=all(q.completed for q in qs))
+        jerk=max(jerks) if jerks else None, completed=all(q.completed for q in qs),
+        jerk_filtered=max(filtered) if filtered else None)
 
 
 def launch_acceptance(mech, vehicle: str = "car", mechanism_ref: str | None = None):

@@ -34,6 +34,11 @@ Where the inertia-phase level would exceed :data:`MAX_LEVEL`, the level is cappe
 phase lasts longer. Several oncoming (offgoing) elements of a double swap share one profile: the
 largest level of them. A one-way clutch needs no command; a dog clutch (no finite capacity)
 holds at any apply, so only its release time matters.
+
+Downshifts use the same pieces: :func:`coast_downshift_calibration` (power-off, torque phase
+first: the upshift method with the engine's drag as the input torque) and
+:func:`kickdown_calibration` (power-on, speed phase first: the slipping offgoing element holds
+what the flare does not need to raise ``J_eff`` by ``dw`` in ``t_ip``).
 """
 from __future__ import annotations
 
@@ -50,7 +55,8 @@ from transgen.model import Mechanism
 from ..control.schedule import ShiftTemplate
 
 __all__ = ["ShiftTiming", "UpshiftCalibration", "upshift_calibration", "synchronised_inertia",
-           "OFFGOING_MARGIN", "RELEASE_LEAD", "MAX_LEVEL"]
+           "OFFGOING_MARGIN", "RELEASE_LEAD", "MAX_LEVEL", "coast_downshift_calibration", "kickdown_calibration",
+           "KickdownCalibration", "SYNC_FILL", "FLARE_RAMP"]
 
 OFFGOING_MARGIN = 2.0
 """Offgoing static capacity over the torque it carries while the torque is handed over."""
@@ -173,18 +179,20 @@ def _capacity(mech: Mechanism, name: str, kind: str) -> float:
 
 def upshift_calibration(mech: Mechanism, source, target, oncoming: tuple[str, ...], offgoing: tuple[str, ...],
                         input_torque: float, input_speed: float, timing: ShiftTiming = ShiftTiming(),
-                        graph=None, output_accel: float = 0.0, torque_after: float | None = None) -> UpshiftCalibration:
-    """The calibration of the upshift from ``source`` to ``target`` (:class:`~transgen.sim.derive.launch.ForwardGear`:
+                        graph=None, output_accel: float = 0.0, torque_after: float | None = None,
+                        extra_inertia: float = 0.0) -> UpshiftCalibration:
+    """The calibration of the upshift from ``source`` to ``target`` (:class:`~transgen.sim.launch.ForwardGear`:
     ratio, engaged elements, static torque factors) with the commanded ``oncoming`` and
     ``offgoing`` elements, at the expected input torque ``input_torque`` [N*m] and input speed
     ``input_speed`` [rad/s] at the shift command, the output link's acceleration there
     ``output_accel`` [rad/s^2] (the handover, :func:`handover`) and the input torque expected at
-    the end of the inertia phase ``torque_after`` [N*m] (None: ``input_torque``); see the module
-    docstring."""
+    the end of the inertia phase ``torque_after`` [N*m] (None: ``input_torque``) and an inertia
+    ``extra_inertia`` [kg*m^2] outside the gearbox that the input's speed change moves too (0 for
+    an upshift: the converter leaves the engine at its speed); see the module docstring."""
     t_in = max(float(input_torque), 1e-6)
-    step = source.ratio / target.ratio
-    dw = max(float(input_speed), 0.0) * (1.0 - 1.0 / step)
-    j_eff = synchronised_inertia(mech, source.engaged, target.engaged, graph)
+    # the input's speed change at a fixed output speed (an upshift slows it, a downshift raises it)
+    dw = max(float(input_speed), 0.0) * abs(1.0 - target.ratio / source.ratio)
+    j_eff = synchronised_inertia(mech, source.engaged, target.engaged, graph) + max(float(extra_inertia), 0.0)
 
     def level(names, factors, torque, kind):
         levels = [abs(factors.get(n, 0.0)) * torque / _capacity(mech, n, kind) for n in names]
@@ -211,6 +219,103 @@ def upshift_calibration(mech: Mechanism, source, target, oncoming: tuple[str, ..
         offgoing_level=_round(off_level), offgoing_ramp=_round(timing.torque_phase * (1.0 - RELEASE_LEAD)))
     return UpshiftCalibration(source.name, target.name, t_in, float(input_speed), dw, j_eff, a_h, a_ip, off_level,
                               t_ip, template)
+
+
+SYNC_FILL = 0.02
+"""Apply level [-] of a kickdown's oncoming element while the input flares to synchronism."""
+FLARE_RAMP = 2.0
+"""A kickdown's offgoing release lasts this many times its inertia phase (nearly a constant level
+while the input flares; what is left is released at synchronism)."""
+
+
+def coast_downshift_calibration(mech: Mechanism, source, target, oncoming, offgoing, drag_torque: float,
+                                input_speed: float, timing: ShiftTiming = ShiftTiming(), graph=None,
+                                engine_inertia: float = 0.0) -> UpshiftCalibration:
+    """A power-off (coast) downshift from ``source`` to ``target``: torque phase first, as an
+    upshift under drive is, with the input torque the engine's drag ``drag_torque`` [N*m, its
+    magnitude is used]. The statics are linear in the input torque, so the handover is the same
+    fraction of the oncoming's gear-B share as under drive; in the inertia phase the oncoming
+    element carries the drag and the torque that raises the input by ``w_in (r_B/r_A - 1)``
+    against ``J_eff`` in the class's inertia-phase time (:func:`upshift_calibration`), with the
+    engine's inertia ``engine_inertia`` added: the input pulls the engine up too (the turbine
+    overruns the pump and the converter's torque grows with that slip; counted as if coupled, an
+    upper bound - without it the HT-740 truck's 4-3 coast-down took 1.9 s to synchronise). At the
+    low speeds of the throttle-0 downshift lines the converter's torque is near zero (the engine
+    idles), the handover level tiny and the ramp through it would take seconds: the oncoming ramp
+    reaches its inertia-phase level by ``t_tp`` at the latest (there is hardly a torque to hand
+    over; the offgoing element, carrying almost nothing, is let go at once: no bindup to speak
+    of; a ramp to ``t_tp + t_ip`` synchronised the truck's 4-3 in 1.25 s)."""
+    from dataclasses import replace
+
+    cal = upshift_calibration(mech, source, target, oncoming, offgoing, abs(float(drag_torque)), input_speed,
+                              timing, graph, extra_inertia=engine_inertia)
+    ramp = min(cal.template.ramp_time, _round(timing.torque_phase))
+    return replace(cal, template=replace(cal.template, ramp_time=ramp))
+
+
+@dataclass(frozen=True)
+class KickdownCalibration:
+    """The derived numbers of a power-on downshift (speed phase first) and its template: the
+    input torque ``input_torque`` [N*m] (mean over the flare), ``speed_change`` [rad/s],
+    ``inertia`` [kg*m^2] referred to the input, ``offgoing_level`` [-] of its dynamic capacity,
+    ``inertia_phase`` [s] (the target flare time)."""
+
+    source: str
+    target: str
+    input_torque: float
+    input_speed: float
+    speed_change: float
+    inertia: float
+    offgoing_level: float
+    inertia_phase: float
+    template: ShiftTemplate
+
+    def as_data(self) -> dict:
+        return {"from": self.source, "to": self.target, "input_torque": self.input_torque,
+                "input_speed": self.input_speed, "speed_change": self.speed_change, "inertia": self.inertia,
+                "offgoing_level": self.offgoing_level, "inertia_phase": self.inertia_phase,
+                "template": self.template.as_data()}
+
+
+def kickdown_calibration(mech: Mechanism, source, target, oncoming, offgoing, input_torque: float,
+                         input_speed: float, timing: ShiftTiming = ShiftTiming(), graph=None,
+                         torque_after: float | None = None) -> KickdownCalibration:
+    """A power-on downshift (kickdown) from ``source`` to ``target`` (speed phase first,
+    :mod:`.schedule`): the input must rise by ``dw = w_in (r_B/r_A - 1)`` against the inertia
+    ``J_eff`` (:func:`synchronised_inertia`) in the class's inertia-phase time ``t_ip``, so the
+    offgoing element, slipping, holds the rest of the input torque: its level is
+    ``|k_off^A| (T_in - J_eff dw / t_ip) / T_dyn`` (``T_in`` the mean of the turbine torque
+    before, ``input_torque``, and at synchronism, ``torque_after``), released linearly over
+    :data:`FLARE_RAMP` x ``t_ip`` (raised so that its mean over ``t_ip`` is that level). The
+    oncoming element fills at :data:`SYNC_FILL` and is applied at synchronism (when its slip is
+    down to :data:`~.schedule.SYNC_FRACTION` of what it was, about ``SYNC_FRACTION t_ip`` before
+    synchronism at the flare's rate), ramping to full so that it reaches 1.2 x its static share
+    in gear B, ``|k_on^B| T_in / T_dyn``, by synchronism (at most over the class's ``final``
+    time): an element sized close to the torque needs a fast ramp or the input overshoots. The
+    jerk at the lock is the inertia torque ``J_eff dw / t_ip`` handed to the
+    output, so sizing the flare for ``t_ip`` (not as fast as the engine can) is what keeps it low."""
+    t_in = max(float(input_torque), 1e-6)
+    t_mean = 0.5 * (t_in + max(float(torque_after), 0.0)) if torque_after is not None else t_in
+    dw = max(float(input_speed), 0.0) * abs(target.ratio / source.ratio - 1.0)
+    j_eff = synchronised_inertia(mech, source.engaged, target.engaged, graph)
+    t_ip = timing.inertia_phase
+    held = max(t_mean - j_eff * dw / t_ip, 0.0)
+    ramp = FLARE_RAMP * t_ip
+    mean = 1.0 - t_ip / (2.0 * ramp)  # mean of the linear release over t_ip
+    levels = [abs(source.torque_factors.get(n, 0.0)) * held / _capacity(mech, n, "dynamic") / mean for n in offgoing]
+    off = min(max(levels, default=0.0), 1.0)
+    from .schedule import SYNC_FRACTION
+
+    share = max((abs(target.torque_factors.get(n, 0.0)) * t_mean / _capacity(mech, n, "dynamic") for n in oncoming),
+                default=0.0)
+    final = timing.final
+    if 1.2 * share > SYNC_FILL:
+        final = min(final, max((1.0 - SYNC_FILL) * SYNC_FRACTION * t_ip / (1.2 * share - SYNC_FILL), 0.02))
+    template = ShiftTemplate(
+        fill_time=timing.fill, fill_level=SYNC_FILL, ramp_time=_round(t_ip), ramp_end=_round(MAX_LEVEL),
+        hold_time=_round(t_ip), final_time=_round(final), offgoing_delay=0.0,
+        offgoing_level=_round(max(off, 1e-3)), offgoing_ramp=_round(ramp))
+    return KickdownCalibration(source.name, target.name, t_mean, float(input_speed), dw, j_eff, off, t_ip, template)
 
 
 def _round(x: float) -> float:

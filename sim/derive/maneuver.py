@@ -29,17 +29,15 @@ the gear and final-drive ratios; the throttle that gives it is found by bisectio
 there with the driveshaft wound to its steady torque (``[initial] driveshaft = "settled"``) and
 :data:`T_STEP` s to settle.
 
-Power-on downshift templates (``[auto_shift.speed_first_templates]``, one per downshift) are sized from the
-statics of the source gear: the offgoing element drops at once (``offgoing_delay = 0``) to the
-level at which its static capacity is :data:`FLARE_HOLD` of the torque it carries at full
-throttle (its ``torque_factors`` times the full-throttle turbine torque at the cruise speed), so
-that it slips as the engine torque rises and the rest of the torque accelerates the input, and
-releases to zero over :data:`FLARE_TIME` (the speed phase ends at synchronism before); the oncoming
-element fills at :data:`SYNC_FILL` (it drags little against the flare) and is applied at
-synchronism over ``final_time``; a power-off upshift (speed phase first too) the same, its
-offgoing element dropping to 0.05 (it carries the small coast torque). Power-off downshifts (torque phase first) get templates of
-their own (``[auto_shift.templates]``) whose oncoming level gives the torque that raises the
-input to the new gear's speed in :data:`COAST_SYNC_TIME` (:func:`_coast_templates`). Units SI; the file in rpm where the scenario format wants it.
+Downshift templates come from the same physics as the upshift calibration
+(:mod:`.calibration`, ``docs/calibration.md``): power-on downshifts
+(``[auto_shift.speed_first_templates]``, :func:`~.calibration.kickdown_calibration`) hold the part
+of the full-throttle turbine torque with the slipping offgoing element that leaves the torque to
+raise the input's synchronised inertia to the new speed in the class's inertia-phase time; the
+oncoming element fills and is applied at synchronism. Power-off downshifts (torque phase first,
+``[auto_shift.templates]``, :func:`~.calibration.coast_downshift_calibration`) are sized as an
+upshift under drive is, with the engine's drag at the throttle-0 downshift line as the input
+torque. Units SI; the file in rpm where the scenario format wants it.
 """
 from __future__ import annotations
 
@@ -55,7 +53,7 @@ from ..control.schedule import POWER_ON_THROTTLE, ShiftTemplate
 
 __all__ = ["MANEUVERS", "ManeuverClass", "MANEUVER_CLASSES", "Maneuver", "derive_maneuver", "maneuver_scenario",
            "cycle_scenario", "set_key", "add_templates",
-           "cruise_throttle", "T_STEP", "PEDAL_TIME", "FLARE_TIME", "SYNC_FILL"]
+           "cruise_throttle", "T_STEP", "PEDAL_TIME"]
 
 MANEUVERS = ("launch", "kickdown", "coastdown", "tipin", "tipout", "cycle")
 """The maneuvers of ``scenario new --maneuver``."""
@@ -63,18 +61,6 @@ T_STEP = 3.0
 """Time [s] of the pedal step after the cruise start (the converter and driveshaft settle)."""
 PEDAL_TIME = 0.2
 """Time [s] the pedal takes to move (throttle ramp)."""
-FLARE_TIME = 0.6
-"""Release time [s] of the offgoing element in a power-on downshift (from its level to zero; the
-speed phase ends at synchronism before)."""
-FLARE_HOLD = 0.8
-"""Fraction of the full-throttle torque the offgoing element's static capacity holds at its level
-in a power-on downshift: the rest accelerates the input (the flare)."""
-SYNC_FILL = 0.02
-"""Apply level [-] of the oncoming element while a power-on downshift flares to synchronism."""
-COAST_SYNC_TIME = 0.5
-"""Target time [s] of a power-off downshift's inertia phase (the templates' sizing)."""
-COAST_MIN_LEVEL = 0.02
-"""Lowest inertia-phase level [-] of a power-off downshift's oncoming element (it fills at half of it)."""
 MAX_CRUISE_THROTTLE = 0.8
 """Highest road-load throttle [-] a cruise may need (above it the class cannot cruise there)."""
 
@@ -195,52 +181,48 @@ def _downshifts(launch: Launch, k: int, w: float, throttle: float) -> list[str]:
 
 
 def _downshift_templates(launch: Launch, mech: Mechanism, w_out: float) -> dict:
-    """Power-on downshift templates sized from the statics (module docstring) at output speed ``w_out``."""
-    from ..control.schedule import gear_swap
+    """Power-on downshift templates at output speed ``w_out`` [rad/s], each from the statics of its
+    source gear and the inertia it synchronises (:func:`~.calibration.kickdown_calibration`, the
+    full-throttle turbine torque at the source and the target gear's turbine speed); a power-off
+    upshift (speed phase first too) the same with its offgoing element at 0.05 (it carries the
+    small coast torque)."""
+    from .calibration import kickdown_calibration
+    from .schedule import gear_swap
 
     table = {g.name: g.engaged for g in launch.gears}
     oneway = frozenset(e.name for e in mech.elements if e.kind == "oneway")
-    base = launch.template
+    timing = launch.vehicle.shift_timing
     out = {}
     for a, b in zip(launch.order, launch.order[1:]):
-        source = launch.gear(b)  # the downshift b -> a starts in gear b
-        _, off = gear_swap(table, b, a, oneway)
-        t_in = _turbine_torque(launch, 1.0, w_out * source.ratio)
-        level = max([FLARE_HOLD * abs(source.torque_factors.get(e, 0.0)) * t_in / mech.element(e).static
-                     for e in off if mech.element(e).static > 0] + [0.05])
-        out[f"{b}-{a}"] = ShiftTemplate(fill_time=base.fill_time, fill_level=SYNC_FILL, ramp_time=0.4,
-                                        ramp_end=base.ramp_end, hold_time=0.4, final_time=0.15, offgoing_delay=0.0,
-                                        offgoing_level=round(min(level, 1.0), 3), offgoing_ramp=FLARE_TIME)
-        # a power-off upshift a -> b: the offgoing element carries the small coast torque
-        out[f"{a}-{b}"] = replace(out[f"{b}-{a}"], offgoing_level=0.05)
+        high, low = launch.gear(b), launch.gear(a)  # the downshift b -> a starts in gear b
+        on, off = gear_swap(table, b, a, oneway)
+        w_in = w_out * high.ratio
+        cal = kickdown_calibration(mech, high, low, on, off, _turbine_torque(launch, 1.0, w_in), w_in, timing,
+                                   torque_after=_turbine_torque(launch, 1.0, w_out * low.ratio))
+        out[f"{b}-{a}"] = cal.template
+        out[f"{a}-{b}"] = replace(cal.template, offgoing_level=0.05)
     return out
 
 
 def _coast_templates(launch: Launch, mech: Mechanism) -> dict:
-    """Power-off downshift templates (torque phase first) sized from the inertia to synchronise:
-    at the throttle-0 downshift line the input (the engine and the gearbox's input side,
-    ``J_engine + inertia / ratio^2`` of the target gear) must rise by ``w_out (r_low - r_high)`` in
-    :data:`COAST_SYNC_TIME`; the oncoming element's inertia-phase level gives that torque through
-    its static share (``torque_factors`` of the target gear), over its dynamic capacity."""
-    from ..control.schedule import gear_swap
+    """Power-off downshift templates (torque phase first), each at its throttle-0 downshift line
+    from the statics of its two gears, the engine's drag there and the inertia it synchronises
+    (:func:`~.calibration.coast_downshift_calibration`: the upshift calibration's method with the
+    drag as the input torque), with the class's target times."""
+    from .calibration import coast_downshift_calibration
+    from .schedule import gear_swap
 
     table = {g.name: g.engaged for g in launch.gears}
     oneway = frozenset(e.name for e in mech.elements if e.kind == "oneway")
-    base = launch.template
+    timing = launch.vehicle.shift_timing
     out = {}
     for k, (a, b) in enumerate(zip(launch.order, launch.order[1:])):
         low, high = launch.gear(a), launch.gear(b)
-        on, _ = gear_swap(table, b, a, oneway)
-        w_out = _line(launch.downshift_rpm, k, 0.0)
-        inertia = launch.vehicle.J_engine + low.inertia / low.ratio ** 2
-        torque = inertia * w_out * (low.ratio - high.ratio) / COAST_SYNC_TIME
-        level = max([abs(low.torque_factors.get(e, 0.0)) * torque / mech.element(e).dynamic
-                     for e in on if mech.element(e).dynamic > 0] + [0.0])
-        level = min(max(level, COAST_MIN_LEVEL), base.ramp_end)
-        out[f"{b}-{a}"] = ShiftTemplate(fill_time=base.fill_time, fill_level=round(min(base.fill_level, 0.5 * level), 4),
-                                        ramp_time=0.2, ramp_end=round(level, 4), hold_time=COAST_SYNC_TIME + 0.3,
-                                        final_time=0.3, offgoing_delay=base.offgoing_delay,
-                                        offgoing_level=base.offgoing_level, offgoing_ramp=base.offgoing_ramp)
+        on, off = gear_swap(table, b, a, oneway)
+        w_in = _line(launch.downshift_rpm, k, 0.0) * high.ratio
+        drag = _turbine_torque(launch, 0.0, w_in)
+        out[f"{b}-{a}"] = coast_downshift_calibration(mech, high, low, on, off, drag, w_in, timing,
+                                                      engine_inertia=launch.vehicle.J_engine).template
     return out
 
 
@@ -398,9 +380,9 @@ def maneuver_scenario(mech: Mechanism, vehicle: str = "car", kind: str = "kickdo
         text = set_key(text, "driveline", "brake", f"brake = {{ type = \"ramp\", t0 = {_num(T_STEP)}, "
                                                    f"t1 = {_num(T_STEP + 0.5)}, v0 = 0.0, v1 = {_num(m.brake)} }}"
                                                    "   # N*m at the wheels")
-    text = text.rstrip("\n") + ("\n# power-on downshifts (speed phase first): the offgoing element drops to the level at which its"
-                               "\n# static capacity holds the full-throttle torque and releases over the flare; the oncoming"
-                               "\n# one fills and is applied at synchronism\n")
+    text = text.rstrip("\n") + ("\n# power-on downshifts (speed phase first): the slipping offgoing element holds the torque the"
+                               "\n# flare does not need (the input's inertia raised in the class's inertia-phase time,"
+                               "\n# docs/calibration.md); the oncoming one fills and is applied at synchronism\n")
     text = add_templates(text, _coast_templates(lc, mech), "templates")
     return add_templates(text, m.templates)
 

@@ -209,6 +209,7 @@ class EngineOnLink(Component):
     link: int
     name: str = "engine"
     request: Signal | None = None  # torque-request factor [-] of the shifts (EngineMap.requested)
+    fuel: object | None = None  # fuel flow of the map (transgen.sim.fuel): the m_dot_fuel signal [kg/s]
 
     def _torque(self, t, w):
         torque = self.engine(w[self.link], self.throttle.value(t))
@@ -224,6 +225,8 @@ class EngineOnLink(Component):
         out = {"T_in": self._torque(t, w), "throttle": self.throttle.value(t)}
         if self.request is not None:
             out["torque_request"] = self.request.value(t)
+        if self.fuel is not None:
+            out["m_dot_fuel"] = float(self.fuel.flow(w[self.link], out["T_in"], out["throttle"]))
         return out
 
     def breakpoints(self, t0=-math.inf, t1=math.inf):
@@ -261,6 +264,7 @@ class EngineWithConverter(Component):
     name: str = "engine"
     state_names: tuple[str, ...] = ("omega_e",)
     request: Signal | None = None  # torque-request factor [-] of the shifts (EngineMap.requested)
+    fuel: object | None = None  # fuel flow of the map (transgen.sim.fuel): the m_dot_fuel signal [kg/s]
 
     def initial_state(self, w):
         return np.array([self.omega_start])
@@ -321,6 +325,8 @@ class EngineWithConverter(Component):
                    "throttle": throttle, "converter_speed_ratio": ratio}
         if self.request is not None:
             signals["torque_request"] = self.request.sample(ts)
+        if self.fuel is not None:
+            signals["m_dot_fuel"] = self.fuel.flow(omega_e, t_engine, throttle)
         return {"T_in": turbine}, signals, 0.5 * self.J_engine * omega_e ** 2
 
     def signals(self, t, x, w):
@@ -328,7 +334,9 @@ class EngineWithConverter(Component):
         return {"omega_engine": x[0], "T_engine": self._engine_torque(t, x[0]), "T_pump": pump,
                 "T_in": turbine, "throttle": self._throttle(t, x[0]),
                 "converter_speed_ratio": w[self.link] / x[0] if x[0] > 1e-6 else 0.0,
-                **({} if self.request is None else {"torque_request": self.request.value(t)})}
+                **({} if self.request is None else {"torque_request": self.request.value(t)}),
+                **({} if self.fuel is None else {"m_dot_fuel": float(self.fuel.flow(
+                    x[0], self._engine_torque(t, x[0]), self._throttle(t, x[0])))})}
 
     def breakpoints(self, t0=-math.inf, t1=math.inf):
         if self.request is not None:

@@ -568,8 +568,13 @@ def _components(r: Reader, data: dict, mech: Mechanism, tr: Transmission) -> lis
                       "torques [N*m] (a row per throttle, a column per speed)")
         engine = EngineMap(tuple(speeds), tuple(throttle), tuple(tuple(row) for row in table))
         thr_signal = r.signal(inp.get("throttle_signal", 1.0), keys + ("throttle_signal",))
+        fuel = None
+        if "fuel_map" in inp:
+            from .fuel_file import read_fuel_map
+
+            fuel = read_fuel_map(r, inp["fuel_map"], keys + ("fuel_map",), engine)
         if kind == "engine_map":
-            comps.append(EngineOnLink(engine, thr_signal, li[mech.input]))
+            comps.append(EngineOnLink(engine, thr_signal, li[mech.input], fuel=fuel))
         else:
             from ..model.powertrain import read_converter
 
@@ -577,7 +582,7 @@ def _components(r: Reader, data: dict, mech: Mechanism, tr: Transmission) -> lis
             comps.append(EngineWithConverter(engine, thr_signal, converter,
                                              r.number(inp, keys, "J_engine", positive=True), li[mech.input],
                                              omega_start=r.number(inp, keys, "engine_speed_rpm", 700.0) * RPM,
-                                             idle=r.number(inp, keys, "idle_rpm", 0.0) * RPM))
+                                             idle=r.number(inp, keys, "idle_rpm", 0.0) * RPM, fuel=fuel))
     elif kind == "turbodiesel":
         from ..model.powertrain import turbodiesel_component
 

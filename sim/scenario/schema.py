@@ -31,7 +31,7 @@ OUTPUT_KEYS = frozenset({"signals", "dt"})
 INPUT_KEYS = frozenset({"type", "torque", "speed_rpm", "throttle", "torque_table", "throttle_signal", "converter",
                         "J_engine", "engine_speed_rpm", "idle_rpm", "engine", "turbo", "fuel_signal", "governor",
                         "crank_model", "shaft", "ports", "compressor_map", "turbine_map", "air", "exhaust",
-                        "turbo_solver", "torque_request"})
+                        "turbo_solver", "torque_request", "fuel_map"})
 LOAD_KEYS = frozenset({"torque", "signal", "c0", "c1", "c2"})
 CONVERTER_KEYS = frozenset({"pump", "turbine", "pump_torque", "turbine_torque", "file"})
 DRIVELINE_KEYS = frozenset({"output_inertia", "stiffness", "damping", "final_drive", "wheel_radius", "vehicle_mass",
@@ -61,9 +61,10 @@ def key_tree(elements=None, links=None) -> dict:
     :data:`SIGNAL`; a one-entry list ``[subtree]`` is an array of tables (keys are indices).
     ``elements`` and ``links`` are the mechanism's shift-element and link names (None: any
     name, the key :data:`ANY`)."""
-    from ..control.driver import DRIVER_KEYS
-    from ..model.powertrain import ENGINE_KEYS, GAS_KEYS, GOVERNOR_KEYS, PORT_KEYS, SHAFT_KEYS, SOLVER_KEYS
-    from ..control.schedule import ShiftTemplate
+    from .driver import DRIVER_KEYS
+    from .fuel import FUEL_KEYS
+    from .powertrain import ENGINE_KEYS, GAS_KEYS, GOVERNOR_KEYS, PORT_KEYS, SHAFT_KEYS, SOLVER_KEYS
+    from .schedule import ShiftTemplate
 
     signals = {"torque", "throttle_signal", "fuel_signal", "output_torque", "signal", "apply", "torque_request",
                "brake"}
@@ -85,7 +86,8 @@ def key_tree(elements=None, links=None) -> dict:
                                   speed_first_templates={ANY: template}), output=_leaves(OUTPUT_KEYS),
                  input=table(INPUT_KEYS, governor=_leaves(GOVERNOR_KEYS), engine=_leaves(ENGINE_KEYS),
                              shaft=_leaves(SHAFT_KEYS), ports=_leaves(PORT_KEYS), air=_leaves(GAS_KEYS),
-                             exhaust=_leaves(GAS_KEYS), turbo_solver=_leaves(SOLVER_KEYS)),
+                             exhaust=_leaves(GAS_KEYS), turbo_solver=_leaves(SOLVER_KEYS),
+                             fuel_map=_leaves(FUEL_KEYS)),
                  load=[table(LOAD_KEYS, torque=LEAF)], converter=_leaves(CONVERTER_KEYS), driveline=table(DRIVELINE_KEYS),
                  driver=_leaves(DRIVER_KEYS))
     return tree

@@ -18,8 +18,9 @@ objective under constraints:
   shift report's comfort metrics);
 * constraints (:class:`Constraints`): the shift completes (the oncoming element locks), no bindup,
   flare at most ``max_flare_rpm`` (20 rpm by default), no chatter (neither element locks more than
-  once in the shift window), and on request a torque hole at most ``max_hole_pct`` and a duration at
-  most ``max_duration``.
+  once in the shift window), and on request a torque hole at most ``max_hole_pct``, a duration at
+  most ``max_duration`` and a largest jerk at most ``max_jerk`` (m/s^3, the shift report's
+  ``jerk_max``; a comfort limit such as the passenger-car range of ``docs/calibration.md``).
 
 How a scenario carries its calibration (:class:`Calibration`): raw apply tables of the elements
 (each shift's piece of the oncoming and offgoing tables is fitted to the template first,
@@ -147,7 +148,8 @@ class Objective:
 class Constraints:
     """The constraints of every shift: ``no_bindup``, ``max_flare_rpm`` [rpm], ``no_chatter``,
     ``max_hole_pct`` [% of the output torque before, None: free], ``max_duration`` [s, None:
-    free], ``max_energy`` [J, the clutch energy of the shift, None: free]; the shift must
+    free], ``max_energy`` [J, the clutch energy of the shift, None: free], ``max_jerk`` [m/s^3,
+    the largest jerk of the shift's comfort window, None: free; not checked without a vehicle]; the shift must
     complete. ``no_worse_than``: a reference scenario (file or bundled name, None: none) whose
     torque hole and clutch energy at the same shift (the same gears) each tuned shift must not
     exceed (:func:`reference_limits`, :meth:`for_shift`)."""
@@ -160,6 +162,7 @@ class Constraints:
     max_energy: float | None = None
     no_worse_than: str | None = None
     max_temperature: float | None = None  # degC: peak pack temperature of the shift (transgen.losses.thermal)
+    max_jerk: float | None = None
 
     def for_shift(self, hole_pct: float | None = None, energy: float | None = None) -> Constraints:
         """These constraints with the torque hole [%] and clutch energy [J] of one shift limited to
@@ -177,6 +180,7 @@ class Constraints:
         parts += [f"duration <= {self.max_duration:g} s"] if self.max_duration is not None else []
         parts += [f"clutch energy <= {self.max_energy / 1e3:g} kJ"] if self.max_energy is not None else []
         parts += [f"pack temperature <= {self.max_temperature:g} degC"] if self.max_temperature is not None else []
+        parts += [f"jerk <= {self.max_jerk:g} m/s^3"] if self.max_jerk is not None else []
         parts += [f"torque hole and clutch energy of each shift <= {self.no_worse_than}'s"] if self.no_worse_than else []
         return ", ".join(parts)
 
@@ -608,6 +612,8 @@ def score(metrics: Mapping, reference: Mapping, objective: Objective, constraint
     if constraints.max_duration is not None and (metrics["duration"] is None or metrics["duration"] > constraints.max_duration):
         violations["max duration"] = (((metrics["duration"] or 10 * constraints.max_duration) - constraints.max_duration)
                                       / constraints.max_duration)
+    if constraints.max_jerk is not None and metrics.get("jerk") is not None and metrics["jerk"] > constraints.max_jerk:
+        violations["max jerk"] = (metrics["jerk"] - constraints.max_jerk) / max(constraints.max_jerk, 1.0)
     terms = {}
     for name, weight in objective.weights.items():
         if not weight:

@@ -46,6 +46,8 @@ def add_optimize_command(sub) -> None:
     bind.add_argument("--allow-bindup", dest="no_bindup", action="store_false", help="let the offgoing torque reverse")
     s.add_argument("--allow-chatter", action="store_true", help="let an element lock more than once in a shift")
     s.add_argument("--max-duration", type=float, metavar="S", help="longest shift duration [s]")
+    s.add_argument("--max-jerk", type=float, metavar="M/S3",
+                   help="largest vehicle jerk of each shift [m/s^3] (a comfort limit; needs a vehicle)")
     s.add_argument("--max-energy", type=float, metavar="KJ",
                    help="most clutch energy of a shift [kJ] (oncoming and offgoing element together)")
     s.add_argument("--max-temperature", type=float, metavar="DEGC",
@@ -93,7 +95,8 @@ def _options(args):
     objective = parse_objective(args.objective)
     for name, value, low in (("--max-flare", args.max_flare, 0.0), ("--max-hole", args.max_hole, 0.0),
                              ("--max-duration", args.max_duration, 0.0), ("--max-energy", args.max_energy, 0.0),
-                             ("--max-temperature", args.max_temperature, -273.15)):
+                             ("--max-temperature", args.max_temperature, -273.15),
+                             ("--max-jerk", args.max_jerk, 0.0)):
         if value is not None and not (math.isfinite(value) and value > low):
             raise ValueError(f"{name}: error: give a finite number > 0, not {value:g}")
     for name, value in (("--evaluations", args.evaluations), ("--population", args.population)):
@@ -111,7 +114,8 @@ def _options(args):
                               no_chatter=not args.allow_chatter, max_hole_pct=args.max_hole,
                               max_duration=args.max_duration,
                               max_energy=None if args.max_energy is None else 1e3 * args.max_energy,
-                              no_worse_than=args.no_worse_than, max_temperature=args.max_temperature)
+                              no_worse_than=args.no_worse_than, max_temperature=args.max_temperature,
+                              max_jerk=args.max_jerk)
     return objective, constraints, make_executor(args.workers, args.scheduler)
 
 
@@ -280,7 +284,7 @@ def optimize_units() -> dict[str, str]:
             "number": "1", "seed": "1", "evaluation": "1", "score": "1", "energy": "J", "energy_total": "J", "duration": "s", "shift_duration": "s",
             "hole": "%", "torque_hole_pct": "%", "hole_torque": "N*m", "flare": "rpm", "flare_max_rpm": "rpm",
             "bindup_torque": "N*m", "offgoing_torque": "N*m", "jerk": "m/s^3", "jerk_max": "m/s^3", "locks": "1",
-            "max_flare_rpm": "rpm", "max_hole_pct": "%", "max_duration": "s", "max_energy": "J", "max_temperature": "degC", "temperature": "degC", "fill_time": "s", "fill_level": "1",
+            "max_flare_rpm": "rpm", "max_hole_pct": "%", "max_duration": "s", "max_energy": "J", "max_temperature": "degC", "max_jerk": "m/s^3", "temperature": "degC", "fill_time": "s", "fill_level": "1",
             "ramp_time": "s", "ramp_end": "1", "hold_time": "s", "final_time": "s", "offgoing_delay": "s",
             "offgoing_level": "1", "offgoing_ramp": "s", "torque_boost": "1", "boost_delay": "s", "boost_time": "s",
             "torque_cut": "1", "cut_delay": "s", "cut_time": "s", "torque_ramp": "s", "torque_request_min": "1",

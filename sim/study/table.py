@@ -39,6 +39,7 @@ _EXACT = {
     "ratio_before": "1", "ratio_after": "1", "oncoming_apply_final": "1", "relative_residual": "1",
     "tolerance_relative": "1", "boost_start": "1", "boost_peak": "1", "chi_min": "1", "chi_max": "1",
     "accel_before": "m/s^2", "accel_after": "m/s^2", "jerk_max": "m/s^3", "jerk_peak_to_peak": "m/s^3",
+    "jerk_filtered_max": "m/s^3",
     "vdv": "m/s^1.75", "torque_overshoot": "%", "output_torque_final": "N*m",
 }
 _SUFFIX = (("_time", "s"), ("_start", "s"), ("_end", "s"), ("_duration", "s"), ("_rpm", "rpm"),
