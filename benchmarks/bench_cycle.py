@@ -18,13 +18,13 @@ import time
 from pathlib import Path
 
 from transgen import load_mechanism
-from transgen.sim.cycle_report import cycle_report, cycle_text
-from transgen.sim.driver import Driver
+from transgen.sim.analysis.cycle_report import cycle_report, cycle_text
+from transgen.sim.control.driver import Driver
 from transgen.sim.fuel import fuel_of
-from transgen.sim.launch import derive_launch
-from transgen.sim.maneuver import maneuver_scenario
-from transgen.sim.report import energy_balance
-from transgen.sim.scenario import load_scenario
+from transgen.sim.derive.launch import derive_launch
+from transgen.sim.derive.maneuver import maneuver_scenario
+from transgen.sim.analysis.report import energy_balance
+from transgen.sim.scenario.load import load_scenario
 
 
 def main(argv=None) -> int:

@@ -270,7 +270,7 @@ def _cycle_report(scenario, result):
     driver = next((c for c in scenario.powertrain.controllers if isinstance(c, Driver)), None)
     if driver is None or not len(result.time):
         return None
-    from .cycle_report import cycle_report
+    from .analysis.cycle_report import cycle_report
     from .fuel import fuel_of
 
     return cycle_report(result, driver.trace, fuel=fuel_of(scenario.powertrain))

@@ -8,11 +8,11 @@ import math
 import pytest
 
 from transgen import load_mechanism
-from transgen.sim.acceptance import FLARE_LIMIT_RPM, UpshiftVerdict, hole_limit, judge_upshift, launch_acceptance
-from transgen.sim.calibration import (FLARE_RAMP, SYNC_FILL, ShiftTiming, coast_downshift_calibration, handover,
+from transgen.sim.derive.acceptance import FLARE_LIMIT_RPM, UpshiftVerdict, hole_limit, judge_upshift, launch_acceptance
+from transgen.sim.derive.calibration import (FLARE_RAMP, SYNC_FILL, ShiftTiming, coast_downshift_calibration, handover,
                                       kickdown_calibration, synchronised_inertia, upshift_calibration)
-from transgen.sim.driveline_class import DrivelineParts
-from transgen.sim.launch import VEHICLES, derive_launch, launch_scenario, static_element_torques
+from transgen.sim.derive.driveline_class import DrivelineParts
+from transgen.sim.derive.launch import VEHICLES, derive_launch, launch_scenario, static_element_torques
 
 
 def test_synchronised_inertia_of_the_two_speed_is_its_input_inertia():

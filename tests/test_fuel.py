@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from transgen.errors import ScenarioError
-from transgen.sim.components import EngineMap
+from transgen.sim.model.components import EngineMap
 from transgen.sim.fuel import FuelMap, WillansFuel
 
 RPM = 2 * math.pi / 60
@@ -40,7 +40,7 @@ def test_willans_line_uses_the_motored_torque_and_cuts_off_closed_throttle():
 
 
 def _scenario(fuel, **more):
-    from transgen.sim.scenario import load_scenario
+    from transgen.sim.scenario.load import load_scenario
 
     return load_scenario("ht740_original", {"input.fuel_map": fuel, "simulation.t_end": 0.3, **more})
 

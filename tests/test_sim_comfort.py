@@ -119,7 +119,7 @@ def test_vdv_scales_with_amplitude_and_is_shift_invariant(amplitude, f, phase):
 
 
 def test_filtered_jerk_is_the_derivative_of_the_10_hz_low_pass():
-    from transgen.sim.comfort import JERK_FILTER_HZ, filtered_jerk
+    from transgen.sim.analysis.comfort import JERK_FILTER_HZ, filtered_jerk
 
     t = np.linspace(0.0, 4.0, 4001)
     # a constant jerk of 3 m/s^3 (a ramp of acceleration): the filter passes it once settled

@@ -11,14 +11,14 @@ import pytest
 from transgen import load_mechanism
 from transgen.cli import main
 from transgen.errors import ScenarioError
-from transgen.sim.cycle_report import SHIFT_KINDS, cycle_report
-from transgen.sim.cycles import SpeedTrace, band, bundled_cycles, load_trace, tracking
-from transgen.sim.driver import Driver
+from transgen.sim.analysis.cycle_report import SHIFT_KINDS, cycle_report
+from transgen.sim.control.cycles import SpeedTrace, band, bundled_cycles, load_trace, tracking
+from transgen.sim.control.driver import Driver
 from transgen.sim.fuel import fuel_of
-from transgen.sim.launch import derive_launch
-from transgen.sim.maneuver import maneuver_scenario
-from transgen.sim.report import energy_balance
-from transgen.sim.scenario import parse_scenario
+from transgen.sim.derive.launch import derive_launch
+from transgen.sim.derive.maneuver import maneuver_scenario
+from transgen.sim.analysis.report import energy_balance
+from transgen.sim.scenario.load import parse_scenario
 
 
 def test_bundled_traces_match_the_regulations():

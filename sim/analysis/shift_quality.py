@@ -122,7 +122,7 @@ from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
-from .result import Result
+from ..core.result import Result
 from .comfort import check_weighting, filtered_jerk, jerk, settling_time, vdv, weighted
 from .samples import duration_above, integrate, value_at, window
 from .shifts import APPLY_ZERO, Shift, infer_shifts, lock_time, lock_times, shift_name

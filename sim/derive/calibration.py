@@ -181,7 +181,7 @@ def upshift_calibration(mech: Mechanism, source, target, oncoming: tuple[str, ..
                         input_torque: float, input_speed: float, timing: ShiftTiming = ShiftTiming(),
                         graph=None, output_accel: float = 0.0, torque_after: float | None = None,
                         extra_inertia: float = 0.0) -> UpshiftCalibration:
-    """The calibration of the upshift from ``source`` to ``target`` (:class:`~transgen.sim.launch.ForwardGear`:
+    """The calibration of the upshift from ``source`` to ``target`` (:class:`~transgen.sim.derive.launch.ForwardGear`:
     ratio, engaged elements, static torque factors) with the commanded ``oncoming`` and
     ``offgoing`` elements, at the expected input torque ``input_torque`` [N*m] and input speed
     ``input_speed`` [rad/s] at the shift command, the output link's acceleration there
@@ -304,7 +304,7 @@ def kickdown_calibration(mech: Mechanism, source, target, oncoming, offgoing, in
     mean = 1.0 - t_ip / (2.0 * ramp)  # mean of the linear release over t_ip
     levels = [abs(source.torque_factors.get(n, 0.0)) * held / _capacity(mech, n, "dynamic") / mean for n in offgoing]
     off = min(max(levels, default=0.0), 1.0)
-    from .schedule import SYNC_FRACTION
+    from ..control.schedule import SYNC_FRACTION
 
     share = max((abs(target.torque_factors.get(n, 0.0)) * t_mean / _capacity(mech, n, "dynamic") for n in oncoming),
                 default=0.0)

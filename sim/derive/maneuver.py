@@ -187,7 +187,7 @@ def _downshift_templates(launch: Launch, mech: Mechanism, w_out: float) -> dict:
     upshift (speed phase first too) the same with its offgoing element at 0.05 (it carries the
     small coast torque)."""
     from .calibration import kickdown_calibration
-    from .schedule import gear_swap
+    from ..control.schedule import gear_swap
 
     table = {g.name: g.engaged for g in launch.gears}
     oneway = frozenset(e.name for e in mech.elements if e.kind == "oneway")
@@ -210,7 +210,7 @@ def _coast_templates(launch: Launch, mech: Mechanism) -> dict:
     (:func:`~.calibration.coast_downshift_calibration`: the upshift calibration's method with the
     drag as the input torque), with the class's target times."""
     from .calibration import coast_downshift_calibration
-    from .schedule import gear_swap
+    from ..control.schedule import gear_swap
 
     table = {g.name: g.engaged for g in launch.gears}
     oneway = frozenset(e.name for e in mech.elements if e.kind == "oneway")

@@ -61,10 +61,10 @@ def key_tree(elements=None, links=None) -> dict:
     :data:`SIGNAL`; a one-entry list ``[subtree]`` is an array of tables (keys are indices).
     ``elements`` and ``links`` are the mechanism's shift-element and link names (None: any
     name, the key :data:`ANY`)."""
-    from .driver import DRIVER_KEYS
-    from .fuel import FUEL_KEYS
-    from .powertrain import ENGINE_KEYS, GAS_KEYS, GOVERNOR_KEYS, PORT_KEYS, SHAFT_KEYS, SOLVER_KEYS
-    from .schedule import ShiftTemplate
+    from ..control.driver import DRIVER_KEYS
+    from ..fuel import FUEL_KEYS
+    from ..model.powertrain import ENGINE_KEYS, GAS_KEYS, GOVERNOR_KEYS, PORT_KEYS, SHAFT_KEYS, SOLVER_KEYS
+    from ..control.schedule import ShiftTemplate
 
     signals = {"torque", "throttle_signal", "fuel_signal", "output_torque", "signal", "apply", "torque_request",
                "brake"}
