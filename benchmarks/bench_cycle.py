@@ -20,7 +20,7 @@ from pathlib import Path
 from transgen import load_mechanism
 from transgen.sim.analysis.cycle_report import cycle_report, cycle_text
 from transgen.sim.control.driver import Driver
-from transgen.sim.fuel import fuel_of
+from transgen.sim.engine.fuel import fuel_of
 from transgen.sim.derive.launch import derive_launch
 from transgen.sim.derive.maneuver import maneuver_scenario
 from transgen.sim.analysis.report import energy_balance

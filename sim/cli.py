@@ -271,7 +271,7 @@ def _cycle_report(scenario, result):
     if driver is None or not len(result.time):
         return None
     from .analysis.cycle_report import cycle_report
-    from .fuel import fuel_of
+    from .engine.fuel import fuel_of
 
     return cycle_report(result, driver.trace, fuel=fuel_of(scenario.powertrain))
 

@@ -1,4 +1,4 @@
-"""Fuel flow of an engine torque map (transgen.sim.fuel): a measured table (fuel rate or BSFC)
+"""Fuel flow of an engine torque map (transgen.sim.engine.fuel): a measured table (fuel rate or BSFC)
 interpolated bilinearly, the Willans-line estimate from the map's own motored torque with the
 overrun cut-off, the m_dot_fuel signal of a run, and located errors for a bad [input] fuel_map."""
 from __future__ import annotations
@@ -10,7 +10,7 @@ import pytest
 
 from transgen.errors import ScenarioError
 from transgen.sim.model.components import EngineMap
-from transgen.sim.fuel import FuelMap, WillansFuel
+from transgen.sim.engine.fuel import FuelMap, WillansFuel
 
 RPM = 2 * math.pi / 60
 
@@ -60,7 +60,7 @@ def test_a_run_gives_the_fuel_flow_of_its_map(kind):
         torque, speed = sig["T_engine"], sig["omega_engine"]
     assert np.max(torque) > 100.0
     assert np.allclose(sig["m_dot_fuel"], 250.0 * np.maximum(torque, 0.0) * np.maximum(speed, 0.0) / 3.6e9, rtol=1e-9, atol=1e-12)
-    from transgen.sim.fuel import fuel_of
+    from transgen.sim.engine.fuel import fuel_of
 
     assert fuel_of(scenario.powertrain) == (745.0, "fuel map")
 

@@ -1,5 +1,5 @@
 """The rule that picks the simulator's path (transgen.sim.core.jit.jit_enabled) and the kernels built
-ahead of time (transgen.sim.aot)."""
+ahead of time (transgen.sim.solve.aot)."""
 import importlib.machinery
 import os
 import subprocess

@@ -14,7 +14,7 @@ from transgen.errors import ScenarioError
 from transgen.sim.analysis.cycle_report import SHIFT_KINDS, cycle_report
 from transgen.sim.control.cycles import SpeedTrace, band, bundled_cycles, load_trace, tracking
 from transgen.sim.control.driver import Driver
-from transgen.sim.fuel import fuel_of
+from transgen.sim.engine.fuel import fuel_of
 from transgen.sim.derive.launch import derive_launch
 from transgen.sim.derive.maneuver import maneuver_scenario
 from transgen.sim.analysis.report import energy_balance
@@ -88,7 +88,7 @@ def test_the_driver_follows_the_wltc_start_inside_the_tolerance(wltc_start):
     assert e["engine"] > e["wheels_positive"] + e["clutches"]            # the losses come out of the engine's work
     stand = (result.time > 1.0) & (result.time < 10.4)   # the trace stands until 11 s (the driver sees 0.5 s ahead)
     assert np.max(result.signals["vehicle_speed"][stand]) < 0.1 / 3.6     # held by the brakes
-    # the car class's fuel map: the Willans-line estimate over its torque map (transgen.sim.fuel)
+    # the car class's fuel map: the Willans-line estimate over its torque map (transgen.sim.engine.fuel)
     fuel = fuel_of(scenario.powertrain)
     assert fuel is not None and fuel[1] == "Willans-line estimate"
     c = cycle_report(result, driver.trace, fuel=fuel)

@@ -111,7 +111,7 @@ class VehicleClass:
     downshift_rpm: tuple[float, float]
     shift_timing: ShiftTiming = ShiftTiming()
     comments: dict = field(default_factory=dict, compare=False)
-    fuel_map: dict | None = None  # [input] fuel_map of the class's scenarios (transgen.sim.fuel)
+    fuel_map: dict | None = None  # [input] fuel_map of the class's scenarios (transgen.sim.engine.fuel)
 
     def engine(self, scale: float = 1.0) -> EngineMap:
         return EngineMap(tuple(s * RPM for s in self.speed_rpm), self.throttle,
@@ -596,7 +596,7 @@ def launch_scenario(mech: Mechanism, vehicle: str = "car", mechanism_ref: str | 
     lines.append(f"throttle_signal = {_num(vc.throttle_signal)}   # part throttle, constant")
     if vc.fuel_map:
         items = ", ".join(f"{k} = {_string(v) if isinstance(v, str) else _num(v)}" for k, v in vc.fuel_map.items())
-        lines.append(f"fuel_map = {{ {items} }}   # {vc.comments.get('fuel_map', 'fuel flow (transgen.sim.fuel)')}")
+        lines.append(f"fuel_map = {{ {items} }}   # {vc.comments.get('fuel_map', 'fuel flow (transgen.sim.engine.fuel)')}")
     if vc.converter:
         lines.append(f"converter = {_string(Path(vc.converter).stem)}   # transgen's bundled {vc.name} converter, by its name")
     else:

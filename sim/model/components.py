@@ -209,7 +209,7 @@ class EngineOnLink(Component):
     link: int
     name: str = "engine"
     request: Signal | None = None  # torque-request factor [-] of the shifts (EngineMap.requested)
-    fuel: object | None = None  # fuel flow of the map (transgen.sim.fuel): the m_dot_fuel signal [kg/s]
+    fuel: object | None = None  # fuel flow of the map (transgen.sim.engine.fuel): the m_dot_fuel signal [kg/s]
 
     def _torque(self, t, w):
         torque = self.engine(w[self.link], self.throttle.value(t))
@@ -264,7 +264,7 @@ class EngineWithConverter(Component):
     name: str = "engine"
     state_names: tuple[str, ...] = ("omega_e",)
     request: Signal | None = None  # torque-request factor [-] of the shifts (EngineMap.requested)
-    fuel: object | None = None  # fuel flow of the map (transgen.sim.fuel): the m_dot_fuel signal [kg/s]
+    fuel: object | None = None  # fuel flow of the map (transgen.sim.engine.fuel): the m_dot_fuel signal [kg/s]
 
     def initial_state(self, w):
         return np.array([self.omega_start])

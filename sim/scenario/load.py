@@ -570,7 +570,7 @@ def _components(r: Reader, data: dict, mech: Mechanism, tr: Transmission) -> lis
         thr_signal = r.signal(inp.get("throttle_signal", 1.0), keys + ("throttle_signal",))
         fuel = None
         if "fuel_map" in inp:
-            from ..fuel_file import read_fuel_map
+            from .fuel_file import read_fuel_map
 
             fuel = read_fuel_map(r, inp["fuel_map"], keys + ("fuel_map",), engine)
         if kind == "engine_map":

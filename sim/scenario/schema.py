@@ -62,7 +62,7 @@ def key_tree(elements=None, links=None) -> dict:
     ``elements`` and ``links`` are the mechanism's shift-element and link names (None: any
     name, the key :data:`ANY`)."""
     from ..control.driver import DRIVER_KEYS
-    from ..fuel import FUEL_KEYS
+    from ..engine.fuel import FUEL_KEYS
     from ..model.powertrain import ENGINE_KEYS, GAS_KEYS, GOVERNOR_KEYS, PORT_KEYS, SHAFT_KEYS, SOLVER_KEYS
     from ..control.schedule import ShiftTemplate
 

@@ -2,8 +2,8 @@
 the table or the Willans estimate, with located errors."""
 from __future__ import annotations
 
-from .fuel import FUEL_KEYS, PETROL_DENSITY, PETROL_HEATING_VALUE, RPM, WILLANS_EFFICIENCY, FuelMap, WillansFuel
-from .scenario.file import as_float, shown
+from ..engine.fuel import FUEL_KEYS, PETROL_DENSITY, PETROL_HEATING_VALUE, RPM, WILLANS_EFFICIENCY, FuelMap, WillansFuel
+from .file import as_float, shown
 
 __all__ = ["read_fuel_map"]
 

@@ -11,7 +11,7 @@ detached process while a first run goes on in Python (:mod:`.jit` says when whic
 The module's name carries a digest of the sources it was compiled from (an edit builds a new
 one); it is kept in the package's ``__pycache__`` where that is writable, else in the user's
 cache folder (``$XDG_CACHE_HOME/transgen`` or ``~/.cache/transgen``), or where
-``TRANSGEN_KERNEL_CACHE`` says. ``python -m transgen.sim.build_kernels`` builds it in the foreground.
+``TRANSGEN_KERNEL_CACHE`` says. ``python -m transgen.sim.solve.build_kernels`` builds it in the foreground.
 """
 from __future__ import annotations
 
