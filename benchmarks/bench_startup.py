@@ -135,7 +135,7 @@ print(out[0][0], out[0][1], sorted(w for w, _ in out[1:])[2], sorted(c for _, c 
 
 
 def _kernels_built(python: str) -> bool:
-    code = "from transgen.sim import aot; print(aot.kernels() is not None)"
+    code = "from transgen.sim.core import aot; print(aot.kernels() is not None)"
     done = subprocess.run([python, "-c", code], capture_output=True, text=True, env=ENV, cwd=CWD, check=False)
     return done.stdout.strip() == "True"
 

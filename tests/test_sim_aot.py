@@ -1,5 +1,5 @@
 """The rule that picks the simulator's path (transgen.sim.core.jit.jit_enabled) and the kernels built
-ahead of time (transgen.sim.solve.aot)."""
+ahead of time (transgen.sim.core.aot)."""
 import importlib.machinery
 import os
 import subprocess
@@ -8,7 +8,7 @@ import sys
 import numpy as np
 import pytest
 
-from transgen.sim import aot, jit
+from transgen.sim.core import aot, jit
 
 
 @pytest.fixture

@@ -276,7 +276,7 @@ def test_a_cold_process_spawns_its_workers_where_they_would_load_numba(tmp_path)
 
 def test_a_cold_process_forks_its_workers_where_the_kernels_are_built(tmp_path):
     pytest.importorskip("numba")
-    from transgen.sim.solve import aot
+    from transgen.sim.core import aot
     from transgen.sim.core.jit import numba_clone
 
     if aot.build(numba_clone, wait=True) is None:

@@ -72,7 +72,7 @@ def jit_enabled() -> bool:
 
 
 def _decide() -> bool:
-    from ..solve import aot
+    from . import aot
 
     if aot.kernels() is not None:
         return True
@@ -205,10 +205,10 @@ def compiled(func):
     (``cache=True``: compiled machine code is kept on disk, a second process loads it). The
     compilable functions it calls are compiled too and called compiled; so are the library
     stand-ins."""
-    from ..solve import aot
+    from . import aot
 
     name = getattr(func, "__name__", "")
-    if name in aot.EXPORTS and func.__module__ == f"{__package__}.{aot.EXPORTS[name][0]}":
+    if name in aot.EXPORTS and func.__module__ == f"transgen.sim.{aot.EXPORTS[name][0]}":
         module = aot.kernels()
         if module is not None:
             return getattr(module, name)

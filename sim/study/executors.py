@@ -11,7 +11,7 @@ error, Ctrl-C) cancels the runs not started.
 * :class:`LocalExecutor` - a :class:`concurrent.futures.ProcessPoolExecutor` (``workers``, default
   :func:`os.cpu_count`), each worker on one BLAS thread. The workers are forked from this process
   where it has the simulator's compiled code loaded already, or can load it in milliseconds (the
-  kernels built ahead of time, :mod:`transgen.sim.solve.aot`: also a ``transgen sweep`` command's fresh
+  kernels built ahead of time, :mod:`transgen.sim.core.aot`: also a ``transgen sweep`` command's fresh
   process imports the simulator once and forks), and runs no other thread: they start in
   milliseconds with the simulator in their memory. Otherwise (numba would compile or load its
   cache; a Dask client or a Jupyter kernel's threads alive) they are spawned and each imports the
@@ -486,11 +486,11 @@ def _can_fork() -> bool:
 def _forking_pays() -> bool:
     """Whether workers forked from this process start with what they need: the compiled code is
     loaded here (:func:`~transgen.sim.core.jit.compiled_loaded`), or the runs need none that takes time
-    to load: the kernels built ahead of time are there (:func:`~transgen.sim.solve.aot.kernels`: this
+    to load: the kernels built ahead of time are there (:func:`~transgen.sim.core.aot.kernels`: this
     process loads them in milliseconds with the imports, :func:`_preload`) or ``TRANSGEN_JIT=0``.
     Otherwise (numba would compile or load its cache) each spawned worker loads it in parallel,
     which a fork from this cold process would not save."""
-    from transgen.sim.solve import aot
+    from transgen.sim.core import aot
     from transgen.sim.core.jit import compiled_loaded
 
     return compiled_loaded() or os.environ.get("TRANSGEN_JIT") == "0" or aot.kernels() is not None
@@ -501,7 +501,7 @@ def _preload() -> None:
     of time loaded (where they are)."""
     import importlib
 
-    from transgen.sim.solve import aot
+    from transgen.sim.core import aot
     from .task import PRELOAD
 
     for name in PRELOAD:

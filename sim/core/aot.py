@@ -11,7 +11,7 @@ detached process while a first run goes on in Python (:mod:`.jit` says when whic
 The module's name carries a digest of the sources it was compiled from (an edit builds a new
 one); it is kept in the package's ``__pycache__`` where that is writable, else in the user's
 cache folder (``$XDG_CACHE_HOME/transgen`` or ``~/.cache/transgen``), or where
-``TRANSGEN_KERNEL_CACHE`` says. ``python -m transgen.sim.solve.build_kernels`` builds it in the foreground.
+``TRANSGEN_KERNEL_CACHE`` says. ``python -m transgen.sim.core.build_kernels`` builds it in the foreground.
 """
 from __future__ import annotations
 
@@ -34,19 +34,19 @@ _I = "i8[::1]"
 _C2 = "f8[:, ::1]"
 _ARGS = f"f8, {_A}, {_I}, {_C}, {_I}, {_C}, {_C}"  # t, y, P, F, S, G, ext (see .kernel)
 EXPORTS = {
-    "rhs_kernel": ("kernel", f"void({_ARGS}, {_C})"),
-    "inputs_kernel": ("kernel", f"{_C}({_ARGS})"),
-    "events_kernel": ("kernel", f"void({_ARGS}, {_C})"),
-    "jacobian_kernel": ("kernel", f"void({_ARGS}, i8, f8, {_C2})"),
-    "table_values": ("signals", f"void({_A}, {_A}, {_A}, {_C})"),
-    "engine_over": ("components", f"void({_A}, {_A}, {_A}, f8, {_C}, {_C}, {_C2}, {_C}, {_C})"),
+    "rhs_kernel": ("solve.kernel", f"void({_ARGS}, {_C})"),
+    "inputs_kernel": ("solve.kernel", f"{_C}({_ARGS})"),
+    "events_kernel": ("solve.kernel", f"void({_ARGS}, {_C})"),
+    "jacobian_kernel": ("solve.kernel", f"void({_ARGS}, i8, f8, {_C2})"),
+    "table_values": ("core.signals", f"void({_A}, {_A}, {_A}, {_C})"),
+    "engine_over": ("model.components", f"void({_A}, {_A}, {_A}, f8, {_C}, {_C}, {_C2}, {_C}, {_C})"),
     "converter_torques_over": ("engine.torque_converter", f"void({_A}, {_A}, " + ", ".join([_C] * 7) + ")"),
-    "nordsieck_values": ("dense", f"void({_A}, {_I}, {_C}, {_C}, {_I}, {_I}, {_C}, {_C2})"),
+    "nordsieck_values": ("solve.dense", f"void({_A}, {_I}, {_C}, {_C}, {_I}, {_I}, {_C}, {_C2})"),
 }
 """Name -> (module of :mod:`transgen.sim`, numba signature) of every function the module exports:
 the argument types the simulator passes (float64 numbers and arrays, int64 index arrays)."""
-_SOURCES = ("kernel", "signals", "components", "dense", "interp", "transmission", "brake", "engine.torque_converter",
-            "jit", "aot")
+_SOURCES = ("solve.kernel", "core.signals", "model.components", "solve.dense", "core.interp", "model.transmission",
+            "model.brake", "engine.torque_converter", "core.jit", "core.aot")
 """The modules whose text the digest covers: every one with compilable code, the rules of the
 clone (.jit) and the signatures (here)."""
 _STALE_LOCK = 900.0  # s: a build lock older than this is an abandoned build's
@@ -56,7 +56,7 @@ _LOADED: dict = {}
 def digest() -> str:
     """A digest of the source files the kernels are compiled from (and of this builder)."""
     if "digest" not in _LOADED:
-        here = Path(__file__).resolve().parent
+        here = Path(__file__).resolve().parents[1]  # the folder of transgen.sim
         h = hashlib.sha1()
         for name in _SOURCES:
             h.update((here / (name.replace(".", "/") + ".py")).read_bytes())
@@ -169,7 +169,7 @@ def _compile_into(folder: Path, clone) -> None:
     with tempfile.TemporaryDirectory(dir=folder, prefix=".build-") as scratch:
         cc.output_dir = scratch
         for name, (module, signature) in EXPORTS.items():
-            func = getattr(_importlib.import_module(f"{__package__}.{module}"), name)
+            func = getattr(_importlib.import_module(f"transgen.sim.{module}"), name)
             cc.export(name, signature)(clone(func))
         cc.compile()
         built = Path(scratch) / os.path.basename(cc.output_file)

@@ -1,4 +1,4 @@
-"""``python -m transgen.sim.solve.build_kernels [--quiet]``: build the simulator's kernels ahead of time
+"""``python -m transgen.sim.core.build_kernels [--quiet]``: build the simulator's kernels ahead of time
 now (:mod:`.aot`), e.g. once after an install or in a container's image; exit 1 where they cannot
 be built (numba, a C compiler or a writable folder missing). A first simulation without them
 starts this in the background itself."""
@@ -8,7 +8,7 @@ import sys
 import time
 
 from . import aot
-from ..core.jit import numba_clone
+from .jit import numba_clone
 
 __all__ = ["main"]
 
