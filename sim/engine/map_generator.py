@@ -1,9 +1,11 @@
 """Map generator: compressor and turbine maps regenerated from published analytic fits.
 
 No open heavy-duty map tables exist (see the project's research note), so the shipped maps
-``sim/data/we_compressor.toml`` and ``sim/data/we_turbine.toml`` are *regenerated from the
-published analytic fits* of Wahlström & Eriksson (:class:`WECompressorFit`,
-:class:`WETurbineFit`) by ``sim/data/make_maps.py`` (which calls :func:`generate_compressor_map`
+``sim/data/we_compressor.toml`` and ``sim/data/we_turbine.toml`` are *regenerated from
+published analytic fits*: the compressor from the LiU-D-El fit of Sivertsson & Eriksson with its
+published surge line (:class:`LiUCompressorFit`, scaled to the 12.7 L engine; the file keeps its
+old name), the turbine from Wahlström & Eriksson (:class:`WETurbineFit`); the earlier W&E
+compressor map is :func:`generate_we_compressor_map` (:class:`WECompressorFit`).  They are made by ``sim/data/make_maps.py`` (which calls :func:`generate_compressor_map`
 and :func:`generate_turbine_map` and writes them with
 :func:`~transgen.sim.engine.map_file.save_map`).  Each file carries its provenance.
 Speeds in rad/s, pressures in Pa, temperatures in K, mass flows in kg/s.
@@ -27,6 +29,7 @@ __all__ = [
     "generate_we_compressor_map",
     "DEFAULT_FLOW_SCALE",
     "CHOKE_EFFICIENCY",
+    "DEFAULT_SPEED_SCALE",
     "generate_turbine_map",
 ]
 
@@ -113,11 +116,12 @@ class LiUCompressorFit:
     Flow: the ellipse ``m_corr = m_max(w_n)*sqrt(1 - (PR/PR_max(w))^2)`` with
     ``PR_max = ((w*R_c)^2*Psi_max/(2*cp*T_ref) + 1)^(1/kappa)`` and ``m_max`` a quadratic in
     ``w_n = w/15000``; efficiency ``eta_max - (Q1*dPhi^2 + 2*Q3*dPhi*dN + Q2*dN^2)``; surge line
-    ``PR = c_s1*m_corr + c_s2``.  Published parameters [LiU-D-El]; ``flow_scale`` multiplies
-    every corrected flow (the surge line follows, ``PR = c_s1*m/flow_scale + c_s2``): the usual
-    matching of a compressor to a larger engine, corrected flow scaling with displacement at
-    equal PR and engine speed.  Corrected quantities refer to the fit's ``T_ref``, ``p_ref``.
-    Speeds in rad/s, flows in kg/s.
+    ``PR = c_s1*m_corr + c_s2``.  Published parameters [LiU-D-El].  ``flow_scale`` = f sizes
+    the compressor for a larger engine by geometric similarity: the wheel diameter grows by
+    sqrt(f), so at equal tip speed (equal PR and efficiency) the flow is f times and the speed
+    1/sqrt(f) times the published wheel's (``speed_scale``, default that 1/sqrt(f), may be set
+    to match a given turbine); the surge line follows, ``PR = c_s1*m/f + c_s2``.
+    Corrected quantities refer to the fit's ``T_ref``, ``p_ref``.  Speeds in rad/s, flows in kg/s.
     """
 
     R_c: float = 0.0328                                                 # m
@@ -131,20 +135,31 @@ class LiUCompressorFit:
     T_ref: float = 295.53                                               # K
     p_ref: float = 99510.0                                              # Pa
     flow_scale: float = 1.0
+    speed_scale: float | None = None
     gas: Gas = AIR
+
+    def _fit_speed(self, omega: float) -> float:
+        """Speed [rad/s] of the published wheel at the tip speed of this (scaled) one."""
+        return omega / self._speed_scale
+
+    @property
+    def _speed_scale(self) -> float:
+        return self.speed_scale if self.speed_scale is not None else 1.0 / math.sqrt(self.flow_scale)
 
     def max_pressure_ratio(self, omega: float) -> float:
         """Zero-flow pressure ratio of the ellipse [-] at corrected speed [rad/s]."""
+        omega = self._fit_speed(omega)
         return ((omega * self.R_c) ** 2 * self.Psi_max / (2.0 * self.gas.cp * self.T_ref) + 1.0) \
             ** (1.0 / self.gas.kappa)
 
     def mass_flow(self, omega: float, PR: float) -> float:
         """Corrected mass flow [kg/s] of the ellipse at corrected speed [rad/s] and PR [-]."""
-        m_max = _poly2(self.c_m, omega / 15000.0) * self.flow_scale
+        m_max = _poly2(self.c_m, self._fit_speed(omega) / 15000.0) * self.flow_scale
         return m_max * math.sqrt(max(0.0, 1.0 - (PR / self.max_pressure_ratio(omega)) ** 2))
 
     def efficiency(self, omega: float, mass_flow: float) -> float:
         """Isentropic efficiency [-] at corrected speed [rad/s] and corrected flow [kg/s]."""
+        omega = self._fit_speed(omega)
         phi = (mass_flow / self.flow_scale) * self.gas.R * self.T_ref / (
             omega * 8.0 * self.R_c ** 3 * self.p_ref)
         d_phi, d_n = phi - self.Phi_opt, omega / 15000.0 - self.w_opt
@@ -234,13 +249,22 @@ class WETurbineFit:
 
 DEFAULT_VGT_POSITION = 55.0
 """Frozen vane position [%] of the shipped fixed-geometry turbine map (chosen so that the engine
-of :class:`~transgen.sim.engine.diesel.TurbochargedDiesel` reaches a boost pressure ratio of about 2.7 at 2100 rpm)."""
+of :class:`~transgen.sim.engine.diesel.TurbochargedDiesel` reached a boost pressure ratio of about 2.7 at 2100 rpm with
+the earlier W&E compressor map; with the shipped LiU-D-El compressor, matched by
+:data:`DEFAULT_SPEED_SCALE`, it is 2.93)."""
 
 
 DEFAULT_FLOW_SCALE = 12.74 / 6.7
 """Flow scale of the shipped compressor map: the displacement ratio of the W&E engine (12.74 L,
 the engine of :class:`~transgen.sim.engine.diesel.TurbochargedDiesel`) to the LiU-D-El engine
 (6.7 L) whose compressor the map is."""
+
+DEFAULT_SPEED_SCALE = 0.775
+"""Speed scale of the shipped compressor map (corrected speed of the scaled wheel over the
+published wheel's at the same aerodynamic point).  Geometric similarity would give
+``1/sqrt(DEFAULT_FLOW_SCALE)`` = 0.725; like the turbine's frozen vane position it is a matching
+choice, made so that the shipped W&E turbine runs near its efficient blade-speed ratios: rated
+boost PR 2.93 at 95 krpm (W&E model: 2.5-3.2 at 99-116 krpm, research note 1.1 and 3)."""
 
 CHOKE_EFFICIENCY = 0.55
 """Efficiency [-] at which the shipped map's speed lines choke (the research note's recipe,
@@ -261,8 +285,9 @@ def _left_branch(m_s: float, pr_s: float, kappa: float, shut_off: float, fractio
     return out
 
 
-def generate_compressor_map(fit: LiUCompressorFit = LiUCompressorFit(flow_scale=DEFAULT_FLOW_SCALE),
-                            speeds_rpm=tuple(range(20_000, 140_001, 10_000)),
+def generate_compressor_map(fit: LiUCompressorFit = LiUCompressorFit(flow_scale=DEFAULT_FLOW_SCALE,
+                                                                     speed_scale=DEFAULT_SPEED_SCALE),
+                            speeds_rpm=tuple(range(15_000, 112_501, 7_500)),
                             n_points: int = 13, eta_choke: float = CHOKE_EFFICIENCY,
                             shut_off: float = 0.7,
                             left_fractions=(0.2, 0.4, 0.6, 0.8, 0.9)) -> CompressorMap:
@@ -314,7 +339,9 @@ def generate_compressor_map(fit: LiUCompressorFit = LiUCompressorFit(flow_scale=
                             f"{eta_choke:g}, vertical below it (constant specific work) to half the "
                             f"choke head; left of surge the Moore-Greitzer cubic with shut-off head "
                             f"{shut_off:g} of the surge head; corrected flows of the LiU-D-El fit "
-                            f"times {fit.flow_scale:.4f} (12.74 L / 6.7 L displacement); reference "
+                            f"times {fit.flow_scale:.4f} (12.74 L / 6.7 L displacement), speeds times "
+                            f"{fit._speed_scale:.4f} (matched to the shipped turbine; geometric "
+                            f"similarity would give {1 / math.sqrt(fit.flow_scale):.4f}); reference "
                             "state = the fit's (T_c_b, p_c_b)"),
             ("validity", "the ellipse and efficiency fit between surge and choke; the branch left "
                          "of surge and the choke segment are model choices (unstable and choked "
