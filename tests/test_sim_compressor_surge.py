@@ -90,3 +90,31 @@ def test_surge_is_reported_not_clamped_silently():
     t = np.array([0.0, 0.1, 0.2, 0.3, 0.4])
     chi = np.array([0.5, 1.1, 1.2, 0.9, 0.5])
     assert _time_where(t, chi > 1.0) == (pytest.approx(0.2), 0.1)
+
+
+def test_turbine_efficiency_has_no_floor_or_wall():
+    """Figs. 4.10-4.11 (issue 27): the turbine efficiency table has no floor (W&E's 0.2) and no
+    wall between speed lines (their c_m(omega) step at 26.4 krpm); it is the published parabola
+    near the optimum blade-speed ratio, C1 continued to 0 at BSR = 0 and towards 0 at ER = 1."""
+    from transgen.sim.engine import WETurbineFit, default_turbine_table
+
+    tab = default_turbine_table()
+    eta = tab.efficiency
+    assert np.all(eta[:, 0] == 0.0) and np.all(eta[:, 1:] > 0.0) and eta.max() <= 0.8180028
+    for row in eta:                         # one peak per speed line, no plateau on either side
+        k = int(np.argmax(row))
+        assert np.all(np.diff(row[:k + 1]) > 0) and np.all(np.diff(row[k:]) < 0)
+    # neighbouring speed lines at the same ER differ smoothly (no wall): the peak efficiency of
+    # every line is the fit's maximum within a few per cent
+    assert np.all(eta.max(axis=1) > 0.78)
+    # the published parabola holds near the optimum
+    fit = WETurbineFit(vgt_position=55.0)
+    w = 80_000 * 2 * np.pi / 60
+    for er in (1.3, 1.65, 2.0):
+        bsr = fit.blade_speed_ratio(w, tab.T_ref, er)
+        if abs(bsr - fit.BSR_opt) < 0.3:
+            assert fit.smooth_efficiency(w, tab.T_ref, er) == pytest.approx(fit.efficiency(w, tab.T_ref, er), abs=1e-9)
+    # C1 at the tangent points
+    c, b0, e = fit.c_m_at(w), fit.BSR_opt, fit.eta_max
+    b_lo = np.sqrt(b0 * b0 - e / c)
+    assert (e - c * (b_lo - b0) ** 2) / b_lo == pytest.approx(-2 * c * (b_lo - b0))

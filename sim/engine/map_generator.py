@@ -247,11 +247,56 @@ class WETurbineFit:
         return min(max(self.eta_max - c_m * (bsr - self.BSR_opt) ** 2, 0.2), 1.0)
 
 
+    def c_m_at(self, omega: float) -> float:
+        """The fit's curvature c_m(omega) [-], held at its value at ``w_tlin`` below it: W&E's
+        linear patch takes it to 0 over the 28 rad/s below ``w_tlin`` (a step, with an
+        exponent of 0.01 above), which would put the whole table below 26.7 krpm at eta_max."""
+        c1, c2, c3 = self.c_m
+        return c1 * (max(omega, self.w_tlin) - c2) ** c3
+
+    def blade_speed_ratio(self, omega: float, T_in: float, ER: float) -> float:
+        """Blade-speed ratio [-] ``R_t*omega/sqrt(2*cp*T_in*(1 - ER^-kappa))``; inf at ER <= 1."""
+        dh = 2.0 * self.gas.cp * T_in * (1.0 - min(1.0 / ER, 1.0) ** self.gas.kappa)
+        return math.inf if dh <= 0.0 else self.R_t * omega / math.sqrt(dh)
+
+    def smooth_efficiency(self, omega: float, T_in: float, ER: float) -> float:
+        """Turbine-mechanical efficiency [-] that stays physical over the whole map, C1 in BSR:
+
+        * the published parabola ``eta_max - c_m*(BSR - BSR_opt)^2`` between its two tangent
+          points ``BSR_opt -/+ d``, ``d = BSR_opt - sqrt(BSR_opt^2 - eta_max/c_m)``: the fit's own
+          range around the optimum;
+        * below, the tangent through the origin: eta = 0 at BSR = 0 (no shaft power at
+          standstill, a finite stall torque) instead of the 0.2 floor;
+        * above, an exponential tail with the parabola's value and slope at its tangent point,
+          falling towards 0 as ER -> 1 (no expansion) instead of going negative and flooring.
+
+        If ``c_m`` is too small for the tangent (``BSR_opt^2 <= eta_max/c_m``) the parabola is
+        used from BSR = 0, with the same tail.
+        """
+        bsr = self.blade_speed_ratio(omega, T_in, ER)
+        if not math.isfinite(bsr):
+            return 0.0
+        c, b0, e = self.c_m_at(omega), self.BSR_opt, self.eta_max
+        root = b0 * b0 - e / c
+        b_lo = math.sqrt(root) if root > 0.0 else 0.0
+        b_hi = 2.0 * b0 - b_lo
+
+        def parabola(b: float) -> float:
+            return e - c * (b - b0) ** 2
+
+        if bsr < b_lo:
+            return parabola(b_lo) * bsr / b_lo
+        if bsr <= b_hi:
+            return parabola(bsr)
+        eta_h, slope = parabola(b_hi), 2.0 * c * (b_hi - b0)
+        return eta_h * math.exp(-slope * (bsr - b_hi) / eta_h)
+
+
 DEFAULT_VGT_POSITION = 55.0
 """Frozen vane position [%] of the shipped fixed-geometry turbine map (chosen so that the engine
 of :class:`~transgen.sim.engine.diesel.TurbochargedDiesel` reached a boost pressure ratio of about 2.7 at 2100 rpm with
 the earlier W&E compressor map; with the shipped LiU-D-El compressor, matched by
-:data:`DEFAULT_SPEED_SCALE`, it is 2.93)."""
+geometric similarity (:data:`DEFAULT_SPEED_SCALE`) and the turbine efficiency without floor, 2.91)."""
 
 
 DEFAULT_FLOW_SCALE = 12.74 / 6.7
@@ -259,12 +304,11 @@ DEFAULT_FLOW_SCALE = 12.74 / 6.7
 the engine of :class:`~transgen.sim.engine.diesel.TurbochargedDiesel`) to the LiU-D-El engine
 (6.7 L) whose compressor the map is."""
 
-DEFAULT_SPEED_SCALE = 0.775
-"""Speed scale of the shipped compressor map (corrected speed of the scaled wheel over the
-published wheel's at the same aerodynamic point).  Geometric similarity would give
-``1/sqrt(DEFAULT_FLOW_SCALE)`` = 0.725; like the turbine's frozen vane position it is a matching
-choice, made so that the shipped W&E turbine runs near its efficient blade-speed ratios: rated
-boost PR 2.93 at 95 krpm (W&E model: 2.5-3.2 at 99-116 krpm, research note 1.1 and 3)."""
+DEFAULT_SPEED_SCALE = 1.0 / math.sqrt(DEFAULT_FLOW_SCALE)
+"""Speed scale of the shipped compressor map (0.725): geometric similarity, the wheel diameter
+sqrt(DEFAULT_FLOW_SCALE) times the published one.  With the shipped W&E turbine the engine then
+rates 2.91 boost PR at 88.5 krpm at 2100 rpm (W&E model: 2.5-3.2 at 99-116 krpm at 1900 rpm,
+research note 1.1 and 3); the scaled wheel radius, 0.0452 m, is close to W&E's 0.04 m."""
 
 CHOKE_EFFICIENCY = 0.55
 """Efficiency [-] at which the shipped map's speed lines choke (the research note's recipe,
@@ -287,7 +331,7 @@ def _left_branch(m_s: float, pr_s: float, kappa: float, shut_off: float, fractio
 
 def generate_compressor_map(fit: LiUCompressorFit = LiUCompressorFit(flow_scale=DEFAULT_FLOW_SCALE,
                                                                      speed_scale=DEFAULT_SPEED_SCALE),
-                            speeds_rpm=tuple(range(15_000, 112_501, 7_500)),
+                            speeds_rpm=tuple(range(15_000, 105_001, 7_500)),
                             n_points: int = 13, eta_choke: float = CHOKE_EFFICIENCY,
                             shut_off: float = 0.7,
                             left_fractions=(0.2, 0.4, 0.6, 0.8, 0.9)) -> CompressorMap:
@@ -340,8 +384,8 @@ def generate_compressor_map(fit: LiUCompressorFit = LiUCompressorFit(flow_scale=
                             f"choke head; left of surge the Moore-Greitzer cubic with shut-off head "
                             f"{shut_off:g} of the surge head; corrected flows of the LiU-D-El fit "
                             f"times {fit.flow_scale:.4f} (12.74 L / 6.7 L displacement), speeds times "
-                            f"{fit._speed_scale:.4f} (matched to the shipped turbine; geometric "
-                            f"similarity would give {1 / math.sqrt(fit.flow_scale):.4f}); reference "
+                            f"{fit._speed_scale:.4f} (geometric similarity gives "
+                            f"{1 / math.sqrt(fit.flow_scale):.4f}); reference "
                             "state = the fit's (T_c_b, p_c_b)"),
             ("validity", "the ellipse and efficiency fit between surge and choke; the branch left "
                          "of surge and the choke segment are model choices (unstable and choked "
@@ -411,14 +455,16 @@ def generate_turbine_map(fit: WETurbineFit = WETurbineFit(vgt_position=DEFAULT_V
     for n in speeds_rpm:
         w = n * RPM
         m = tuple(fit.mass_flow(p_ref, T_ref, er) for er in expansion_ratio)
-        e = tuple(fit.efficiency(w, T_ref, er) for er in expansion_ratio)
+        e = tuple(fit.smooth_efficiency(w, T_ref, er) for er in expansion_ratio)
         lines.append(TurbineSpeedLine(w, tuple(map(float, expansion_ratio)), m, e))
     prov = (("source", _WE_SOURCE),
             ("generator", "transgen.sim.engine.generate_turbine_map (sim/data/make_maps.py)"),
             ("definitions", f"VGT frozen at {fit.vgt_position:g} % (f_vgt = {fit.f_vgt:.5f}): "
-                            "treated as a fixed-geometry turbine; efficiency is W&E's eta_tm, "
-                            "which includes the mechanical (bearing) losses; c_m(omega) taken "
-                            "at omega = N_corr"),
+                            "treated as a fixed-geometry turbine; efficiency is W&E's eta_tm "
+                            "(mechanical losses included): the published BSR parabola between its "
+                            "tangent points, the tangent through the origin below (0 at BSR = 0), "
+                            "an exponential tail above (towards 0 at ER = 1): C1, no 0.2 floor; "
+                            "c_m(omega) taken at omega = N_corr, held below w_tlin"),
             ("licence", "numbers computed from published model parameters; no proprietary data"))
     return TurbineMap("W&E 12.7 L heavy-duty turbine, fixed geometry (regenerated fit)",
                       tuple(lines), T_ref, p_ref, prov)

@@ -132,6 +132,13 @@ class TurboReport:
                              f"{b['mach_c_out']:7.3f}")
             lines.append(f"    iterative chi lower in every bin: {'yes' if d['chi_lower'] else 'no'}; |d chi| grows with "
                          f"flow: {'yes' if d['grows_with_flow'] else 'no'}")
+            lines.append("    the sign of d chi depends on the compressor's outlet/inlet port areas (ports "
+                         + ", ".join(f"{k} {v:g} mm" for k, v in d["ports_mm"].items()) + ")")
+            a = d.get("alternative")
+            if a:
+                lines.append(f"    same with a {a['ports_mm']['compressor_outlet']:g} mm compressor outlet: d chi per bin "
+                             + ", ".join(f"{b['d_chi']:+.4f}" for b in a["bins"])
+                             + f"; iterative chi lower in every bin: {'yes' if a['chi_lower'] else 'no'}")
         return "\n".join(lines)
 
     __str__ = text
@@ -208,7 +215,20 @@ def turbo_report(result, other=None, bins: int = 5, engine: TurbochargedDiesel |
     return rep
 
 
-def algorithm_difference(result, engine: TurbochargedDiesel, bins: int = 5, points: int = 400) -> dict:
+def _diameters_mm(ports: PortAreas) -> dict:
+    """Port diameters [mm] of circular ducts with the port areas."""
+    return {k: round(1e3 * (4.0 * getattr(ports, k) / np.pi) ** 0.5, 1)
+            for k in ("compressor_inlet", "compressor_outlet", "turbine_inlet", "turbine_outlet")}
+
+
+ALTERNATIVE_COMPRESSOR_OUTLET = np.pi / 4 * 0.076 ** 2
+"""Compressor outlet area [m^2] (76 mm duct) of the second chi comparison: the sign of the
+iterative algorithm's chi shift depends on the compressor's outlet/inlet area ratio
+(:class:`~transgen.sim.engine.turbocharger.PortAreas`), so the report shows both."""
+
+
+def algorithm_difference(result, engine: TurbochargedDiesel, bins: int = 5, points: int = 400,
+                         ports: PortAreas | None = None, alternative: bool = True) -> dict:
     """Both turbocharger algorithms evaluated on the same states: up to ``points`` samples of
     ``result`` (intake and exhaust manifold pressures, exhaust temperature, turbo speed) are fed
     to the basic and to the iterative algorithm with the maps, shaft and port areas of
@@ -223,8 +243,9 @@ def algorithm_difference(result, engine: TurbochargedDiesel, bins: int = 5, poin
     the iterative algorithm has no solution (choked ports) are skipped and counted.
     """
     own = engine.turbo
+    ports = ports or getattr(own, "ports", PortAreas())
     basic = BasicTurbo(own.compressor, own.turbine, own.shaft)
-    iterative = IterativeTurbo(own.compressor, own.turbine, own.shaft, getattr(own, "ports", PortAreas()))
+    iterative = IterativeTurbo(own.compressor, own.turbine, own.shaft, ports)
     p = engine.params
     t, p_im, p_em, T_em, w = unique_times(result.time, result["p_im"], result["p_em"], result["T_em"], result["omega_tc"])
     rows, skipped = [], 0
@@ -253,9 +274,13 @@ def algorithm_difference(result, engine: TurbochargedDiesel, bins: int = 5, poin
                                  "d_chi": float(mean[1]), "d_flow_c_percent": float(mean[2]),
                                  "d_flow_t_percent": float(mean[3]), "mach_c_in": float(mean[4]),
                                  "mach_c_out": float(mean[5])})
-    return {"points": len(rows), "skipped": skipped, "bins": out_bins,
-            "chi_lower": bool(out_bins) and all(b["d_chi"] < 0 for b in out_bins),
-            "grows_with_flow": bool(out_bins) and abs(out_bins[-1]["d_chi"]) > abs(out_bins[0]["d_chi"])}
+    out = {"points": len(rows), "skipped": skipped, "bins": out_bins, "ports_mm": _diameters_mm(ports),
+           "chi_lower": bool(out_bins) and all(b["d_chi"] < 0 for b in out_bins),
+           "grows_with_flow": bool(out_bins) and abs(out_bins[-1]["d_chi"]) > abs(out_bins[0]["d_chi"])}
+    if alternative:
+        alt = PortAreas(ports.compressor_inlet, ALTERNATIVE_COMPRESSOR_OUTLET, ports.turbine_inlet, ports.turbine_outlet)
+        out["alternative"] = algorithm_difference(result, engine, bins, points, alt, alternative=False)
+    return out
 
 
 def _compare(t, w, chi, flow, other, first: str, bins: int) -> dict:
