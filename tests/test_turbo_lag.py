@@ -1,0 +1,23 @@
+"""Turbo lag grows with the rotor inertia and the manifold volumes (thesis 4.4.3; the worked
+example docs/turbo_lag.md): two runs of the bundled ht740_turbo up to the first shift."""
+import pytest
+
+
+def _report(**keys):
+    from transgen.sim.engine.turbo_report import turbo_report
+    from transgen.sim.scenario import load_scenario
+
+    r = load_scenario("ht740_turbo", {"simulation.t_end": 3.9, **keys}).run()
+    assert r.success, r.message
+    return turbo_report(r)
+
+
+def test_lag_grows_with_inertia_and_volumes():
+    small = _report(**{"input.shaft.inertia": 1e-4, "input.engine.V_im": 0.011, "input.engine.V_em": 0.010})
+    large = _report(**{"input.shaft.inertia": 4e-4, "input.engine.V_im": 0.044, "input.engine.V_em": 0.040})
+    assert large.time_to_90_boost > small.time_to_90_boost + 0.1
+    assert large.boost_peak < small.boost_peak - 0.1
+    for rep in (small, large):     # the launch stays between the surge and choke lines
+        assert rep.surge_time == 0.0 and rep.surge_first is None and rep.choke_time == 0.0
+        assert 0.0 < rep.chi_min <= rep.chi_max < 1.0
+        assert "surge (chi > 1" in rep.text()
