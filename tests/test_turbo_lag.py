@@ -21,3 +21,19 @@ def test_lag_grows_with_inertia_and_volumes():
         assert rep.surge_time == 0.0 and rep.surge_first is None and rep.choke_time == 0.0
         assert 0.0 < rep.chi_min <= rep.chi_max < 1.0
         assert "surge (chi > 1" in rep.text()
+
+
+def test_temperature_changes_are_total_to_total():
+    """Figs. 4.21-4.22 compare like with like: with the iterative algorithm the devices' power is
+    m*cp*(total temperature change), so dT_c and dT_t (signals of the run) are totals."""
+    import numpy as np
+
+    from transgen.sim.engine import AIR, EXHAUST
+    from transgen.sim.scenario import load_scenario
+
+    r = load_scenario("ht740_turbo_iterative", {"simulation.t_end": 2.0}).run()
+    assert r.success, r.message
+    k = np.nonzero(r["m_dot_t"] > 0.2)[0]
+    assert len(k) and np.max(r["mach_t_in"][k]) > 0.05
+    np.testing.assert_allclose(r["m_dot_c"][k] * AIR.cp * r["dT_c"][k], r["power_c"][k], rtol=1e-6)
+    np.testing.assert_allclose(r["m_dot_t"][k] * EXHAUST.cp * r["dT_t"][k], r["power_t"][k], rtol=1e-6)
