@@ -37,3 +37,16 @@ def test_temperature_changes_are_total_to_total():
     assert len(k) and np.max(r["mach_t_in"][k]) > 0.05
     np.testing.assert_allclose(r["m_dot_c"][k] * AIR.cp * r["dT_c"][k], r["power_c"][k], rtol=1e-6)
     np.testing.assert_allclose(r["m_dot_t"][k] * EXHAUST.cp * r["dT_t"][k], r["power_t"][k], rtol=1e-6)
+
+
+def test_chi_port_area_figure_shows_both_port_choices():
+    from transgen.sim.cli import _engine_of
+    from transgen.sim.engine.plots import plot_chi_port_areas
+    from transgen.sim.scenario import load_scenario
+
+    sc = load_scenario("ht740_turbo", {"simulation.t_end": 3.0})
+    r = sc.run()
+    fig = plot_chi_port_areas(r, _engine_of(sc))
+    labels = [line.get_label() for line in fig.axes[0].get_lines() if not line.get_label().startswith("_")]
+    assert labels == ["compressor ports 100 mm in / 100 mm out", "compressor ports 100 mm in / 76 mm out"]
+    assert "port areas" in fig.axes[0].get_title()
