@@ -312,7 +312,7 @@ def _comparison_plots(scenario, result, other_s, other, directory: Path, formats
     if all("omega_tc" in r.signals for r in runs.values()):
         from .engine.plots import plot_turbo_comparison
 
-        written += [str(p) for p in plot_turbo_comparison(runs, directory, formats=formats)]
+        written += [str(p) for p in plot_turbo_comparison(runs, directory, formats=formats, engine=_engine_of(scenario))]
     return written
 
 

@@ -7,7 +7,8 @@ import pytest
 
 from transgen.sim.engine import (
     DATA_DIR, RPM, CompressorMap, CompressorSpeedLine, MapError, MapLine, MapRangeWarning,
-    TurbineMap, TurbineSpeedLine, WECompressorFit, WETurbineFit, chi_coordinate,
+    TurbineMap, TurbineSpeedLine, WECompressorFit, WETurbineFit, chi_coordinate, LiUCompressorFit, DEFAULT_FLOW_SCALE,
+    CHOKE_EFFICIENCY, DEFAULT_SPEED_SCALE, generate_we_compressor_map,
     default_compressor_table, default_turbine_table, generate_compressor_map,
     generate_turbine_map, load_map, preprocess_compressor, preprocess_turbine, save_map)
 
@@ -81,7 +82,7 @@ def test_shipped_maps_are_the_generator_output():
     assert load_map(DATA_DIR / "we_compressor.toml") == generate_compressor_map()
     assert load_map(DATA_DIR / "we_turbine.toml") == generate_turbine_map()
     text = (DATA_DIR / "we_compressor.toml").read_text()
-    assert text.startswith("# Compressor map") and "Wahlstrom" in text
+    assert text.startswith("# Compressor map") and "Sivertsson" in text and "Moore" in text
 
 
 def test_load_map_reports_all_problems(tmp_path):
@@ -102,19 +103,24 @@ def test_map_validation():
 
 
 def test_generated_tables_reproduce_the_fit():
-    fit, tab = WECompressorFit(), default_compressor_table()
-    # On a speed line, at the map's own points (PR equally spaced = chi equally spaced).
-    for n in (30_000, 60_000, 100_000):
+    fit, tab = LiUCompressorFit(flow_scale=DEFAULT_FLOW_SCALE, speed_scale=DEFAULT_SPEED_SCALE), default_compressor_table()
+    # On a speed line, at the map's own points (PR equally spaced from surge to choke = chi
+    # equally spaced, chi = 1 at surge and 0 at choke, by the fit's own equations).
+    for n in (30_000, 60_000, 105_000):
         w = n * RPM
-        pr_surge = tab.pr_surge[list(tab.speed).index(w)]
+        i = list(tab.speed).index(w)
+        m_s, pr_s = fit.surge_point(w)
+        m_c, pr_c = fit.choke_point(w, CHOKE_EFFICIENCY)
+        assert (tab.pr_surge[i], tab.pr_stall[i]) == (pytest.approx(pr_s), pytest.approx(pr_c))
+        assert tab.mass_flow[i, -1] == pytest.approx(m_s) and tab.mass_flow[i, 0] == pytest.approx(m_c)
         for chi in (0.0, 0.25, 0.5, 0.75, 1.0):
-            pr = 1.0 + chi * (pr_surge - 1.0)
+            pr = pr_c + chi * (pr_s - pr_c)
             m, eta, c = tab.lookup(w, pr)
             assert c == pytest.approx(chi)
             assert m == pytest.approx(fit.mass_flow(w, pr), rel=2e-3)
-            assert eta == pytest.approx(fit.efficiency(fit.mass_flow(w, pr), pr), abs=5e-3)
+            assert eta == pytest.approx(fit.efficiency(w, fit.mass_flow(w, pr)), abs=5e-3)
     # Between speed lines, within a few per cent.
-    w, pr = 75_000 * RPM, 2.0
+    w, pr = 70_000 * RPM, 1.5
     assert tab.lookup(w, pr)[0] == pytest.approx(fit.mass_flow(w, pr), rel=0.03)
     tfit, ttab = WETurbineFit(vgt_position=55.0), default_turbine_table()
     for er in (1.0, 1.5, 2.5, 4.0):
@@ -136,4 +142,4 @@ def test_reference_magnitudes_of_the_we_compressor():
         w = krpm * 1000 * RPM
         assert fit.pressure_ratio(w, fit.zero_flow_head(w)) == pytest.approx(pr0, abs=0.01)
         assert fit.mass_flow(w, 1.0) == pytest.approx(w1, abs=0.01)
-    assert math.isclose(default_compressor_table().T_ref, fit.T_amb)
+    assert math.isclose(preprocess_compressor(generate_we_compressor_map()).T_ref, fit.T_amb)

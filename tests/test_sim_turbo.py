@@ -16,7 +16,7 @@ from transgen.sim.engine.turbocharger import (BasicTurbo, ChokedFlowError, Itera
                                               total_temperature)
 
 P_AMB, T_AMB = 101111.34, 298.46
-HIGH_FLOW = (P_AMB, T_AMB, 2.7e5, 2.9e5, 850.0, P_AMB, 100_000 * RPM)
+HIGH_FLOW = (P_AMB, T_AMB, 2.7e5, 2.9e5, 850.0, P_AMB, 90_000 * RPM)   # mid-map (chi ~0.5) near rated
 LOW_FLOW = (P_AMB, T_AMB, 1.05e5, 1.08e5, 500.0, P_AMB, 30_000 * RPM)
 
 

@@ -1,4 +1,5 @@
-"""Regenerate the shipped example maps from the published Wahlström & Eriksson fits.
+"""Regenerate the shipped example maps from published fits: the LiU-D-El compressor (Sivertsson &
+Eriksson, with its surge line) and the Wahlström & Eriksson turbine.
 
 Usage::
 

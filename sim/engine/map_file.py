@@ -203,8 +203,8 @@ class TurbineMap:
             yield "expansion ratios must be strictly increasing"
         if any(e < 1.0 for e in s.expansion_ratio):
             yield "expansion ratios must be >= 1"
-        if not _efficiencies_valid(s):
-            yield _EFFICIENCY_RANGE
+        if not all(0.0 <= e <= 1.0 for e in s.efficiency):
+            yield "efficiency must be in [0, 1] (0 where the turbine does no work: ER = 1, standstill)"
         if any(m < 0.0 for m in s.mass_flow):
             yield "mass flow must be >= 0"
 

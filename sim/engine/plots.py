@@ -42,6 +42,7 @@ __all__ = [
     "plot_engine_overview",
     "plot_operating_points",
     "plot_turbo_comparison",
+    "plot_chi_port_areas",
     "plot_compressor_map",
     "plot_compressor_tables",
     "plot_turbine_map",
@@ -61,9 +62,9 @@ THESIS_SIGNALS = (
     ("fig4_18_chi", "chi", 1.0, "chi [-]", "Normalized pressure coordinate chi (thesis Fig. 4.18)"),
     ("fig4_19_compressor_flow", "m_dot_c", 1.0, "mass flow [kg/s]", "Compressor mass flow (thesis Fig. 4.19)"),
     ("fig4_20_turbine_flow", "m_dot_t", 1.0, "mass flow [kg/s]", "Turbine mass flow (thesis Fig. 4.20)"),
-    ("fig4_21_compressor_temperature_rise", "dT_c", 1.0, "T_out - T_in [K]",
+    ("fig4_21_compressor_temperature_rise", "dT_c", 1.0, "T0_out - T0_in, total to total [K]",
      "Compressor gas temperature increase (thesis Fig. 4.21)"),
-    ("fig4_22_turbine_temperature_drop", "dT_t", 1.0, "T_in - T_out [K]",
+    ("fig4_22_turbine_temperature_drop", "dT_t", 1.0, "T0_in - T0_out, total to total [K]",
      "Turbine gas temperature decrease (thesis Fig. 4.22)"),
     ("fig4_23_compressor_pressure_ratio", "PR_c", 1.0, "pressure ratio p_out/p_in [-]",
      "Compressor pressure ratio (thesis Fig. 4.23)"),
@@ -240,15 +241,47 @@ def plot_operating_points(results, cmap: CompressorMap | None = None):
     return fig
 
 
-def plot_turbo_comparison(results, directory=".", formats=("png",), prefix: str = "") -> list[Path]:
+def plot_chi_port_areas(result, engine):
+    """Thesis Fig. 4.18's finding and its dependence on the port areas: the chi shift of the
+    iterative algorithm against the basic one on the same states of ``result`` (no engine
+    feedback), per compressor-flow bin, with the engine's ports and with a 76 mm compressor
+    outlet (:func:`~transgen.sim.engine.turbo_report.algorithm_difference`)."""
+    from .turbo_report import algorithm_difference
+
+    d = algorithm_difference(result, engine)
+    fig = _figure((8.0, 4.6))
+    ax = fig.add_subplot()
+    for k, (run, style) in enumerate(((d, "-o"), (d.get("alternative"), "--s"))):
+        if not run or not run["bins"]:
+            continue
+        x = [0.5 * (b["flow_lo"] + b["flow_hi"]) for b in run["bins"]]
+        mm = run["ports_mm"]
+        ax.plot(x, [b["d_chi"] for b in run["bins"]], style, color=RUN_COLORS[k],
+                label=f"compressor ports {mm['compressor_inlet']:g} mm in / {mm['compressor_outlet']:g} mm out")
+    ax.axhline(0.0, color="#555555", lw=0.8)
+    ax.set_xlabel("compressor mass flow of the basic algorithm [kg/s]")
+    ax.set_ylabel("chi(iterative) - chi(basic) [-]")
+    ax.set_title("Chi shift of the iterative algorithm on the same states (thesis Fig. 4.18):\n"
+                 "its sign depends on the compressor's outlet/inlet port areas", fontsize="medium")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize="small")
+    return fig
+
+
+def plot_turbo_comparison(results, directory=".", formats=("png",), prefix: str = "",
+                          engine=None) -> list[Path]:
     """Write the thesis Fig. 4.17-4.24 comparisons, the engine overview and the operating points
     of ``results`` (``{label: Result}`` or a list) to ``directory`` as
-    ``<prefix><name>.<format>``; returns the paths written."""
+    ``<prefix><name>.<format>``; with ``engine`` (the first run's TurbochargedDiesel) also the
+    chi shift for two compressor port areas (:func:`plot_chi_port_areas`). Returns the paths."""
     from transgen.drawing import save_figure
 
     directory = Path(directory)
     jobs = [(stem, lambda s=signal, sc=scale, yl=ylabel, ti=title: plot_turbo_signal(results, s, sc, yl, ti))
             for stem, signal, scale, ylabel, title in THESIS_SIGNALS]
+    if engine is not None:
+        first = _runs(results)[0][1]
+        jobs.append(("fig4_18_chi_port_areas", lambda: plot_chi_port_areas(first, engine)))
     jobs.append(("engine_overview", lambda: plot_engine_overview(results)))
     jobs.append(("compressor_operating_points", lambda: plot_operating_points(results)))
     paths = []

@@ -15,8 +15,10 @@ coordinate of thesis eq. 4.25::
 
     chi = (PR - PR_stall) / (PR_surge - PR_stall)
 
-so that chi = 0 on the stall line, chi = 1 on the surge line, chi > 1 is surge and chi < 0 stalled
-operation.  The speed line's corrected flow and efficiency are resampled on a regular chi grid,
+so that chi = 0 on the stall (choke) line, chi = 1 on the surge line, chi > 1 is surge and
+chi < 0 choked operation.  A speed line may carry points left of surge (its falling branch, two
+flows per pressure ratio, as in Fig. 4.4): chi is built on the stable branch only, from the
+line's peak (on the surge line) to larger flows.  The speed line's corrected flow and efficiency are resampled on a regular chi grid,
 giving the causal tables ``m_corr(N_corr, chi)`` and ``eta(N_corr, chi)`` (eqs 4.23-4.24).
 
 *The 0/0 guard.*  At low speed the surge and stall lines meet (both tend to PR = 1) and eq. 4.25
@@ -255,19 +257,32 @@ def preprocess_compressor(cmap: CompressorMap, n_chi: int = 21, min_span: float 
             m_tab.append(np.zeros(n_chi))
             e_tab.append(np.zeros(n_chi))
             continue
-        chi = (np.asarray(s.pressure_ratio) - pr_st) / (pr_su - pr_st)
+        pr, m, e = (np.asarray(v, dtype=float) for v in (s.pressure_ratio, s.mass_flow, s.efficiency))
+        stable = _stable_branch(pr, m)
+        chi = (pr[stable] - pr_st) / (pr_su - pr_st)
         order = np.argsort(chi)
         chi = chi[order]
         if np.any(np.diff(chi) <= 0):
-            problems.append(f"{what}: pressure ratio must be strictly monotonic along the line")
+            problems.append(f"{what}: pressure ratio must be strictly monotonic along the line "
+                            "right of its peak (the stable branch)")
         if chi[0] > coverage_tol or chi[-1] < 1.0 - coverage_tol:
             problems.append(f"{what}: data cover chi {chi[0]:.3f} ... {chi[-1]:.3f}; they must "
                             f"reach the stall (0) and surge (1) lines within {coverage_tol}")
-        m_tab.append(np.interp(grid, chi, np.asarray(s.mass_flow)[order]))
-        e_tab.append(np.interp(grid, chi, np.asarray(s.efficiency)[order]))
+        m_tab.append(np.interp(grid, chi, m[stable][order]))
+        e_tab.append(np.interp(grid, chi, e[stable][order]))
     _raise_problems(problems, f"compressor map '{cmap.name}'")
     return CompressorTable(cmap.name, [s.speed for s in cmap.speed_lines], grid, m_tab, e_tab,
                            stall, surge, cmap.T_ref, cmap.p_ref, min_span)
+
+
+def _stable_branch(pr: np.ndarray, m: np.ndarray) -> np.ndarray:
+    """Indices of the stable branch of a compressor speed line: from its highest pressure ratio
+    (the peak, on the surge line) towards larger flow.  Points left of the peak (the falling
+    branch left of surge, two flows per PR) are map data for the drawing only; chi indexes the
+    stable branch, and chi > 1 at run time means the operating point is in surge."""
+    order = np.argsort(m, kind="stable")
+    peak = int(np.argmax(pr[order]))
+    return order[peak:]
 
 
 def preprocess_turbine(tmap: TurbineMap, expansion_ratio=None) -> TurbineTable:

@@ -23,7 +23,8 @@ __all__ = ["TurboReport", "turbo_report", "algorithm_difference", "unique_times"
 TURBO_UNITS = {"fuel_step": "s", "window_end": "s", "boost_start": "1", "boost_peak": "1", "time_to_90_boost": "s",
                "peak_turbo_speed_krpm": "krpm", "peak_turbo_speed_time": "s", "chi_min": "1", "chi_max": "1",
                "compressor_flow_max": "kg/s", "flow_lo": "kg/s", "flow_hi": "kg/s", "d_turbo_krpm": "krpm",
-               "d_turbo_percent": "%", "d_chi": "1"}
+               "d_turbo_percent": "%", "d_chi": "1", "surge_time": "s", "surge_first": "s",
+               "choke_time": "s"}
 """Units of the numeric fields of :meth:`TurboReport.to_dict` (boost: compressor pressure ratio)."""
 
 def unique_times(t: np.ndarray, *ys: np.ndarray):
@@ -87,6 +88,9 @@ class TurboReport:
     chi_min: float
     chi_max: float
     compressor_flow_max: float
+    surge_time: float = 0.0
+    surge_first: float | None = None
+    choke_time: float = 0.0
     comparison: dict | None = None
     decoupled: dict | None = None
 
@@ -100,7 +104,10 @@ class TurboReport:
                  f"{self.boost_peak:.2f} before t = {self.window_end:.2f} s; time to 90 % boost {t90}",
                  f"  peak turbo speed {self.peak_turbo_speed_krpm:.1f} krpm at t = {self.peak_turbo_speed_time:.2f} s;"
                  f" chi {self.chi_min:.3f} .. {self.chi_max:.3f}; compressor flow up to "
-                 f"{self.compressor_flow_max:.3f} kg/s"]
+                 f"{self.compressor_flow_max:.3f} kg/s",
+                 "  surge (chi > 1, left of the surge line; the flow is held at the surge flow): "
+                 + (f"{self.surge_time:.3f} s, first at t = {self.surge_first:.2f} s" if self.surge_first is not None
+                    else "never") + f"; choked (chi < 0): {self.choke_time:.3f} s"]
         c = self.comparison
         if c:
             lines.append(f"  {c['second']} vs {c['first']} (time-aligned differences, second - first, "
@@ -125,9 +132,29 @@ class TurboReport:
                              f"{b['mach_c_out']:7.3f}")
             lines.append(f"    iterative chi lower in every bin: {'yes' if d['chi_lower'] else 'no'}; |d chi| grows with "
                          f"flow: {'yes' if d['grows_with_flow'] else 'no'}")
+            lines.append("    the sign of d chi depends on the compressor's outlet/inlet port areas (ports "
+                         + ", ".join(f"{k} {v:g} mm" for k, v in d["ports_mm"].items()) + ")")
+            a = d.get("alternative")
+            if a:
+                lines.append(f"    same with a {a['ports_mm']['compressor_outlet']:g} mm compressor outlet: d chi per bin "
+                             + ", ".join(f"{b['d_chi']:+.4f}" for b in a["bins"])
+                             + f"; iterative chi lower in every bin: {'yes' if a['chi_lower'] else 'no'}")
         return "\n".join(lines)
 
     __str__ = text
+
+
+_CHI_TOL = 1e-6
+"""chi beyond [0, 1] by more than this counts as surge (above) or choked (below)."""
+
+
+def _time_where(t: np.ndarray, flag: np.ndarray) -> tuple[float, float | None]:
+    """Total time [s] of the samples where ``flag`` holds (each sample owns the interval to the
+    next one) and the first such time, or None."""
+    if len(t) < 2 or not np.any(flag):
+        return 0.0, None
+    dt = np.diff(t)
+    return float(np.sum(dt[flag[:-1]])), float(t[int(np.argmax(flag))])
 
 
 def _title(result) -> str:
@@ -147,6 +174,9 @@ def turbo_report(result, other=None, bins: int = 5, engine: TurbochargedDiesel |
       of the run) to the first time the boost pressure ratio has covered 90 % of its rise to the
       peak it reaches before the first shift;
     * peak turbo speed and when; chi range; largest compressor mass flow;
+    * time in surge (chi > 1: the operating point left of the surge line, where the table holds
+      the surge flow - a mean-value model has no surge cycle) and choked (chi < 0), and the first
+      time in surge;
     * comparison: the second run's signals are interpolated onto the first's times; the
       differences (second - first) of turbo speed and chi are averaged in ``bins`` equal-width
       bins of the first run's compressor mass flow. ``low`` and ``high`` are the lowest and
@@ -173,8 +203,11 @@ def turbo_report(result, other=None, bins: int = 5, engine: TurbochargedDiesel |
         if len(reached):
             t90 = float(t[reached[0]] - t_step)
     k = int(np.argmax(w))
+    surge_t, surge_first = _time_where(t, chi > 1.0 + _CHI_TOL)
+    choke_t, _ = _time_where(t, chi < -_CHI_TOL)
     rep = TurboReport(_title(result), t_step, t_win, b0, b_peak, t90, float(w[k] / RPM / 1e3), float(t[k]),
-                      float(np.min(chi)), float(np.max(chi)), float(np.max(flow)))
+                      float(np.min(chi)), float(np.max(chi)), float(np.max(flow)), surge_time=surge_t,
+                      surge_first=surge_first, choke_time=choke_t)
     if other is not None:
         rep.comparison = _compare(t, w, chi, flow, other, _title(result), bins)
     if engine is not None:
@@ -182,7 +215,20 @@ def turbo_report(result, other=None, bins: int = 5, engine: TurbochargedDiesel |
     return rep
 
 
-def algorithm_difference(result, engine: TurbochargedDiesel, bins: int = 5, points: int = 400) -> dict:
+def _diameters_mm(ports: PortAreas) -> dict:
+    """Port diameters [mm] of circular ducts with the port areas."""
+    return {k: round(1e3 * (4.0 * getattr(ports, k) / np.pi) ** 0.5, 1)
+            for k in ("compressor_inlet", "compressor_outlet", "turbine_inlet", "turbine_outlet")}
+
+
+ALTERNATIVE_COMPRESSOR_OUTLET = np.pi / 4 * 0.076 ** 2
+"""Compressor outlet area [m^2] (76 mm duct) of the second chi comparison: the sign of the
+iterative algorithm's chi shift depends on the compressor's outlet/inlet area ratio
+(:class:`~transgen.sim.engine.turbocharger.PortAreas`), so the report shows both."""
+
+
+def algorithm_difference(result, engine: TurbochargedDiesel, bins: int = 5, points: int = 400,
+                         ports: PortAreas | None = None, alternative: bool = True) -> dict:
     """Both turbocharger algorithms evaluated on the same states: up to ``points`` samples of
     ``result`` (intake and exhaust manifold pressures, exhaust temperature, turbo speed) are fed
     to the basic and to the iterative algorithm with the maps, shaft and port areas of
@@ -197,8 +243,9 @@ def algorithm_difference(result, engine: TurbochargedDiesel, bins: int = 5, poin
     the iterative algorithm has no solution (choked ports) are skipped and counted.
     """
     own = engine.turbo
+    ports = ports or getattr(own, "ports", PortAreas())
     basic = BasicTurbo(own.compressor, own.turbine, own.shaft)
-    iterative = IterativeTurbo(own.compressor, own.turbine, own.shaft, getattr(own, "ports", PortAreas()))
+    iterative = IterativeTurbo(own.compressor, own.turbine, own.shaft, ports)
     p = engine.params
     t, p_im, p_em, T_em, w = unique_times(result.time, result["p_im"], result["p_em"], result["T_em"], result["omega_tc"])
     rows, skipped = [], 0
@@ -227,9 +274,13 @@ def algorithm_difference(result, engine: TurbochargedDiesel, bins: int = 5, poin
                                  "d_chi": float(mean[1]), "d_flow_c_percent": float(mean[2]),
                                  "d_flow_t_percent": float(mean[3]), "mach_c_in": float(mean[4]),
                                  "mach_c_out": float(mean[5])})
-    return {"points": len(rows), "skipped": skipped, "bins": out_bins,
-            "chi_lower": bool(out_bins) and all(b["d_chi"] < 0 for b in out_bins),
-            "grows_with_flow": bool(out_bins) and abs(out_bins[-1]["d_chi"]) > abs(out_bins[0]["d_chi"])}
+    out = {"points": len(rows), "skipped": skipped, "bins": out_bins, "ports_mm": _diameters_mm(ports),
+           "chi_lower": bool(out_bins) and all(b["d_chi"] < 0 for b in out_bins),
+           "grows_with_flow": bool(out_bins) and abs(out_bins[-1]["d_chi"]) > abs(out_bins[0]["d_chi"])}
+    if alternative:
+        alt = PortAreas(ports.compressor_inlet, ALTERNATIVE_COMPRESSOR_OUTLET, ports.turbine_inlet, ports.turbine_outlet)
+        out["alternative"] = algorithm_difference(result, engine, bins, points, alt, alternative=False)
+    return out
 
 
 def _compare(t, w, chi, flow, other, first: str, bins: int) -> dict:

@@ -33,12 +33,12 @@ from transgen.errors import SimulationError
 
 from ..core.causality import Block, Causality
 from .components import Component, converter_loss, elementwise, own_kernel_form
-from ..engine.diesel import EngineParams, SpeedGovernor, TurbochargedDiesel
-from ..engine.gas import RPM, Gas
-from ..engine.map_file import DATA_DIR, CompressorMap, MapError, TurbineMap, parse_map
-from ..engine.torque_converter import DEFAULT_TORQUE_CONVERTER, TorqueConverter, TorqueConverterError
-from ..engine.turbocharger import BasicTurbo, IterativeTurbo, PortAreas, TurboShaft
-from ..core.signals import Signal
+from .engine.diesel import EngineParams, SpeedGovernor, TurbochargedDiesel
+from .engine.gas import AIR, EXHAUST, RPM, Gas
+from .engine.map_file import DATA_DIR, CompressorMap, MapError, TurbineMap, parse_map
+from .engine.torque_converter import DEFAULT_TORQUE_CONVERTER, TorqueConverter, TorqueConverterError
+from .engine.turbocharger import BasicTurbo, IterativeTurbo, PortAreas, TurboShaft
+from .signals import Signal
 
 __all__ = [
     "TurbodieselSource",
@@ -167,11 +167,14 @@ class TurbodieselSource(Component):
         sig["rack"] = float(self.engine.rack(t))        # demanded (before the idle governor)
         if self.request is not None:
             sig["torque_request"] = float(self.request.value(t))
-        # temperature rise and drop across the devices as the blocks see them (thesis Figs. 4.21,
-        # 4.22): the temperature they receive (ambient, exhaust manifold: static) minus the one
-        # they give (outlet: total for the iterative algorithm)
-        sig["dT_c"] = sig["T_c_out"] - p.T_amb
-        sig["dT_t"] = sig["T_em"] - sig["T_t_out"]
+        # temperature rise and drop across the devices, total to total (thesis Figs. 4.21, 4.22):
+        # the outlet temperatures are totals; the inlet states (ambient, exhaust manifold) are
+        # static at the ports, made total with the port Mach number (eq. 4.34; 0 for the basic
+        # algorithm, where static and total coincide)
+        T0_c_in = p.T_amb * (1.0 + 0.5 * (AIR.gamma - 1.0) * sig.get("mach_c_in", 0.0) ** 2)
+        T0_t_in = sig["T_em"] * (1.0 + 0.5 * (EXHAUST.gamma - 1.0) * sig.get("mach_t_in", 0.0) ** 2)
+        sig["dT_c"] = sig["T_c_out"] - T0_c_in
+        sig["dT_t"] = T0_t_in - sig["T_t_out"]
         return sig
 
     def sample(self, ts, X, W):
