@@ -12,13 +12,13 @@
 import numpy as np
 import pytest
 
-from transgen.sim.report import FLARE_FRACTION, RPM_PER_RAD_S, shift_report
+from transgen.sim.analysis.report import FLARE_FRACTION, RPM_PER_RAD_S, shift_report
 
 FLARE_MIN = 0.1  # rad/s, the report's smallest flare (shift_quality.FLARE_MIN)
 
 
 def _shifts(name):
-    from transgen.sim.scenario import load_scenario
+    from transgen.sim.scenario.load import load_scenario
 
     sc = load_scenario(name)
     r = sc.run()

@@ -561,7 +561,7 @@ def test_ht740_improved_chatter_at_constant_throttle():
     again before C2 locks (issue 12: 'C3 locks and unlocks repeatedly in the 3-4'). The bundled
     file now holds C4 and C3 at 53 % (issue 27); the earlier holding levels and release times are
     set back here, and with the bundled ones the same throttle gives no chatter."""
-    from transgen.sim.scenario import load_scenario
+    from transgen.sim.scenario.load import load_scenario
 
     new = load_scenario("ht740_improved", {"input.throttle_signal": 0.72})
     rn = new.run()

@@ -5,7 +5,7 @@ import pytest
 
 def _report(**keys):
     from transgen.sim.engine.turbo_report import turbo_report
-    from transgen.sim.scenario import load_scenario
+    from transgen.sim.scenario.load import load_scenario
 
     r = load_scenario("ht740_turbo", {"simulation.t_end": 3.9, **keys}).run()
     assert r.success, r.message
@@ -29,7 +29,7 @@ def test_temperature_changes_are_total_to_total():
     import numpy as np
 
     from transgen.sim.engine import AIR, EXHAUST
-    from transgen.sim.scenario import load_scenario
+    from transgen.sim.scenario.load import load_scenario
 
     r = load_scenario("ht740_turbo_iterative", {"simulation.t_end": 2.0}).run()
     assert r.success, r.message
@@ -42,7 +42,7 @@ def test_temperature_changes_are_total_to_total():
 def test_chi_port_area_figure_shows_both_port_choices():
     from transgen.sim.cli import _engine_of
     from transgen.sim.engine.plots import plot_chi_port_areas
-    from transgen.sim.scenario import load_scenario
+    from transgen.sim.scenario.load import load_scenario
 
     sc = load_scenario("ht740_turbo", {"simulation.t_end": 3.0})
     r = sc.run()

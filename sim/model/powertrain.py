@@ -33,12 +33,12 @@ from transgen.errors import SimulationError
 
 from ..core.causality import Block, Causality
 from .components import Component, converter_loss, elementwise, own_kernel_form
-from .engine.diesel import EngineParams, SpeedGovernor, TurbochargedDiesel
-from .engine.gas import AIR, EXHAUST, RPM, Gas
-from .engine.map_file import DATA_DIR, CompressorMap, MapError, TurbineMap, parse_map
-from .engine.torque_converter import DEFAULT_TORQUE_CONVERTER, TorqueConverter, TorqueConverterError
-from .engine.turbocharger import BasicTurbo, IterativeTurbo, PortAreas, TurboShaft
-from .signals import Signal
+from ..engine.diesel import EngineParams, SpeedGovernor, TurbochargedDiesel
+from ..engine.gas import AIR, EXHAUST, RPM, Gas
+from ..engine.map_file import DATA_DIR, CompressorMap, MapError, TurbineMap, parse_map
+from ..engine.torque_converter import DEFAULT_TORQUE_CONVERTER, TorqueConverter, TorqueConverterError
+from ..engine.turbocharger import BasicTurbo, IterativeTurbo, PortAreas, TurboShaft
+from ..core.signals import Signal
 
 __all__ = [
     "TurbodieselSource",
