@@ -19,7 +19,8 @@ from .model import HOUSING, Mechanism
 if TYPE_CHECKING:
     from .graph import Graph
 
-__all__ = ["PowerFlowError", "PowerFlowConvergenceError"]
+#: nothing public: the errors are :mod:`transgen.powerflow`'s (defined here, where they are raised first)
+__all__: list[str] = []
 
 _POWER_TOL = 1e-12
 """Carrier-frame power (per unit input power) below which a set counts as not transmitting."""

@@ -87,8 +87,8 @@ Comfort figures (:mod:`transgen.sim.analysis.comfort` has the arithmetic):
   (with the output link's acceleration from the transmission; both sides of an event sampled),
   so the figures do not depend on the output sampling; a result without it has the acceleration
   differenced between unique samples instead (repeated time stamps at events: the value after
-  the event), resolved only at the output sampling. ``jerk_max`` = max |jerk| in the window (at
-  ``jerk_max_time``), ``jerk_peak_to_peak`` = max - min; ``jerk_filtered_max`` = max |jerk| of
+  the event), resolved only at the output sampling. ``jerk_max`` = max ``|jerk|`` in the window (at
+  ``jerk_max_time``), ``jerk_peak_to_peak`` = max - min; ``jerk_filtered_max`` = max ``|jerk|`` of
   the acceleration low-pass filtered at 10 Hz first, as a measurement gives it
   (:func:`~.comfort.filtered_jerk`: what published shift-jerk figures are comparable with);
 * vibration dose value ``vdv`` = (integral of a_w^4 dt over the window)^(1/4) [m/s^1.75] of the

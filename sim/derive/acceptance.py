@@ -45,7 +45,7 @@ def hole_limit(step: float) -> float:
 class UpshiftVerdict:
     """One upshift judged: ``bindup`` [N*m] the peak reversed offgoing torque when the report flags
     bindup (0 otherwise), ``flare`` [rpm], ``hole`` and ``limit`` [%], ``jerk`` [m/s^3] (largest
-    |jerk| in the comfort window, None without a vehicle; ``jerk_filtered``: the same of the 10 Hz
+    ``|jerk|`` in the comfort window, None without a vehicle; ``jerk_filtered``: the same of the 10 Hz
     low-pass filtered acceleration), ``completed``: the oncoming locked."""
 
     name: str

@@ -168,7 +168,7 @@ def sweep(scenario: str | Path, grid: Mapping[str, Sequence], samples: int | Non
     Returns
     -------
     SweepTable
-        Rows in the design's order (see :mod:`.table` for the columns).
+        Rows in the design's order (see :mod:`transgen.sim.study.table` for the columns).
 
     Raises
     ------

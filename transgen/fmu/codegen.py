@@ -35,7 +35,7 @@ _ENGINE_PARAMETERS = (
 def parameters(d: FmuData) -> list[tuple[str, float, str, str, str, str]]:
     """The tunable parameters besides the capacities and inertias, in value-reference order:
     ``(name, start, C macro, unit, bound, description)`` (bound: ``positive``, ``nonnegative``
-    or ``grade``, |grade| < pi/2)."""
+    or ``grade``: ``|grade| < pi/2``)."""
     out = []
     if d.driveline:
         out += [(n, float(d.driveline[k]), c, u, b, t) for n, k, c, u, b, t in _DRIVELINE_PARAMETERS]
