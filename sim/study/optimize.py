@@ -1,64 +1,7 @@
 """Shift calibration: tune the apply trajectories of each shift of a scenario (``transgen optimize``).
 
-For every selected shift the nine clutch parameters of a :class:`~transgen.sim.control.schedule.ShiftTemplate`
-are tuned: oncoming fill (``fill_time``, ``fill_level``), torque-phase ramp (``ramp_time``,
-``ramp_end``), inertia-phase level (``hold_time`` at ``ramp_end``), final rise (``final_time``)
-and the offgoing delay, level and release (``offgoing_delay``, ``offgoing_level``,
-``offgoing_ramp``), and, where the scenario's input is an engine (``engine_torque``, on by
-default there), the seven of its engine torque intervention (:data:`TORQUE_PARAMETERS`: a
-torque-phase increase ``torque_boost`` for ``boost_time`` from ``boost_delay`` after the offgoing
-release starts, an inertia-phase reduction ``torque_cut`` for ``cut_time`` from ``cut_delay`` after
-the release ends, ramps ``torque_ramp``; :mod:`transgen.sim.control.schedule`), to minimise a weighted
-objective under constraints:
-
-* objective terms (each divided by the starting calibration's value of the shift, so that the
-  weights are pure numbers): ``energy`` (the clutch energy of the shift, J), ``duration`` (the
-  shift duration, s), ``hole`` (the torque hole, % of the output torque before), ``flare`` (the
-  input speed's flare, rpm; divided by 100 rpm) and ``jerk`` (the largest jerk, m/s^3, from the
-  shift report's comfort metrics);
-* constraints (:class:`Constraints`): the shift completes (the oncoming element locks), no bindup,
-  flare at most ``max_flare_rpm`` (20 rpm by default), no chatter (neither element locks more than
-  once in the shift window), and on request a torque hole at most ``max_hole_pct`` and a duration at
-  most ``max_duration``.
-
-How a scenario carries its calibration (:class:`Calibration`): raw apply tables of the elements
-(each shift's piece of the oncoming and offgoing tables is fitted to the template first,
-:func:`fit_template`, and replaced by the tuned template's points; the tuned engine torque
-intervention goes to ``[input] torque_request`` as a table; where the scenario has its own, as a
-tuned file of an earlier pass, the span of each shift whose tuned template intervenes is replaced by
-its profile, and a template without an intervention keeps the scenario's own there, so a shift's
-tuning starts from the scenario's own request), shift events with templates
-(``[shifts] events``: each event's ``template``) or an automatic schedule
-(``[auto_shift] templates."1-2"``, a template per shift).
-
-One evaluation simulates one shift window only: the run up to just before the shift
-(:data:`PRE_MARGIN` before the shift report's pre-shift window) is computed once and its state
-saved (:mod:`transgen.sim.solve.restart`); each candidate starts from that state and runs to the end of
-its own trajectories plus :data:`SETTLE` (at most to the next shift). The shifts are tuned in time
-order, each from the state after the tuned shifts before it. Candidates are evaluated in batches on
-an executor of :mod:`.executors` (in this process, local processes or Dask): the worker gets the
-scenario's texts, the overrides of the candidate and the saved state, never live objects.
-
-The optimizer is CMA-ES (the covariance matrix adaptation evolution strategy of the ``cma``
-package, pycma; :func:`_search`): each generation of ``population`` candidates is one batch, mapped
-over the executor; its normal samples come from a generator seeded by ``seed``, so a run is
-repeatable. It searches the box scaled to the unit cube from the scenario's own calibration with a
-first step of :data:`SIGMA` of each range, for :data:`CMA_SHARE` of the evaluations; a compass search
-(:func:`_compass`, a batch of steps up and down along every parameter at a time) polishes its best
-candidate with the rest. ``max_evaluations`` counts every simulation of a shift: the start, and
-with the engine torque tuned, :data:`CLUTCH_SHARE` of them over the nine clutch parameters and the
-rest over all sixteen from the best clutch calibration, the intervention starting from the middle
-of its box (the sixteen at once from the start found a worse 3-4 of the HT-740 than the clutches
-alone). Constraints enter as a feasibility-first penalty: an
-infeasible candidate scores ``INFEASIBLE * (1 + total violation)``, above every feasible one, so the
-search moves towards the feasible region and then minimises the objective inside it. Why this
-optimizer: the simulated metrics are not smooth in the parameters (an element locks or does not, a
-bindup appears at a threshold), which rules out gradients and makes local derivative-free methods
-(Nelder-Mead, COBYLA) stall at the first kink; a population method evaluates a whole generation in
-parallel. CMA-ES uses the candidates' ranks only (the penalty's jumps do not distort it) and learns
-the correlations of the parameters (fill against ramp, cut against its time), which the
-differential evolution used before did not: on the HT-740 3-4 (seed 0) it scored 0.33 after 1041
-evaluations where the differential evolution scored 0.40 after 1047 (README "Shift calibration").
+The method (windows from a saved state, CMA-ES then a compass search, the penalties) and its
+measurements: docs/explanation/shift-calibration.md.
 """
 from __future__ import annotations
 
@@ -70,37 +13,16 @@ from dataclasses import asdict, dataclass, field, fields, replace
 import numpy as np
 
 from transgen.errors import ScenarioError
+# the optimizer's parts (re-exported: the module's API is unchanged)
+from .scoring import (DEFAULT_OBJECTIVE, INFEASIBLE, OBJECTIVE_TERMS, Constraints, Objective,  # noqa: F401
+                      parse_objective, score, shift_metrics)
+from .templates import (BOUNDS, PARAMETERS, TORQUE_PARAMETERS, _points, _span, _template, _vector,  # noqa: F401
+                        fit_template, has_engine, intervention_text)
+from .tuned import COMPARED, comparison_rows, trade_off, tuned_scenario_text  # noqa: F401
 
 __all__ = ["Constraints", "Objective", "ShiftPlan", "Calibration", "ShiftOutcome", "OptimizeResult", "PARAMETERS",
            "TORQUE_PARAMETERS", "BOUNDS", "has_engine", "intervention_text", "fit_template", "plan_calibration", "evaluate_candidate", "shift_metrics", "score", "optimize",
            "tuned_scenario_text", "parse_objective", "OBJECTIVE_TERMS", "PRE_MARGIN", "SETTLE", "INFEASIBLE"]
-
-#: the tuned parameters, in the order of the optimizer's vector (the fields of ShiftTemplate)
-PARAMETERS = ("fill_time", "fill_level", "ramp_time", "ramp_end", "hold_time", "final_time", "offgoing_delay",
-              "offgoing_level", "offgoing_ramp")
-
-#: the engine torque intervention's parameters (ShiftTemplate; factors [-] and times [s]), tuned after
-#: PARAMETERS where the input is an engine
-TORQUE_PARAMETERS = ("torque_boost", "boost_delay", "boost_time", "torque_cut", "cut_delay", "cut_time", "torque_ramp")
-
-#: the search box of each parameter [s, apply fraction or torque factor]; widened to hold the starting
-#: calibration. The increase goes up to 1.6 times the engine's torque (the engine gives no more than
-#: its full-load torque at the current speed anyway), the reduction down to 0.3 times.
-BOUNDS = {"fill_time": (0.0, 0.3), "fill_level": (0.0, 0.5), "ramp_time": (0.05, 1.5), "ramp_end": (0.05, 1.0),
-          "hold_time": (0.0, 1.5), "final_time": (0.02, 0.5), "offgoing_delay": (0.0, 1.5),
-          "offgoing_level": (0.0, 1.0), "offgoing_ramp": (0.01, 1.0),
-          "torque_boost": (1.0, 1.6), "boost_delay": (0.0, 0.5), "boost_time": (0.0, 1.0), "torque_cut": (0.3, 1.0),
-          "cut_delay": (0.0, 0.5), "cut_time": (0.0, 1.0), "torque_ramp": (0.02, 0.2)}
-
-OBJECTIVE_TERMS = {"energy": "clutch energy of the shift [J]", "duration": "shift duration [s]",
-                   "hole": "torque hole [% of the output torque before]", "flare": "flare of the input speed [rpm]",
-                   "jerk": "largest jerk [m/s^3]"}
-
-DEFAULT_OBJECTIVE = {"energy": 1.0, "hole": 1.0, "jerk": 0.2, "duration": 0.1}
-"""The default objective: clutch energy (the clutches' wear and heat), torque hole and jerk (what
-the driver feels) and a little of the shift's duration. Without the jerk term the search finds
-shifts of 0.11-0.14 s in the HT-740 with 2-3x the jerk of the hand-tuned calibration (28-48
-against 15-32 m/s^3); a term a scenario cannot measure (jerk without a vehicle) is left out."""
 
 PRE_MARGIN = 0.05
 """Time [s] before the shift report's pre-shift window (0.2 s before the shift) where a shift
@@ -108,9 +30,6 @@ window starts."""
 
 SETTLE = 0.5
 """Time [s] a shift window goes on after the end of the candidate's trajectories."""
-
-INFEASIBLE = 1e3
-"""Score of an infeasible candidate per unit of (1 + violation); a failed run scores 1e3 times more."""
 
 CMA_SHARE = 0.85
 """Share of a search's evaluations that CMA-ES spends; a compass search from its best candidate
@@ -130,242 +49,6 @@ multiple of :data:`SIGMA`."""
 FRESH_STEP = 1.5
 """In the engine torque stage, the first step of the parameters searched for the first time (the
 engine torque intervention, from the middle of its box), as a multiple of :data:`SIGMA`."""
-
-
-@dataclass(frozen=True)
-class Objective:
-    """Weights of the objective terms (:data:`OBJECTIVE_TERMS`), each term divided by the
-    starting calibration's value of the shift."""
-
-    weights: Mapping[str, float] = field(default_factory=lambda: dict(DEFAULT_OBJECTIVE))
-
-    def text(self) -> str:
-        return ",".join(f"{k}={v:g}" for k, v in self.weights.items())
-
-
-@dataclass(frozen=True)
-class Constraints:
-    """The constraints of every shift: ``no_bindup``, ``max_flare_rpm`` [rpm], ``no_chatter``,
-    ``max_hole_pct`` [% of the output torque before, None: free], ``max_duration`` [s, None:
-    free], ``max_energy`` [J, the clutch energy of the shift, None: free]; the shift must
-    complete. ``no_worse_than``: a reference scenario (file or bundled name, None: none) whose
-    torque hole and clutch energy at the same shift (the same gears) each tuned shift must not
-    exceed (:func:`reference_limits`, :meth:`for_shift`)."""
-
-    no_bindup: bool = True
-    max_flare_rpm: float | None = 20.0
-    no_chatter: bool = True
-    max_hole_pct: float | None = None
-    max_duration: float | None = None
-    max_energy: float | None = None
-    no_worse_than: str | None = None
-
-    def for_shift(self, hole_pct: float | None = None, energy: float | None = None) -> Constraints:
-        """These constraints with the torque hole [%] and clutch energy [J] of one shift limited to
-        ``hole_pct`` and ``energy`` too (a reference calibration's at that shift)."""
-        def tighter(limit, other):
-            return other if limit is None else limit if other is None else min(limit, other)
-        return replace(self, max_hole_pct=tighter(self.max_hole_pct, hole_pct),
-                       max_energy=tighter(self.max_energy, energy))
-
-    def text(self) -> str:
-        parts = ["completes"] + (["no bindup"] if self.no_bindup else [])
-        parts += [f"flare <= {self.max_flare_rpm:g} rpm"] if self.max_flare_rpm is not None else []
-        parts += ["no chatter"] if self.no_chatter else []
-        parts += [f"torque hole <= {self.max_hole_pct:g} %"] if self.max_hole_pct is not None else []
-        parts += [f"duration <= {self.max_duration:g} s"] if self.max_duration is not None else []
-        parts += [f"clutch energy <= {self.max_energy / 1e3:g} kJ"] if self.max_energy is not None else []
-        parts += [f"torque hole and clutch energy of each shift <= {self.no_worse_than}'s"] if self.no_worse_than else []
-        return ", ".join(parts)
-
-
-def parse_objective(text: str) -> Objective:
-    """``energy=1,jerk=0.2,duration=0.1`` -> :class:`Objective`; ValueError naming the bad part."""
-    weights = {}
-    for part in filter(None, (p.strip() for p in text.split(","))):
-        name, eq, value = part.partition("=")
-        name = name.strip()
-        if name not in OBJECTIVE_TERMS:
-            raise ValueError(f"--objective: error: unknown term {name!r} (terms: {', '.join(OBJECTIVE_TERMS)})")
-        try:
-            weight = float(value) if eq else 1.0
-        except ValueError:
-            raise ValueError(f"--objective: error: the weight of {name} is {value.strip()!r}, not a number") from None
-        if not math.isfinite(weight) or weight < 0:
-            raise ValueError(f"--objective: error: the weight of {name} must be a finite number >= 0, not {value.strip()}")
-        weights[name] = weight
-    if not any(weights.values()):
-        raise ValueError("--objective: error: give at least one term with a weight > 0, e.g. energy=1,duration=0.1")
-    return Objective(weights)
-
-
-# --------------------------------------------------------------------------------- templates
-
-
-def _template(x: Sequence[float], names: Sequence[str] = PARAMETERS, base=None):
-    """The template with the parameters ``names`` set to ``x`` (the others from ``base``, default
-    the ShiftTemplate defaults)."""
-    from transgen.sim.control.schedule import ShiftTemplate
-
-    return replace(base or ShiftTemplate(), **{k: float(v) for k, v in zip(names, x)})
-
-
-def _vector(template, names: Sequence[str] = PARAMETERS) -> np.ndarray:
-    return np.array([getattr(template, k) for k in names], dtype=float)
-
-
-def _span(template) -> float:
-    """How long after the shift command the template's trajectories end [s] (the apply
-    trajectories and the engine torque request)."""
-    on = template.fill_time + template.ramp_time + template.hold_time + template.final_time
-    off = template.fill_time + template.offgoing_delay + template.offgoing_ramp
-    request = template.torque_request(0.0)
-    return max(on, off, request[-1][0] if request else 0.0)
-
-
-def has_engine(scenario) -> bool:
-    """Whether the scenario's input is an engine that takes a torque request (map engine, engine
-    with converter, turbodiesel)."""
-    from transgen.sim.model.components import EngineOnLink, EngineWithConverter
-    from transgen.sim.model.powertrain import TurbodieselSource
-
-    return any(isinstance(c, (EngineOnLink, EngineWithConverter, TurbodieselSource))
-               for c in scenario.powertrain.components)
-
-
-def intervention_text(template, own_request: bool = False) -> str:
-    """How a template asks the engine for torque, in words: ``none`` or the increase and the
-    reduction with their factors and times (``own_request``: the scenario's own ``[input]
-    torque_request`` stays where the template asks for nothing)."""
-    if not template.torque_intervention:
-        return "none tuned: the scenario's own [input] torque_request kept" if own_request else "none"
-    parts = []
-    if template.torque_boost != 1.0:
-        parts.append(f"x{template.torque_boost:.3f} for {template.boost_time:.3f} s from {template.boost_delay:.3f} s "
-                     f"after the offgoing release starts")
-    if template.torque_cut != 1.0:
-        parts.append(f"x{template.torque_cut:.3f} for {template.cut_time:.3f} s from {template.cut_delay:.3f} s "
-                     f"after the offgoing release ends")
-    return "; ".join(parts) + f" (ramps {template.torque_ramp:.3f} s)"
-
-
-def _curve(points, before: float):
-    from transgen.sim.control.schedule import _merge
-
-    t0 = points[0][0]
-    return _merge([(t0 - 1.0, before)] + list(points))
-
-
-def fit_template(oncoming, offgoing, t0: float, t1: float, samples: int = 400):
-    """The :class:`~transgen.sim.control.schedule.ShiftTemplate` closest to the raw apply signals
-    ``oncoming`` and ``offgoing`` (piecewise-linear :class:`~transgen.sim.core.signals.Signal` s)
-    over the shift ``[t0, t1]`` [s], and the root-mean-square difference of the fitted applies
-    from the raw ones over the shift (apply fraction; a fast raw drop that the template makes a
-    jump differs for a few ms only, which a largest difference would overstate).
-
-    The template's corners are read off the raw corners first (the fill: a jump and a flat piece
-    at the start; the hold: the longest flat piece below full apply; the offgoing drop: where it
-    leaves its level, the level just after, the time it reaches zero), then refined by least
-    squares on ``samples`` points, the oncoming and the offgoing parameters each on their own
-    curve."""
-    from scipy.optimize import least_squares
-
-    ts = np.linspace(t0, t1, samples)
-    a_on = oncoming.sample(ts)
-    a_off = offgoing.sample(ts)
-    guess = {**_guess_oncoming(_points(oncoming, t0, t1), t0), **_guess_offgoing(_points(offgoing, t0, t1), t0)}
-    guess["offgoing_delay"] = max(guess.pop("release") - t0 - guess["fill_time"], 0.0)
-    lo = {k: BOUNDS[k][0] for k in PARAMETERS}
-    hi = {k: (max(BOUNDS[k][1], 2.0 * (t1 - t0)) if k.endswith(("_time", "_delay", "_ramp")) else BOUNDS[k][1])
-          for k in PARAMETERS}
-    x = {k: float(np.clip(guess[k], lo[k], hi[k])) for k in PARAMETERS}
-
-    def refine(names, curve, target):
-        def residual(v):
-            tmpl = _template([{**x, **dict(zip(names, v))}[k] for k in PARAMETERS])
-            return curve(tmpl).sample(ts) - target
-
-        v0 = [x[k] for k in names]
-        fit = least_squares(residual, v0, bounds=([lo[k] for k in names], [hi[k] for k in names]), diff_step=1e-4,
-                            max_nfev=200)
-        if np.max(np.abs(residual(fit.x))) < np.max(np.abs(residual(v0))):
-            x.update(zip(names, map(float, fit.x)))
-
-    refine(PARAMETERS[:6], lambda tm: _curve(tm.oncoming(t0), 0.0), a_on)
-    refine(PARAMETERS[6:], lambda tm: _curve(tm.offgoing(t0), float(a_off[0])), a_off)
-    tmpl = _template([x[k] for k in PARAMETERS])
-    fine = np.linspace(t0, t1, 20 * samples)
-    diff = np.concatenate([_curve(tmpl.oncoming(t0), 0.0).sample(fine) - oncoming.sample(fine),
-                           _curve(tmpl.offgoing(t0), float(a_off[0])).sample(fine) - offgoing.sample(fine)])
-    return tmpl, float(np.sqrt(np.mean(diff ** 2)))
-
-
-_JUMP = 1e-5  # s: a rise or fall this fast is a jump (the template's own jumps take 1e-6 s)
-
-
-def _guess_oncoming(corners, t0: float) -> dict:
-    """Template parameters of the oncoming apply read off its corners ``[(t, value), ...]``."""
-    ts = [t for t, _ in corners]
-    vs = [v for _, v in corners]
-    top = max(vs)
-    k_full = next(i for i, v in enumerate(vs) if v >= top - 1e-9)
-    t_full = ts[k_full]
-    k = 0
-    while k + 1 < len(ts) and ts[k + 1] <= t0 + _JUMP and vs[k + 1] > vs[k]:  # a jump at the command
-        k += 1
-    fill_level, fill_end = vs[k], ts[k]
-    if k + 1 < len(ts) and abs(vs[k + 1] - vs[k]) < 1e-9 and ts[k + 1] < t_full:  # a flat fill piece
-        fill_end = ts[k + 1]
-        k += 1
-    flats = [(ts[i + 1] - ts[i], i) for i in range(k, k_full) if abs(vs[i + 1] - vs[i]) < 1e-9 and vs[i] < top - 1e-9
-             and ts[i + 1] > ts[i]]
-    if flats:
-        _, i = max(flats)
-        ramp_end, hold_start, hold_end = vs[i], ts[i], ts[i + 1]
-    else:
-        before = [i for i in range(k + 1, k_full)]
-        i = before[-1] if before else None
-        if i is None:
-            hold_start = hold_end = fill_end + 0.5 * (t_full - fill_end)
-            ramp_end = fill_level + 0.5 * (top - fill_level)
-        else:
-            ramp_end, hold_start, hold_end = vs[i], ts[i], ts[i]
-    return {"fill_time": fill_end - t0, "fill_level": fill_level, "ramp_time": max(hold_start - fill_end, 1e-3),
-            "ramp_end": ramp_end, "hold_time": hold_end - hold_start, "final_time": max(t_full - hold_end, 1e-3)}
-
-
-def _guess_offgoing(corners, t0: float) -> dict:
-    """The offgoing release read off its corners: its start, the level just after, its length."""
-    ts = [t for t, _ in corners]
-    vs = [v for _, v in corners]
-    k = 0
-    while k + 1 < len(ts) and vs[k + 1] >= vs[0] - 1e-9:
-        k += 1
-    release = ts[k]
-    zero = next((t for t, v in zip(ts, vs) if t >= release and v <= 1e-9), ts[-1])
-    after = [v for t, v in zip(ts, vs) if release <= t <= release + _JUMP and v < vs[0] - 1e-9]
-    if after:
-        level = after[0]
-    else:  # no jump: the level the first piece of the release would start from
-        level = vs[k + 1] if k + 1 < len(vs) else 0.0
-        if k + 1 < len(ts) and ts[k + 1] > release and zero > release:
-            slope = (vs[k + 1] - vs[k]) / (ts[k + 1] - ts[k])
-            level = vs[k] if ts[k + 1] - ts[k] >= 0.5 * (zero - release) else vs[k + 1] - slope * 0.0
-    return {"release": release, "offgoing_level": min(max(level, 0.0), 1.0), "offgoing_ramp": max(zero - release, 0.01)}
-
-
-def _points(signal, t_a: float, t_b: float) -> list[tuple[float, float]]:
-    """The corner points of a piecewise-linear ``signal`` on ``[t_a, t_b]`` (jumps as two points
-    at one time)."""
-    if not getattr(signal, "piecewise_linear", False):
-        raise ScenarioError("the apply signal is not piecewise linear: give it as a table to calibrate it")
-    out = []
-    for t in sorted({t_a, t_b, *signal.breakpoints(t_a, t_b)}):
-        left = signal.value(math.nextafter(t, -math.inf))
-        if out and abs(left - signal.value(t)) > 1e-12:
-            out.append((t, left))
-        out.append((t, signal.value(t)))
-    return out
 
 
 # ------------------------------------------------------------------------------- calibration
@@ -554,75 +237,6 @@ def reference_limits(reference, overrides: Mapping, plans: Sequence[ShiftPlan]) 
                                 f"(its shifts: {', '.join(by_name) or 'none'})")
         limits[p.number] = found[k]
     return limits
-
-
-def shift_metrics(result, oncoming: str, offgoing: str, t_start: float, name: str = "") -> dict:
-    """The numbers of one shift window's run that the objective and the constraints use (plain
-    data) from the shift report: completed, energy [J], duration [s], hole [%], flare [rpm],
-    bindup, bindup torque [N*m], chatter (an element that changed its lock state more than once),
-    locks (lock and unlock events of the window), jerk [m/s^3] (None without a vehicle)."""
-    from transgen.sim.analysis.report import Shift, shift_report
-
-    if not result.success or len(result.time) < 2:
-        return {"success": False, "message": result.message}
-    # no frequency weighting: the VDV is the only figure that needs it (its FFT filter is a fifth of
-    # the report's cost), and no metric here reads it; jerk and all else are the same numbers
-    [q] = shift_report(result, [Shift(oncoming, offgoing, t_start, name)], weighting="none")
-    jerk = q.jerk_max
-    return {"success": True, "completed": bool(q.completed), "energy": float(q.energy_total),
-            "duration": None if q.shift_duration is None else float(q.shift_duration),
-            "hole": None if q.torque_hole_pct is None else float(q.torque_hole_pct),
-            "hole_torque": float(q.torque_hole), "flare": float(q.flare_max_rpm), "bindup": bool(q.bindup),
-            "bindup_torque": float(q.bindup_torque), "offgoing_torque": abs(float(q.offgoing_torque_before)),
-            "chatter": bool(q.chatter), "locks": int(sum(q.lock_counts.values()) + sum(q.unlock_counts.values())),
-            "jerk": None if jerk is None else float(jerk)}
-
-
-def score(metrics: Mapping, reference: Mapping, objective: Objective, constraints: Constraints) -> tuple[float, dict, dict]:
-    """(score, objective terms, violations) of a candidate's ``metrics``: the weighted objective
-    (terms divided by the ``reference`` shift's) when every constraint holds, else
-    ``INFEASIBLE * (1 + sum of violations)``; a failed run scores ``INFEASIBLE ** 2``.
-    Violations are relative (0.5: 50 % beyond the limit); a violated yes/no constraint counts 1
-    plus its size where it has one."""
-    if not metrics.get("success"):
-        return INFEASIBLE ** 2, {}, {"run": 1.0}
-    violations = {}
-    if not metrics["completed"]:
-        violations["completes"] = 10.0
-    if constraints.no_bindup and metrics["bindup"]:
-        violations["no bindup"] = 1.0 + metrics["bindup_torque"] / max(metrics["offgoing_torque"], 1.0)
-    if constraints.max_flare_rpm is not None and metrics["flare"] > constraints.max_flare_rpm:
-        violations["max flare"] = (metrics["flare"] - constraints.max_flare_rpm) / max(constraints.max_flare_rpm, 1.0)
-    if constraints.no_chatter and metrics["chatter"]:
-        violations["no chatter"] = 1.0 + max(metrics["locks"] - 3, 0)
-    if constraints.max_hole_pct is not None and (metrics["hole"] or 0.0) > constraints.max_hole_pct:
-        violations["max hole"] = (metrics["hole"] - constraints.max_hole_pct) / max(constraints.max_hole_pct, 1.0)
-    if constraints.max_energy is not None and metrics["energy"] > constraints.max_energy:
-        violations["max energy"] = (metrics["energy"] - constraints.max_energy) / max(constraints.max_energy, 1.0)
-    if constraints.max_duration is not None and (metrics["duration"] is None or metrics["duration"] > constraints.max_duration):
-        violations["max duration"] = (((metrics["duration"] or 10 * constraints.max_duration) - constraints.max_duration)
-                                      / constraints.max_duration)
-    terms = {}
-    for name, weight in objective.weights.items():
-        if not weight:
-            continue
-        value, ref = _term(metrics, name), _term(reference, name)
-        if value is None and ref is None:  # not measured in this scenario (jerk without a vehicle)
-            continue
-        floor = {"energy": 1.0, "duration": 0.05, "hole": 1.0, "flare": 100.0, "jerk": 1.0}[name]
-        if name == "flare":
-            ref = 0.0  # flare in units of 100 rpm: the reference is often none at all
-        terms[name] = weight * (value if value is not None else 10 * max(ref or 0.0, floor)) / max(ref or 0.0, floor)
-    if violations:
-        return INFEASIBLE * (1.0 + sum(violations.values())), terms, violations
-    return float(sum(terms.values())), terms, violations
-
-
-def _term(metrics: Mapping, name: str):
-    value = metrics.get(name)
-    if name == "hole" and value is not None:
-        return max(value, 0.0)
-    return value
 
 
 # ---------------------------------------------------------------------------------- workers
@@ -1003,21 +617,6 @@ def _select(plans: list[ShiftPlan], names: Sequence[str] | None, path) -> list[S
     return sorted(out, key=lambda p: p.number)
 
 
-def trade_off(rows: Sequence[Mapping], metrics: Sequence[str] = ("hole", "energy")) -> list[dict]:
-    """The feasible candidates among ``rows`` (one shift's history rows) that no other feasible one
-    beats on every one of ``metrics`` (lower is better; the shift window's numbers), without
-    repeats, sorted by the first metric: the trade between them that the objective's weights
-    choose a point of. A point of it is reached again with the constraints (``--max-hole``,
-    ``--max-energy``)."""
-    points = sorted({tuple(float(r[m]) for m in metrics): r for r in rows
-                     if r.get("feasible") and all(r.get(m) is not None for m in metrics)}.items())
-    front: list[dict] = []
-    for values, row in points:  # in order of the first metric: kept where nothing before beats it on the rest
-        if not any(all(float(f[m]) <= v for m, v in zip(metrics[1:], values[1:])) for f in front):
-            front.append(row)
-    return front
-
-
 def _row(plan, generation, index, x, names, metrics, s, terms, violations) -> dict:
     row = {"shift": plan.name, "generation": generation, "evaluation": index}
     row.update({k: float(v) for k, v in zip(names, x)})
@@ -1026,96 +625,3 @@ def _row(plan, generation, index, x, names, metrics, s, terms, violations) -> di
     row.update({"score": s, "feasible": not violations, "violations": ";".join(sorted(violations)),
                 "message": metrics.get("message", "")})
     return row
-
-
-# ------------------------------------------------------------------------------- the output
-
-
-def tuned_scenario_text(result: OptimizeResult, output, before: Sequence | None = None,
-                        after: Sequence | None = None) -> str:
-    """The tuned scenario: a file that includes the original and sets the tuned tables, with a
-    comment header stating the objective, the constraints, each shift's engine torque
-    intervention and, where given, the shift report's numbers before and after
-    (``before``/``after``: :class:`ShiftQuality` lists of full runs). The original is included
-    by its bundled name when it is a bundled scenario, else by its path relative to the output's
-    folder, so the file runs from any working directory (and moves with its original)."""
-    import os
-    from pathlib import Path
-
-    from transgen.sim.scenario.overrides import toml_value
-    from transgen.sim.scenario.load import bundled_scenarios
-
-    original = Path(result.path)
-    out_dir = Path(output).resolve().parent
-    bundled = original.parent == next(iter(bundled_scenarios().values())).parent
-    ref = original.stem if bundled and not (out_dir / original.stem).exists() else os.path.relpath(original, out_dir)
-    lines = [f"# Shift calibration by 'transgen optimize' of {ref}",  # no path of this machine
-             f"# objective: {result.objective.text()} (terms relative to the starting calibration of each shift)",
-             f"# constraints: {result.constraints.text()}", f"# seed: {result.seed}",
-             f"# tuned: {', '.join(result.parameters)}"
-             + ("" if result.engine_torque else " (clutches only: the engine torque intervention was not tuned)"),
-             "# The scenario is the original (included) with the tuned apply trajectories below."]
-    for s in result.shifts:
-        status = "feasible" if s.feasible else f"INFEASIBLE (binding: {s.binding})"
-        lines.append(f"# shift {s.plan.name} ({s.plan.oncoming} on, {s.plan.offgoing} off): {status}, "
-                     f"{s.evaluations} evaluations, score {s.start_score:.4g} -> {s.best_score:.4g}")
-        if result.constraints.no_worse_than and s.constraints is not None:
-            c = s.constraints
-            hole = "free" if c.max_hole_pct is None else f"<= {c.max_hole_pct:.1f} %"
-            lines.append(f"#   limits (no worse than {result.constraints.no_worse_than}): torque hole {hole}, "
-                         f"clutch energy <= {c.max_energy / 1e3:.2f} kJ")
-        if s.plan.fit_residual is not None:
-            lines.append(f"#   raw tables fitted to the template (RMS apply difference {s.plan.fit_residual:.3g})")
-        lines.append(f"#   engine torque intervention: "
-                     f"{intervention_text(s.best_template, result.calibration.request is not None)}")
-    if before is not None and after is not None:
-        lines.append("# shift report of the whole run, before -> after:")
-        lines += ["#   " + row for row in comparison_rows(before, after)]
-    lines += ["", f"include = [{toml_value(ref)}]", f"title = {toml_value(result.title + ' (tuned)')}", ""]
-    tables: dict[str, list[str]] = {}
-    for dotted, value in result.overrides.items():
-        parts = dotted.split(".")
-        table, name = ".".join(parts[:-1]), parts[-1]
-        tables.setdefault(table, []).append(f"{name if name.replace('_', '').isalnum() else toml_value(name)} = "
-                                            f"{toml_value(value)}")
-    for table, entries in tables.items():
-        lines.append(f"[{table}]")
-        lines += entries
-        lines.append("")
-    return "\n".join(lines)
-
-
-#: the shift report's numbers that the comparison shows: (label, attribute, format)
-COMPARED = (("hole %", "torque_hole_pct", ".1f"), ("energy kJ", "energy_total", ".2f"), ("flare rpm", "flare_max_rpm", ".1f"),
-            ("bindup", "bindup", ""), ("chatter", "chatter", ""), ("duration s", "shift_duration", ".3f"),
-            ("jerk m/s^3", "jerk_max", ".1f"), ("engine x max/min", "torque_request", ""))
-
-
-def _cell(q, attr: str, fmt: str) -> str:
-    if q is None:
-        return "-"
-    if attr == "torque_request":  # the engine torque intervention: highest and lowest factor
-        low, high = getattr(q, "torque_request_min", None), getattr(q, "torque_request_max", None)
-        return "none" if low is None or low == high == 1.0 else f"{high:.2f}/{low:.2f}"
-    v = getattr(q, attr, None)
-    if v is None:
-        return "-"
-    if attr == "energy_total":
-        v = v / 1e3
-    if isinstance(v, bool):
-        return "yes" if v else "no"
-    return format(v, fmt)
-
-
-def comparison_rows(before: Sequence, after: Sequence, labels: tuple[str, str] = ("before", "after")) -> list[str]:
-    """Side-by-side lines of the shift report's numbers of two runs (the shifts in order)."""
-    width = max(10, *(len(x) + 2 for x in labels))
-    rows = [f"{'':<10}" + "".join(f"{label:^{2 * width}}" for label, _, _ in COMPARED),
-            f"{'shift':<10}" + "".join(f"{labels[0]:>{width}}{labels[1]:>{width}}" for _ in COMPARED)]
-    for k in range(max(len(before), len(after))):
-        b = before[k] if k < len(before) else None
-        a = after[k] if k < len(after) else None
-        name = (a or b).name
-        rows.append(f"{name:<10}" + "".join(f"{_cell(b, attr, fmt):>{width}}{_cell(a, attr, fmt):>{width}}"
-                                            for _, attr, fmt in COMPARED))
-    return rows
