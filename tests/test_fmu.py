@@ -260,3 +260,135 @@ def test_cli_json_and_errors(tmp_path, capsys, monkeypatch):
     err = capsys.readouterr().err
     assert "no C compiler found" in err and "no-such-compiler-xyz" in err
     assert not (tmp_path / "c.fmu").exists()
+
+
+
+def test_mode_matrices_from_inertias_are_the_simulators():
+    """:func:`~transgen.fmu.data.mode_matrices` (what the C runtime computes from the tunable
+    inertias) gives the simulator's B and D of every mode of bundled mechanisms."""
+    from transgen.errors import ModeError
+    from transgen.fmu.data import input_torques, mode_matrices, torque_rows
+    from transgen.kinematics import constraint_matrix
+    from transgen.language import load_mechanism
+    from transgen.library import bundled_path
+    from transgen.sim.model.transmission import Transmission
+
+    for name in ("coupled_clutches", "ht740", "zf8hp70", "a340e_like", "idle_hub3", "mb7g_tronic"):
+        tr = Transmission(load_mechanism(bundled_path(name)))
+        F, G = input_torques(tr), constraint_matrix(tr.graph, [])
+        count = 0
+        for mask in range(1 << len(tr.elements)):
+            locked = frozenset(i for i in range(len(tr.elements)) if mask >> i & 1)
+            try:
+                m = tr.mode(locked)
+            except ModeError:
+                continue
+            E = torque_rows(G, tr.P[list(m.locked_order)])
+            B, D = mode_matrices(m.C, F, E, tr.inertia, [tr.element_input[i] for i in locked])
+            scale = max(1.0, float(np.abs(m.B).max(initial=0)), float(np.abs(m.D).max(initial=0)))
+            assert np.allclose(B, m.B, rtol=0, atol=1e-11 * scale), (name, m.name)
+            assert np.allclose(D, m.D, rtol=0, atol=1e-11 * scale), (name, m.name)
+            count += 1
+        assert count >= 8, name
+
+
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_inertias_are_tunable(fmi, tmp_path, reference):
+    """The FMU of the bundled coupled clutches, its inertias set by the importer, runs as
+    ``transgen simulate --set mech.J2.J=...`` (ME and CS): the same events and speeds."""
+    from transgen.sim.scenario.load import load_scenario
+
+    changes = {"J2": 2.5, "J4": 0.4}
+    sc = load_scenario("coupled_clutches", overrides={f"mech.{k}.J": v for k, v in changes.items()})
+    res = sc.run()
+    assert res.success, res.message
+    base = reference("coupled_clutches")[1]
+    assert abs(float(res["w_J4"][-1]) - float(base["w_J4"][-1])) > 0.05 * float(np.ptp(base["w_J4"]))
+    path = export_fmu("coupled_clutches", tmp_path / "cc.fmu", fmi=fmi)
+    assert validate_fmu(str(path)) == []
+    start = {f"J_{k}": v for k, v in changes.items()}
+    outputs = [f"w_{k}" for k in sc.powertrain.transmission.links] + ["lockedElements", "t_mode_change"]
+    for kind in ("ModelExchange", "CoSimulation"):
+        r = simulate_fmu(str(path), fmi_type=kind, stop_time=sc.options.t_end, output_interval=1e-3,
+                         output=outputs, start_values=start)
+        _check_run(sc, res, r, f"tuned inertias FMI {fmi} {kind}")
+
+
+def test_a_bad_inertia_is_refused(tmp_path):
+    """A negative inertia, or one that leaves a mode without inertia (J1 alone moves with every
+    clutch open), is refused by the FMU; its previous value stays."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Model
+
+    path = export_fmu("coupled_clutches", tmp_path / "cc.fmu", fmi=2)
+    md = read_model_description(str(path))
+    var = {v.name: v for v in md.modelVariables}
+    assert var["J_J2"].variability == "tunable" and var["J_J2"].causality == "parameter"
+    fmu = FMU2Model(guid=md.guid, unzipDirectory=extract(str(path), unzipdir=str(tmp_path / "x")),
+                    modelIdentifier=md.modelExchange.modelIdentifier, instanceName="x")
+    fmu.instantiate()
+    try:
+        fmu.setupExperiment(startTime=0.0)
+        fmu.enterInitializationMode()
+        for bad in (-1.0, 0.0):
+            with pytest.raises(Exception):
+                fmu.setReal([var["J_J1"].valueReference], [bad])
+        assert fmu.getReal([var["J_J1"].valueReference]) == [1.0]
+        fmu.setReal([var["J_J1"].valueReference], [3.0])
+        assert fmu.getReal([var["J_J1"].valueReference]) == [3.0]
+    finally:
+        fmu.freeInstance()
+
+
+def test_driveline_parameters_are_tunable(tmp_path, sources):
+    """The launch FMU with a heavier vehicle and a stiffer driveshaft (parameters named as the
+    scenario's keys) runs as ``transgen simulate --set`` of the same keys (co-simulation, 10 ms)."""
+    from transgen.fmu.codegen import parameters
+    from transgen.fmu.export import load_source
+    from transgen.sim.scenario.load import load_scenario
+
+    src = sources(LAUNCH)
+    names = [p[0] for p in parameters(load_source(src, "launch"))]
+    assert {"driveline.vehicle_mass", "driveline.stiffness", "input.J_engine"} <= set(names)
+    sets = {"driveline.vehicle_mass": 2600.0, "driveline.stiffness": 2500.0}
+    sc = load_scenario(src, overrides=sets)
+    res = sc.run()
+    assert res.success, res.message
+    path = export_fmu(src, tmp_path / "launch.fmu", fmi=2)
+    outputs = [f"w_{k}" for k in sc.powertrain.transmission.links] + ["lockedElements", "t_mode_change"]
+    r = simulate_fmu(str(path), fmi_type="CoSimulation", stop_time=sc.options.t_end, output_interval=1e-2,
+                     output=outputs, start_values=sets)
+    _check_run(sc, res, r, "tuned driveline CS 10 ms")
+
+
+def test_periodic_signals_are_built_in(tmp_path):
+    """A square-wave apply and a periodic-table torque are built into the FMU (every edge an event,
+    also after the scenario's end: the FMU run twice as long as the scenario it was exported from
+    matches ``transgen simulate`` of the longer run)."""
+    from transgen.sim.scenario.library import bundled_scenarios
+    from transgen.sim.scenario.load import load_scenario
+
+    text = bundled_scenarios()["coupled_clutches"].read_text()
+    text = text.replace('apply = { type = "sine", offset = 0.0, amplitude = 1.0, frequency = 0.2 }',
+                        'apply = { type = "square", period = 0.3, duty = 0.5, t0 = 0.05 }')
+    text = text.replace('torque = { type = "sine", offset = 0.0, amplitude = 10.0, frequency = 5.0 }',
+                        'torque = { type = "periodic", t = [0.0, 0.1, 0.1, 0.25], value = [8.0, 8.0, -6.0, -6.0], '
+                        'period = 0.25 }')
+    text = text.replace('mechanism = "coupled_clutches"', f'mechanism = "{bundled_path_of("coupled_clutches")}"')
+    path = tmp_path / "periodic.toml"
+    path.write_text(text)
+    fmu = export_fmu(str(path), tmp_path / "periodic.fmu", fmi=2)
+    assert validate_fmu(str(fmu)) == []
+    sc = load_scenario(str(path), overrides={"simulation.t_end": 3.0})
+    res = sc.run()
+    assert res.success, res.message
+    outputs = [f"w_{k}" for k in sc.powertrain.transmission.links] + ["lockedElements", "t_mode_change"]
+    for kind in ("ModelExchange", "CoSimulation"):
+        r = simulate_fmu(str(fmu), fmi_type=kind, stop_time=3.0, output_interval=5e-4, output=outputs)
+        _check_run(sc, res, r, f"periodic signals {kind}")
+
+
+def bundled_path_of(name):
+    from transgen.library import bundled_path
+
+    return bundled_path(name)

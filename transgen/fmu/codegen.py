@@ -8,7 +8,40 @@ import math
 
 from .data import CS_STEP, FmuData, FmuError
 
-__all__ = ["value_references", "model_data_h", "model_signals_h"]
+__all__ = ["value_references", "parameters", "model_data_h", "model_signals_h"]
+
+#: the tunable numbers of a driveline and an engine: (FMU name: the scenario's key, key in
+#: FmuData, C macro, unit, bound, description); the C code reads them as ``m->par[k]`` through the macro
+_DRIVELINE_PARAMETERS = (
+    ("driveline.stiffness", "stiffness", "TG_DL_STIFFNESS", "N.m/rad", "positive", "driveshaft torsional stiffness"),
+    ("driveline.damping", "damping", "TG_DL_DAMPING", "N.m.s/rad", "nonnegative", "driveshaft damping"),
+    ("driveline.output_inertia", "J_out", "TG_DL_JOUT", "kg.m2", "nonnegative",
+     "inertia on the vehicle side of the driveshaft, without the vehicle"),
+    ("driveline.vehicle_mass", "mass", "TG_DL_MASS", "kg", "nonnegative", "vehicle mass"),
+    ("driveline.wheel_radius", "wheel_radius", "TG_DL_RADIUS", "m", "positive", "rolling radius of the driven wheels"),
+    ("driveline.final_drive", "final_drive", "TG_DL_FINAL", "1", "positive", "final-drive ratio (driveshaft / wheel speed)"),
+    ("driveline.rolling_resistance", "rolling", "TG_DL_ROLLING", "1", "nonnegative", "rolling-resistance coefficient"),
+    ("driveline.cd_a", "cd_a", "TG_DL_CDA", "m2", "nonnegative", "drag coefficient times frontal area"),
+    ("driveline.air_density", "air_density", "TG_DL_AIR", "kg/m3", "nonnegative", "air density"),
+    ("driveline.grade", "grade", "TG_DL_GRADE", "rad", "grade", "road grade angle (positive uphill)"),
+)
+_ENGINE_PARAMETERS = (
+    ("input.J_engine", "J", "TG_ENG_J", "kg.m2", "positive", "engine inertia with the converter's pump"),
+    ("input.idle_speed", "idle", "TG_ENG_IDLE", "rad/s", "nonnegative",
+     "idle speed of the governor (the scenario's input.idle_rpm, in rad/s)"),
+)
+
+
+def parameters(d: FmuData) -> list[tuple[str, float, str, str, str, str]]:
+    """The tunable parameters besides the capacities and inertias, in value-reference order:
+    ``(name, start, C macro, unit, bound, description)`` (bound: ``positive``, ``nonnegative``
+    or ``grade``, |grade| < pi/2)."""
+    out = []
+    if d.driveline:
+        out += [(n, float(d.driveline[k]), c, u, b, t) for n, k, c, u, b, t in _DRIVELINE_PARAMETERS]
+    if d.engine and d.engine["kind"] == "converter":
+        out += [(n, float(d.engine[k]), c, u, b, t) for n, k, c, u, b, t in _ENGINE_PARAMETERS]
+    return out
 
 
 def value_references(d: FmuData) -> dict[str, int]:
@@ -32,6 +65,7 @@ def value_references(d: FmuData) -> dict[str, int]:
     out["Z"] = out["BOOL"] + ne
     out["DL"] = out["Z"] + d.n_indicators
     out["ENG"] = out["DL"] + 2
+    out["PAR"] = out["ENG"] + 2
     return out
 
 
@@ -71,8 +105,7 @@ def model_data_h(d: FmuData, guid: str) -> str:
     if eng:
         out += [f"#define TG_ENG_X {len(d.links)}\n", f"#define TG_ENG_LINK {eng['link']}\n",
                 f"#define TG_ENG_UCOL {eng['column']}\n", f"#define TG_ENG_NS {len(eng['speeds'])}\n",
-                f"#define TG_ENG_NT {len(eng['throttles'])}\n", f"#define TG_ENG_IDLE {_num(eng['idle'])}\n",
-                f"#define TG_ENG_J {_num(eng['J'])}\n", f"#define TG_ENG_THROTTLE_IN {eng['throttle_input']}\n",
+                f"#define TG_ENG_NT {len(eng['throttles'])}\n", f"#define TG_ENG_THROTTLE_IN {eng['throttle_input']}\n",
                 f"#define TG_ENG_REQUEST_IN {eng['request_input']}\n",
                 _array("double", "TG_ENG_SPEEDS", eng["speeds"]), _array("double", "TG_ENG_THROTTLES", eng["throttles"]),
                 _array("double", "TG_ENG_TABLE", eng["table"])]
@@ -97,11 +130,13 @@ def model_data_h(d: FmuData, guid: str) -> str:
         dl = d.driveline
         out += [f"#define TG_DL_OUTPUT {dl['output']}\n", f"#define TG_DL_UCOL {dl['column']}\n",
                 f"#define TG_DL_X {d.driveline_state}\n"]
-        out += [f"#define TG_DL_{key} {_num(dl[name])}\n" for key, name in
-                (("STIFFNESS", "stiffness"), ("DAMPING", "damping"), ("JV", "J_v"), ("MASS", "mass"),
-                 ("ROLLING", "rolling"), ("GRADE", "grade"), ("AIR", "air_density"), ("CDA", "cd_a"),
-                 ("RADIUS", "wheel_radius"), ("FINAL", "final_drive"))]
     out += [f"#define TG_VR_{k} {v}\n" for k, v in vr.items()]
+    par = parameters(d)
+    if eng and eng["kind"] != "converter":  # the engine on a link has no idle governor of its own
+        out += ["#define TG_ENG_IDLE 0.0\n"]
+    out += [f"#define TG_NPAR {len(par)}\n", _array("double", "TG_PAR0", [p[1] for p in par]),
+            _array("int", "TG_PAR_BOUND", [("positive", "nonnegative", "grade").index(p[4]) for p in par])]
+    out += [f"#define {p[2]} (m->par[{k}])\n" for k, p in enumerate(par)]
     out.append("static const char *TG_ELEMENT_NAMES[%d] = {%s};\n"
                % (max(1, ne), ", ".join(_string(e["name"]) for e in d.elements) or "0"))
     out.append(_array("int", "TG_KIND", [e["kind"] for e in d.elements]))
@@ -124,13 +159,14 @@ def model_data_h(d: FmuData, guid: str) -> str:
         starts.append(len(members))
     out += [_array("int", "TG_GROUP_START", starts), _array("int", "TG_GROUP_MEMBERS", members),
             _array("int", "TG_GROUP_SIGNS", signs)]
-    valid, dof, nrow, off = [], [], [], {k: [] for k in ("B", "C", "D", "COORD", "ROW")}
-    B, C, D, coords = [], [], [], []
+    valid, dof, nrow, off = [], [], [], {k: [] for k in ("B", "C", "D", "E", "COORD", "ROW")}
+    nb, C, nd, E, coords = 0, [], 0, [], []
     rep, rstart, rcount, rmem, rsign = [], [], [], [], []
     for m in d.modes:
-        off["B"].append(len(B))
+        off["B"].append(nb)
         off["C"].append(len(C))
-        off["D"].append(len(D))
+        off["D"].append(nd)
+        off["E"].append(len(E))
         off["COORD"].append(len(coords))
         off["ROW"].append(len(rep))
         if m is None:
@@ -138,14 +174,15 @@ def model_data_h(d: FmuData, guid: str) -> str:
             dof.append(0)
             nrow.append(0)
             continue
-        _, cs, b, c, dd, rows = m
+        _, cs, b, c, dd, rows, e = m
         valid.append(1)
         dof.append(len(cs))
         nrow.append(len(rows))
         coords += cs
-        B += list(b.reshape(-1))
+        nb += b.size
         C += list(c.reshape(-1))
-        D += list(dd.reshape(-1))
+        nd += dd.size
+        E += list(e.reshape(-1))
         for mem, sg in rows:
             rep.append(mem[0])
             rstart.append(len(rmem))
@@ -155,7 +192,8 @@ def model_data_h(d: FmuData, guid: str) -> str:
     out += [_array("int", "TG_MODE_VALID", valid), _array("int", "TG_MODE_DOF", dof),
             _array("int", "TG_MODE_NROW", nrow)]
     out += [_array("int", f"TG_MODE_{k}_OFF", v) for k, v in off.items()]
-    out += [_array("double", "TG_B", B), _array("double", "TG_C", C), _array("double", "TG_D", D),
+    out += [f"#define TG_NB {max(1, nb)}\n", f"#define TG_ND {max(1, nd)}\n", _array("double", "TG_C", C),
+            _array("double", "TG_E", E), _array("double", "TG_F", d.F.ravel()),
             _array("int", "TG_COORDS", coords), _array("int", "TG_ROW_REP", rep), _array("int", "TG_ROW_START", rstart),
             _array("int", "TG_ROW_COUNT", rcount), _array("int", "TG_ROW_MEMBERS", rmem),
             _array("int", "TG_ROW_SIGNS", rsign)]
@@ -169,34 +207,45 @@ def model_data_h(d: FmuData, guid: str) -> str:
         next_sig += inp.signal is not None
     out += [_array("int", "TG_IN_UCOL", [-1 if i.column is None else i.column for i in d.inputs]),
             _array("int", "TG_IN_SIG", sig_index), _array("double", "TG_IN_START", [i.start for i in d.inputs]),
-            _array("double", "TG_W0", d.w0), _array("double", "TG_J", d.inertias),
+            _array("double", "TG_W0", d.w0), _array("double", "TG_J0", d.inertias),
             _array("double", "TG_BP", d.breakpoints)]
     return "".join(out)
 
 
 def model_signals_h(d: FmuData) -> str:
-    """``tg_signal(k, t)``: the built-in signal of the k-th input that has one."""
+    """``tg_signal(k, t)``: the built-in signal of the k-th input that has one; and
+    ``tg_signal_next_edge(t)``: the first edge after ``t`` of the periodic signals among them
+    (pulse trains and periodic tables have infinitely many breakpoints: the runtime asks for the
+    next one instead of a table)."""
     tables: list[str] = []
-    cases = []
+    cases, edges = [], []
     k = 0
     for inp in d.inputs:
         if inp.signal is None:
             continue
-        cases.append(f"    case {k}: return {_signal_c(inp.signal, tables, inp.name)};  /* {inp.name} */\n")
+        cases.append(f"    case {k}: return {_signal_c(inp.signal, tables, inp.name, edges)};  /* {inp.name} */\n")
         k += 1
     if d.schedule:  # the schedule's throttle (for its shift lines), case TG_SCHED_SIG
-        cases.append(f"    case {k}: return {_signal_c(d.schedule['throttle'], tables, 'auto_shift throttle')};\n")
+        cases.append(f"    case {k}: return {_signal_c(d.schedule['throttle'], tables, 'auto_shift throttle', edges)};\n")
+    next_edge = "".join(f"    next = fmin(next, {e});\n" for e in edges)
     return ("/* generated by transgen: the built-in time signals of the inputs */\n" + "".join(tables)
             + "static double tg_signal(int k, double t) {\n    (void)t;\n    switch (k) {\n" + "".join(cases)
-            + "    default: return 0.0;\n    }\n}\n")
+            + "    default: return 0.0;\n    }\n}\n\n"
+            + "static double tg_signal_next_edge(double t) {\n    double next = INFINITY;\n    (void)t;\n"
+            + next_edge + "    return next;\n}\n")
 
 
-def _signal_c(sig, tables: list[str], where: str) -> str:
-    """A C expression in ``t`` for the signal ``sig`` (the formulas of :mod:`transgen.sim.core.signals`)."""
+#: the signal kinds an FMU builds in
+SUPPORTED = "constant, step, ramp, table, sine, pulse, square, periodic, sum, spliced"
+
+
+def _signal_c(sig, tables: list[str], where: str, edges: list[str]) -> str:
+    """A C expression in ``t`` for the signal ``sig`` (the formulas of :mod:`transgen.sim.core.signals`);
+    the C expressions of the next edge after ``t`` of its periodic parts are added to ``edges``."""
     form = sig.kernel_form() if hasattr(sig, "kernel_form") else None
     if form is None:
         raise FmuError(f"input {where}: a {type(sig).__name__.lower()} signal cannot be built into an FMU "
-                       f"(supported: constant, step, ramp, table, sine, sum, spliced)")
+                       f"(supported: {SUPPORTED})")
     kind, numbers, parts = form
     n = [_num(x) for x in numbers]
     if kind == "constant":
@@ -213,8 +262,21 @@ def _signal_c(sig, tables: list[str], where: str) -> str:
     if kind == "sine":
         return f"({n[0]} + {n[1]} * sin(2 * 3.141592653589793 * {n[2]} * t + {n[3]}))"
     if kind == "sum":
-        return "(0.0 + " + " + ".join(_signal_c(p, tables, where) for p in parts) + ")"
+        return "(0.0 + " + " + ".join(_signal_c(p, tables, where, edges) for p in parts) + ")"
     if kind == "spliced":
-        return f"(t >= {n[0]} ? {_signal_c(parts[1], tables, where)} : {_signal_c(parts[0], tables, where)})"
-    raise FmuError(f"input {where}: a {kind} signal cannot be built into an FMU "
-                   f"(supported: constant, step, ramp, table, sine, sum, spliced)")
+        return (f"(t >= {n[0]} ? {_signal_c(parts[1], tables, where, edges)} : "
+                f"{_signal_c(parts[0], tables, where, edges)})")
+    if kind == "pulse":
+        edges.append(f"tg_pulse_next_edge(t, {n[0]}, {n[1]}, {n[4]})")
+        return f"tg_pulse(t, {', '.join(n)})"
+    if kind == "periodic":
+        period, rest = numbers[0], numbers[1:]
+        half = len(rest) // 2
+        name = f"TG_SIG{len(tables)}"
+        first = rest[0]
+        offsets = sorted({x - first for x in rest[:half] if x - first < period} | {0.0})
+        tables.append(_array("double", name + "_T", rest[:half]) + _array("double", name + "_V", rest[half:])
+                      + _array("double", name + "_O", offsets))
+        edges.append(f"tg_periodic_next_edge(t, {name}_T, {name}_O, {len(offsets)}, {n[0]})")
+        return f"tg_periodic(t, {name}_T, {name}_V, {half}, {n[0]})"
+    raise FmuError(f"input {where}: a {kind} signal cannot be built into an FMU (supported: {SUPPORTED})")

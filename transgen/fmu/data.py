@@ -20,7 +20,8 @@ import numpy as np
 from transgen.errors import ModeError, TransgenError
 from transgen.kinematics import constraint_matrix, numeric_rank
 
-__all__ = ["FmuData", "FmuInput", "FmuError", "fmu_data", "MAX_ELEMENTS", "CS_STEP"]
+__all__ = ["FmuData", "FmuInput", "FmuError", "fmu_data", "input_torques", "torque_rows", "mode_matrices",
+           "MAX_ELEMENTS", "CS_STEP"]
 
 #: The most shift elements an FMU holds: every lock set (2^n) is tabulated.
 MAX_ELEMENTS = 10
@@ -51,8 +52,9 @@ class FmuInput:
 @dataclass
 class FmuData:
     """The tables of one FMU (see the module docstring); ``modes[mask]`` is None for a lock set
-    that is no mode (its locked torques are not unique), else ``(name, coords, B, C, D, rows)``
-    with ``rows`` the ``(members, signs)`` of each row of ``D``."""
+    that is no mode (its locked torques are not unique), else ``(name, coords, B, C, D, rows, E)``
+    with ``rows`` the ``(members, signs)`` of each row of ``D`` and ``E`` the rows of ``D``'s
+    solve (see :func:`mode_matrices`); ``F`` maps the input vector to the link torques."""
 
     title: str
     model_name: str
@@ -75,6 +77,7 @@ class FmuData:
     schedule: dict | None = None
     stop_time: float | None = None  # the scenario's t_end [s]: the FMU's default experiment
     rtol: float | None = None  # the scenario's relative tolerance: the default experiment's
+    F: np.ndarray | None = None  # n_links x n_u: the torque of each input on each link
 
     @property
     def n_indicators(self) -> int:
@@ -150,6 +153,8 @@ def fmu_data(tr, model_name: str, title: str, signals: dict | None = None, w0=No
         raise FmuError(f"{model_name}: {n} shift elements; an FMU holds at most {MAX_ELEMENTS} "
                        f"(every lock set is tabulated)")
     modes = []
+    F = input_torques(tr)
+    gear_rows = constraint_matrix(tr.graph, [])
     for mask in range(1 << n):
         locked = frozenset(i for i in range(n) if mask >> i & 1)
         try:
@@ -162,7 +167,8 @@ def fmu_data(tr, model_name: str, title: str, signals: dict | None = None, w0=No
             raise FmuError(f"{model_name}: mode {tr.mode_name(locked)}: the rows of D are not in the order of "
                            f"their representatives")  # pragma: no cover - a property of transmission.py
         modes.append((tr.mode_name(locked), [int(k) for k in m.coords], np.asarray(m.B, float),
-                      np.asarray(m.C, float), np.asarray(m.D, float), rows))
+                      np.asarray(m.C, float), np.asarray(m.D, float), rows,
+                      torque_rows(gear_rows, tr.P[list(m.locked_order)])))
     groups = [(tuple(int(i) for i in mem), tuple(int(s) for s in sg)) for mem, sg in tr.groups]
     if sorted(i for mem, _ in groups for i in mem) != list(range(n)):
         raise FmuError(f"{model_name}: every element must be in exactly one locking group")  # pragma: no cover
@@ -229,7 +235,7 @@ def fmu_data(tr, model_name: str, title: str, signals: dict | None = None, w0=No
     dl = None
     if driveline is not None:
         dl = {"output": int(driveline.output), "stiffness": float(driveline.stiffness),
-              "damping": float(driveline.damping), "J_v": float(driveline.J_v), "mass": float(driveline.mass),
+              "damping": float(driveline.damping), "J_v": float(driveline.J_v), "J_out": float(driveline.J_out), "mass": float(driveline.mass),
               "rolling": float(driveline.rolling), "grade": float(driveline.grade),
               "air_density": float(driveline.air_density), "cd_a": float(driveline.cd_a),
               "wheel_radius": float(driveline.wheel_radius), "final_drive": float(driveline.final_drive),
@@ -242,7 +248,48 @@ def fmu_data(tr, model_name: str, title: str, signals: dict | None = None, w0=No
     return FmuData(title, model_name, list(tr.links), [float(x) for x in tr.inertia], elements, np.asarray(tr.P, float),
                    groups, len(tr.inputs), modes, implied, gears, inputs, w0, float(slip_tol),
                    sorted(float(p) for p in points if math.isfinite(p)), source, dl, eng, sched,
-                   None if t_end is None else float(t_end), None if rtol is None else float(rtol))
+                   None if t_end is None else float(t_end), None if rtol is None else float(rtol), F)
+
+
+def input_torques(tr) -> np.ndarray:
+    """``F`` (links x inputs): the torque each input puts on each link [N*m per N*m]. ``T_in``
+    and named loads drive their link (+1), ``T_out`` acts -1 on the output link, an element's
+    torque ``t_e`` (from link1 to link2) acts ``-P[e]`` (it opposes the slip ``P[e] @ w``)."""
+    F = np.zeros((len(tr.links), len(tr.inputs)))
+    external = {t.name: t for t in tr.mech.torques}
+    for j, name in enumerate(tr.inputs):
+        if name.startswith("t_") and name[2:] in tr.element_index:
+            F[:, j] = -tr.P[tr.element_index[name[2:]]]
+        elif name in external:
+            F[tr.link_index[external[name].link], j] = external[name].sign
+        else:  # pragma: no cover - the state space has no other inputs
+            raise FmuError(f"input {name}: not an external or element torque")
+    return F
+
+
+def torque_rows(gear_rows: np.ndarray, locked_rows: np.ndarray) -> np.ndarray:
+    """``E``: the rows of the pseudo-inverse of ``[G^T P_L^T]`` (the gear constraints ``G`` and
+    the locked representatives' slip rows ``P_L``, both over the links) that give the locked
+    torques: the reactions ``x`` of ``G^T mu + P_L^T t = R`` are unique when the mode is, and
+    depend on the gearing alone, so :func:`mode_matrices` takes new inertias without them."""
+    if not len(locked_rows):
+        return np.zeros((0, gear_rows.shape[1]))
+    K = np.hstack([gear_rows.T, locked_rows.T])
+    return np.linalg.pinv(K)[gear_rows.shape[0]:]
+
+
+def mode_matrices(C: np.ndarray, F: np.ndarray, E: np.ndarray, J, locked_columns) -> tuple[np.ndarray, np.ndarray]:
+    """``(B, D)`` of a mode from its kinematics ``C`` (w = C q), the inputs' link torques ``F``,
+    its torque rows ``E`` and the link inertias ``J`` [kg*m^2]: the equations of motion
+    ``J dw/dt = F u - P_L^T t - G^T mu`` with ``w = C q`` give ``dq/dt = (C^T J C)^-1 C^T F u = B u``
+    and the locked torques ``t = E (F - J C B) u = D u``. The columns of the locked elements'
+    own torques (``locked_columns``) are no inputs of the mode (zero). Equal to the simulator's
+    matrices (tested); the FMU's C runtime computes the same, so its inertias are parameters."""
+    F = np.array(F, float)
+    F[:, list(locked_columns)] = 0.0
+    J = np.diag(np.asarray(J, float))
+    B = np.linalg.solve(C.T @ J @ C, C.T @ F) if C.shape[1] else np.zeros((0, F.shape[1]))
+    return B, E @ (F - J @ C @ B)
 
 
 def _engine(engine, tr) -> dict:

@@ -4,7 +4,8 @@ The variables are named as the simulator's CSV columns: the states ``w_<link>`` 
 link speed: a fixed state vector over all modes), ``slip_<element>``, ``t_<element>`` [N*m],
 ``locked_<element>``, the inputs ``T_in``, ``T_out`` and ``apply_<element>``, the integer
 outputs ``mode`` and ``gear`` (their names in the description), ``lockedElements`` (a bit mask),
-and the tunable parameters ``static_<element>``, ``dynamic_<element>`` [N*m]. No timestamp: the
+and the tunable parameters ``static_<element>``, ``dynamic_<element>`` [N*m], ``J_<link>``
+[kg*m^2] and the driveline's and engine's numbers (:func:`~.codegen.parameters`). No timestamp: the
 same model gives the same bytes.
 """
 from __future__ import annotations
@@ -12,13 +13,16 @@ from __future__ import annotations
 from dataclasses import dataclass
 from xml.sax.saxutils import quoteattr
 
-from .codegen import value_references
+from .codegen import parameters, value_references
 from .data import CS_STEP, FmuData
 
 __all__ = ["Variable", "variables", "model_description"]
 
 UNITS = {"rad": ("rad", {"rad": 1}), "m/s": ("m/s", {"m": 1, "s": -1}), "rad/s": ("rad/s", {"s": -1, "rad": 1}), "rad/s2": ("rad/s2", {"s": -2, "rad": 1}),
-         "N.m": ("N.m", {"kg": 1, "m": 2, "s": -2}), "kg.m2": ("kg.m2", {"kg": 1, "m": 2}), "s": ("s", {"s": 1})}
+         "N.m": ("N.m", {"kg": 1, "m": 2, "s": -2}), "kg.m2": ("kg.m2", {"kg": 1, "m": 2}), "s": ("s", {"s": 1}),
+         "N.m/rad": ("N.m/rad", {"kg": 1, "m": 2, "s": -2, "rad": -1}),
+         "N.m.s/rad": ("N.m.s/rad", {"kg": 1, "m": 2, "s": -1, "rad": -1}), "kg": ("kg", {"kg": 1}),
+         "m": ("m", {"m": 1}), "m2": ("m2", {"m": 2}), "kg/m3": ("kg/m3", {"kg": 1, "m": -3})}
 
 
 @dataclass(frozen=True)
@@ -94,8 +98,11 @@ def variables(d: FmuData) -> list[Variable]:
             out.append(Variable(f"dynamic_{e['name']}", vr["DYNAMIC"] + i, "Real", "parameter", "tunable", "exact",
                                 e["dynamic"], "N.m", f"dynamic capacity of {e['name']} at full apply (slipping)"))
     for k, link in enumerate(d.links):
-        out.append(Variable(f"J_{link}", vr["J"] + k, "Real", "local", "constant", "exact", d.inertias[k], "kg.m2",
-                            f"inertia of link {link} (the mode matrices are generated for it: not tunable)"))
+        out.append(Variable(f"J_{link}", vr["J"] + k, "Real", "parameter", "tunable", "exact", d.inertias[k], "kg.m2",
+                            f"inertia of link {link} (>= 0; the mode matrices follow it)"))
+    for k, (name, start, _, unit, _, text) in enumerate(parameters(d)):
+        out.append(Variable(name, vr["PAR"] + k, "Real", "parameter", "tunable", "exact", start,
+                            None if unit == "1" else unit, text))
     out.append(Variable("slip_tolerance", vr["SLIPTOL"], "Real", "parameter", "fixed", "exact", d.slip_tol, None,
                         "relative slip speed below which an element is at zero slip at an event (transgen "
                         "simulate's slip_tol)"))

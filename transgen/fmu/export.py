@@ -25,7 +25,7 @@ __all__ = ["export_fmu", "load_source", "fmu_files", "INTERFACES"]
 INTERFACES = {"me": ("me",), "cs": ("cs",), "both": ("me", "cs")}
 #: the model-independent runtime (``c/``): the FMI glue file of the version includes tg_model.c,
 #: which includes the other two
-RUNTIME_FILES = ("tg_model.c", "tg_decide.c", "tg_components.c", "tg_schedule.c")
+RUNTIME_FILES = ("tg_model.c", "tg_matrices.c", "tg_values.c", "tg_decide.c", "tg_components.c", "tg_schedule.c")
 
 
 def model_identifier(name: str) -> str:

@@ -3,16 +3,21 @@
  * transgen.sim.engine.torque_converter). Written for transgen (MIT licence); included by tg_model.c. */
 #if TG_DRIVELINE
 /* the driveline (simulator: components.driveline_rates, road_torque): shaft torque [N*m] */
-static double tg_shaft_torque(const double *w) {
+static double tg_shaft_torque(const TG *m, const double *w) {
     return TG_DL_STIFFNESS * w[TG_DL_X] + TG_DL_DAMPING * (w[TG_DL_OUTPUT] - w[TG_DL_X + 1]);
 }
 
-static double tg_road_torque(double omega_v) {
+static double tg_road_torque(const TG *m, double omega_v) {
     double v = omega_v * TG_DL_RADIUS / TG_DL_FINAL;
     double mg = TG_DL_MASS * 9.81;
     double rolling = TG_DL_ROLLING * mg * cos(TG_DL_GRADE) * tanh(v / 0.1);
     double force = rolling + 0.5 * TG_DL_AIR * TG_DL_CDA * v * fabs(v) + mg * sin(TG_DL_GRADE);
     return force * TG_DL_RADIUS / TG_DL_FINAL;
+}
+
+/* the vehicle-side inertia referred to the driveshaft [kg*m^2] (simulator: Driveline.J_v) */
+static double tg_vehicle_inertia(const TG *m) {
+    return TG_DL_JOUT + TG_DL_MASS * TG_DL_RADIUS * TG_DL_RADIUS / (TG_DL_FINAL * TG_DL_FINAL);
 }
 #endif
 

@@ -133,9 +133,9 @@ static int tg_consistent(const TG *m, double t, const double *slips, const doubl
     }
     for (int e = 0; e < TG_NE; e++) u[TG_UCOL[e]] += torques[e];
     double dw[TG_NL + 1], slip_acc[TG_NE + 1], t_locked[TG_NE + 1];
-    tg_mode_rates(locked, u, dw);
+    tg_mode_rates(m, locked, u, dw);
     tg_slips(dw, slip_acc);
-    tg_mode_torques(locked, u, t_locked);
+    tg_mode_torques(m, locked, u, t_locked);
     int nrow = TG_MODE_NROW[locked];
     for (int r = 0; r < nrow; r++)
         if (tg_holding_margin(m, locked, r, t, t_locked[r]) < 0.0) return 0;

@@ -57,6 +57,10 @@ typedef struct {
     long n_events;
     int gear_k;                 /* the schedule's gear (position in its order) */
     double last_shift;          /* when it commanded the last shift [s] */
+    double J[TG_NL + 1];        /* link inertias [kg*m^2] (tunable) */
+    double par[TG_NPAR + 1];    /* driveline and engine parameters (tunable, see model_data.h) */
+    double B[TG_NB];            /* every mode's dq/dt = B u, from the inertias (tg_matrices) */
+    double D[TG_ND];            /* every mode's locked torques = D u */
     double ov_t0[TG_NE + 1];    /* an element's apply replaced by a shift from this time on */
     int ov_n[TG_NE + 1];
     double ov_t[TG_NE + 1][TG_SPLICE_MAX], ov_v[TG_NE + 1][TG_SPLICE_MAX];
@@ -96,6 +100,60 @@ static double tg_ramp(double t, double t0, double t1, double v0, double v1) {
     if (t <= t0) return v0;
     if (t >= t1) return v1;
     return v0 + (v1 - v0) * (t - t0) / (t1 - t0);
+}
+
+/* the periodic signals (simulator: signals._period_start, pulse_value, periodic_phase): the
+ * k of the period [first + k*period, first + (k+1)*period) holding t, corrected for round-off;
+ * every period start is computed as first + k*period, as the simulator's breakpoints are */
+static double tg_period_k(double t, double first, double period) {
+    double k = floor((t - first) / period);
+    while (first + k * period > t) k -= 1.0;
+    while (first + (k + 1.0) * period <= t) k += 1.0;
+    return k;
+}
+
+static double tg_period_start(double t, double first, double period) {
+    return first + tg_period_k(t, first, period) * period;
+}
+
+static double tg_pulse(double t, double t0, double width, double low, double high, double period) {
+    double start = (period == 0.0 || t < t0) ? t0 : tg_period_start(t, t0, period);
+    return (start <= t && t < start + width) ? high : low;
+}
+
+/* the first edge of a pulse (train) after t (signals.Pulse.breakpoints: s and s + width) */
+static double tg_pulse_next_edge(double t, double t0, double width, double period) {
+    if (t < t0) return t0;
+    if (period == 0.0) return t < t0 + width ? t0 + width : INFINITY;
+    double k = tg_period_k(t, t0, period);
+    if (t < t0 + k * period + width) return t0 + k * period + width;
+    return t0 + (k + 1.0) * period;
+}
+
+static int tg_bisect_left(const double *xs, int n, double x) {
+    int lo = 0, hi = n;
+    while (lo < hi) {
+        int mid = (lo + hi) / 2;
+        if (xs[mid] < x) lo = mid + 1; else hi = mid;
+    }
+    return lo;
+}
+
+static double tg_periodic(double t, const double *ts, const double *vs, int n, double period) {
+    double first = ts[0], u = first + (t - tg_period_start(t, first, period));
+    double big = fmax(fabs(t), fabs(first) + period), tol = 8.0 * (nextafter(big, INFINITY) - big);
+    int j = tg_bisect_left(ts, n, u - tol);
+    if (j < n && fabs(ts[j] - u) <= tol) u = ts[j];
+    return tg_table(u, ts, vs, n);
+}
+
+/* the first breakpoint of a periodic table after t: a table time (as an offset from its first
+ * time, within the period) or the next period's start (signals.Periodic.breakpoints) */
+static double tg_periodic_next_edge(double t, const double *ts, const double *offsets, int n_off, double period) {
+    double k = tg_period_k(t, ts[0], period);
+    for (int j = 0; j < n_off; j++)
+        if (ts[0] + k * period + offsets[j] > t) return ts[0] + k * period + offsets[j];
+    return ts[0] + (k + 1.0) * period;
 }
 
 /* the built-in signals: tg_signal(k, t), generated */
@@ -166,7 +224,7 @@ static void tg_external(const TG *m, double t, const double *w, double *u) {
     for (int k = 0; k < TG_NIN; k++)
         if (TG_IN_UCOL[k] >= 0) u[TG_IN_UCOL[k]] += tg_input(m, k, t);
 #if TG_DRIVELINE
-    u[TG_DL_UCOL] += tg_shaft_torque(w);
+    u[TG_DL_UCOL] += tg_shaft_torque(m, w);
 #endif
 #if TG_ENGINE
     u[TG_ENG_UCOL] += tg_engine_input(m, t, w);
@@ -176,15 +234,16 @@ static void tg_external(const TG *m, double t, const double *w, double *u) {
 
 /* ----------------------------------------------------------------------- modes */
 
-#define MODE_B(mask) (TG_B + TG_MODE_B_OFF[mask])
 #define MODE_C(mask) (TG_C + TG_MODE_C_OFF[mask])
-#define MODE_D(mask) (TG_D + TG_MODE_D_OFF[mask])
+
+/* every mode's B and D from the link inertias: tg_matrices */
+#include "tg_matrices.c"
 
 /* rates dq/dt = B u, slip accelerations P C B u, link accelerations C B u */
-static void tg_mode_rates(unsigned mask, const double *u, double *dw) {
+static void tg_mode_rates(const TG *m, unsigned mask, const double *u, double *dw) {
     int dof = TG_MODE_DOF[mask];
     double dq[TG_NL + 1];
-    const double *B = MODE_B(mask), *C = MODE_C(mask);
+    const double *B = m->B + TG_MODE_B_OFF[mask], *C = MODE_C(mask);
     for (int r = 0; r < dof; r++) {
         double s = 0.0;
         for (int j = 0; j < TG_NU; j++) s += B[r * TG_NU + j] * u[j];
@@ -197,9 +256,9 @@ static void tg_mode_rates(unsigned mask, const double *u, double *dw) {
     }
 }
 
-static void tg_mode_torques(unsigned mask, const double *u, double *torques) {
+static void tg_mode_torques(const TG *m, unsigned mask, const double *u, double *torques) {
     int n = TG_MODE_NROW[mask];
-    const double *D = MODE_D(mask);
+    const double *D = m->D + TG_MODE_D_OFF[mask];
     for (int r = 0; r < n; r++) {
         double s = 0.0;
         for (int j = 0; j < TG_NU; j++) s += D[r * TG_NU + j] * u[j];
@@ -254,6 +313,8 @@ static double tg_signal_time(const TG *m, double t) {
     double after = t + 1e-12 * fmax(1.0, fabs(t)), best = t;
     for (int k = 0; k < TG_NBP; k++)
         if (TG_BP[k] > t && TG_BP[k] <= after) best = TG_BP[k];
+    for (double edge = tg_signal_next_edge(t); edge <= after; edge = tg_signal_next_edge(edge)) best = fmax(best, edge);
+    /* (each edge is after the one before: tg_signal_next_edge(x) > x) */
     for (int e = 0; e < TG_NE; e++) /* the breakpoints of the applies a shift replaced */
         for (int k = 0; k < m->ov_n[e]; k++)
             if (m->ov_t[e][k] > t && m->ov_t[e][k] <= after) best = fmax(best, m->ov_t[e][k]);
@@ -264,6 +325,7 @@ static double tg_next_stop(const TG *m, double t) {
     double after = t + 1e-12 * fmax(1.0, fabs(t)), stop = INFINITY;
     for (int k = 0; k < TG_NBP; k++)
         if (TG_BP[k] > after) { stop = TG_BP[k]; break; }
+    stop = fmin(stop, tg_signal_next_edge(after)); /* the periodic signals' edges, without end */
     for (int e = 0; e < TG_NE; e++)
         for (int k = 0; k < m->ov_n[e]; k++)
             if (m->ov_t[e][k] > after && m->ov_t[e][k] < stop) stop = m->ov_t[e][k];
@@ -290,7 +352,7 @@ static void tg_inputs(const TG *m, double t, const double *w, double *u) {
 static void tg_derivatives(const TG *m, double t, const double *w, double *dw) {
     double u[TG_NU + 1];
     tg_inputs(m, t, w, u);
-    tg_mode_rates(m->locked, u, dw);
+    tg_mode_rates(m, m->locked, u, dw);
 #if TG_ENGINE == 2
     {
         double pump, turbine;
@@ -300,7 +362,7 @@ static void tg_derivatives(const TG *m, double t, const double *w, double *dw) {
 #endif
 #if TG_DRIVELINE
     dw[TG_DL_X] = w[TG_DL_OUTPUT] - w[TG_DL_X + 1];
-    dw[TG_DL_X + 1] = (tg_shaft_torque(w) - tg_road_torque(w[TG_DL_X + 1])) / TG_DL_JV;
+    dw[TG_DL_X + 1] = (tg_shaft_torque(m, w) - tg_road_torque(m, w[TG_DL_X + 1])) / tg_vehicle_inertia(m);
 #endif
 }
 
@@ -310,7 +372,7 @@ static void tg_indicators(const TG *m, double t, const double *w, double *z) {
     double u[TG_NU + 1], rows[TG_NE + 1], slips[TG_NE + 1];
     double ts = tg_seg_time(m, t);
     tg_inputs(m, t, w, u);
-    tg_mode_torques(m->locked, u, rows);
+    tg_mode_torques(m, m->locked, u, rows);
     tg_slips(w, slips);
     for (int e = 0; e < TG_NE; e++) {
         z[2 * e] = 1.0;
@@ -340,7 +402,7 @@ static int tg_event(TG *m) {
         double u[TG_NU + 1], rows[TG_NE + 1];
         double ts = tg_seg_time(m, m->t);
         tg_inputs(m, m->t, m->w, u);
-        tg_mode_torques(m->locked, u, rows);
+        tg_mode_torques(m, m->locked, u, rows);
         int nrow = TG_MODE_NROW[m->locked];
         for (int r = 0; r < nrow; r++) {
             if (tg_holding_margin(m, m->locked, r, ts, rows[r]) > 0.0) continue;
@@ -464,7 +526,7 @@ static int tg_input_event_needed(const TG *m) {
     double u[TG_NU + 1], rows[TG_NE + 1];
     double ts = tg_seg_time(m, m->t);
     tg_inputs(m, m->t, m->w, u);
-    tg_mode_torques(m->locked, u, rows);
+    tg_mode_torques(m, m->locked, u, rows);
     for (int r = 0; r < TG_MODE_NROW[m->locked]; r++)
         if (tg_holding_margin(m, m->locked, r, ts, rows[r]) <= 0.0) return 1;
     for (int e = 0; e < TG_NE; e++)
@@ -480,7 +542,7 @@ static void tg_element_torques(const TG *m, double *out) {
     double u[TG_NU + 1], rows[TG_NE + 1];
     double ts = tg_seg_time(m, m->t);
     tg_inputs(m, m->t, m->w, u);
-    tg_mode_torques(m->locked, u, rows);
+    tg_mode_torques(m, m->locked, u, rows);
     for (int e = 0; e < TG_NE; e++)
         out[e] = (m->locked >> e) & 1u ? 0.0 : tg_slip_torque(m, e, ts, m->dirs[e], 0);
     int nrow = TG_MODE_NROW[m->locked];
@@ -605,6 +667,9 @@ static void tg_reset(TG *m) {
         m->stat[e] = TG_STATIC0[e];
         m->dyn[e] = TG_DYNAMIC0[e];
     }
+    for (int k = 0; k < TG_NL; k++) m->J[k] = TG_J0[k];
+    for (int k = 0; k < TG_NPAR; k++) m->par[k] = TG_PAR0[k];
+    (void)tg_matrices(m); /* the exported inertias: the simulator's own modes */
     m->slip_tol_rel = TG_SLIP_TOL;
     m->cs_step = TG_CS_STEP;
     m->t_stop = INFINITY;
@@ -619,100 +684,8 @@ static int tg_mode_index(const TG *m) { return TG_MODE_INDEX[m->locked]; }
 
 static int tg_gear(const TG *m) { return TG_GEAR_OF_MODE[m->locked]; }
 
-/* value references, see model_data.h */
-static int tg_get_real(TG *m, unsigned vr, double *value) {
-    if (vr < TG_VR_DER) { *value = m->w[vr]; return 0; }
-    if (tg_start(m)) return 1;
-    if (vr < TG_VR_SLIP) {
-        double dw[TG_NX + 1];
-        tg_derivatives(m, m->t, m->w, dw);
-        *value = dw[vr - TG_VR_DER];
-        return 0;
-    }
-    if (vr < TG_VR_TORQUE) {
-        double s[TG_NE + 1];
-        tg_slips(m->w, s);
-        *value = s[vr - TG_VR_SLIP];
-        return 0;
-    }
-    if (vr < TG_VR_IN) {
-        double t[TG_NE + 1];
-        tg_element_torques(m, t);
-        *value = t[vr - TG_VR_TORQUE];
-        return 0;
-    }
-    if (vr < TG_VR_STATIC) { *value = tg_input(m, vr - TG_VR_IN, tg_seg_time(m, m->t)); return 0; }
-    if (vr < TG_VR_DYNAMIC) { *value = m->stat[vr - TG_VR_STATIC]; return 0; }
-    if (vr < TG_VR_J) { *value = m->dyn[vr - TG_VR_DYNAMIC]; return 0; }
-    if (vr < TG_VR_SLIPTOL) { *value = TG_J[vr - TG_VR_J]; return 0; }
-    if (vr == TG_VR_SLIPTOL) { *value = m->slip_tol_rel; return 0; }
-    if (vr == TG_VR_CSSTEP) { *value = m->cs_step; return 0; }
-    if (vr == TG_VR_TIME) { *value = m->t; return 0; }
-    if (vr == TG_VR_TEVENT) { *value = m->t_change; return 0; }
-#if TG_ENGINE
-    if (vr == TG_VR_ENG) { *value = tg_engine_input(m, tg_seg_time(m, m->t), m->w); return 0; }
-    if (vr == TG_VR_ENG + 1) {
-        *value = tg_engine_torque(m, tg_seg_time(m, m->t), TG_ENGINE == 2 ? m->w[TG_ENG_X] : m->w[TG_ENG_LINK]);
-        return 0;
-    }
-#endif
-#if TG_DRIVELINE
-    if (vr == TG_VR_DL) { *value = tg_shaft_torque(m->w); return 0; }
-    if (vr == TG_VR_DL + 1) { *value = m->w[TG_DL_X + 1] * TG_DL_RADIUS / TG_DL_FINAL; return 0; }
-#endif
-    if (vr >= TG_VR_Z && vr < TG_VR_Z + TG_NZ) {
-        double z[TG_NZ + 1];
-        tg_indicators(m, m->t, m->w, z);
-        *value = z[vr - TG_VR_Z];
-        return 0;
-    }
-    snprintf(m->msg, sizeof m->msg, "unknown value reference %u", vr);
-    return 1;
-}
-
-static int tg_set_real(TG *m, unsigned vr, double value) {
-    if (!isfinite(value)) {
-        snprintf(m->msg, sizeof m->msg, "value reference %u: %g is not a finite number", vr, value);
-        return 1;
-    }
-    if (vr < TG_VR_DER) { m->w[vr] = value; m->fresh = 0; return 0; }
-    if (vr >= TG_VR_IN && vr < TG_VR_STATIC) {
-        int k = vr - TG_VR_IN;
-        if (!m->in_set[k] || m->in[k] != value) m->in_changed = 1;
-        m->in[k] = value;
-        m->in_set[k] = 1;
-        return 0;
-    }
-    if (vr >= TG_VR_STATIC && vr < TG_VR_J) {
-        if (value < 0.0) {
-            snprintf(m->msg, sizeof m->msg, "value reference %u: a capacity must not be negative (%g)", vr, value);
-            return 1;
-        }
-        if (vr < TG_VR_DYNAMIC) m->stat[vr - TG_VR_STATIC] = value; else m->dyn[vr - TG_VR_DYNAMIC] = value;
-        m->in_changed = 1;
-        return 0;
-    }
-    if (vr == TG_VR_SLIPTOL && value > 0.0 && value < 1e-2) { m->slip_tol_rel = value; return 0; }
-    if (vr == TG_VR_CSSTEP && value > 0.0 && value <= 1.0) { m->cs_step = value; return 0; }
-    snprintf(m->msg, sizeof m->msg, "value reference %u cannot be set to %g", vr, value);
-    return 1;
-}
-
-static int tg_get_integer(TG *m, unsigned vr, int *value) {
-    if (tg_start(m)) return 1;
-    if (vr == TG_VR_INT) { *value = tg_mode_index(m); return 0; }
-    if (vr == TG_VR_INT + 1) { *value = tg_gear(m); return 0; }
-    if (vr == TG_VR_INT + 2) { *value = (int)m->locked; return 0; }
-    snprintf(m->msg, sizeof m->msg, "unknown integer value reference %u", vr);
-    return 1;
-}
-
-static int tg_get_boolean(TG *m, unsigned vr, int *value) {
-    if (tg_start(m)) return 1;
-    if (vr >= TG_VR_BOOL && vr < TG_VR_BOOL + TG_NE) { *value = (m->locked >> (vr - TG_VR_BOOL)) & 1u; return 0; }
-    snprintf(m->msg, sizeof m->msg, "unknown boolean value reference %u", vr);
-    return 1;
-}
+/* the values by value reference: tg_get_real, tg_set_real, ... */
+#include "tg_values.c"
 
 /* ----------------------------------------------------------------------- test entry point */
 
