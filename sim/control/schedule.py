@@ -1,70 +1,7 @@
 """Shift schedules: apply trajectories of the oncoming and offgoing elements generated from a
 template, for shift events at given times or for an automatic schedule.
 
-The template (all times in s, apply levels as fractions of full apply), for a shift commanded at
-``t0``:
-
-oncoming element
-    ``0`` until ``t0``; fill: ``fill_level`` from ``t0`` to ``t0 + fill_time`` (the piston
-    strokes, the clutch carries little torque); torque-phase ramp: linear from ``fill_level`` to
-    ``ramp_end`` over ``ramp_time``; inertia phase: held at ``ramp_end`` for ``hold_time``; then
-    a ramp to full apply ``1`` over ``final_time`` (locks the element firmly).
-offgoing element
-    ``1`` until ``t0 + fill_time + offgoing_delay``; then a drop to ``offgoing_level`` and a
-    linear release to ``0`` over ``offgoing_ramp`` — released as the oncoming element takes
-    over the torque (too late: bindup; too early: flare).
-
-Elements engaged in both gears stay at their level. A double swap (two elements off, two on, as
-in a clutch-to-clutch shift between non-adjacent planetary states) applies the oncoming profile to
-both oncoming elements and the offgoing profile to both offgoing ones (:func:`gear_swap`); a
-one-way clutch is never commanded: leaving the gear it overruns by itself, entering it locks by
-itself when the offgoing element lets go. :func:`shift_trajectories` turns a list of
-shift events into apply :class:`~transgen.sim.core.signals.Table` signals; :class:`AutoShift` is a
-controller that commands shifts when the output speed crosses throttle-dependent upshift or
-downshift lines (with hysteresis: the downshift line lies below the upshift line).
-
-Power on and off, and which phase comes first. A shift is *power-on* when the throttle is at least
-:data:`POWER_ON_THROTTLE` at its command, else *power-off* (the vehicle drives the engine). In a
-power-on upshift and a power-off downshift the oncoming element slips the way that lets it take the
-torque over: the torque phase comes first, and the template above runs as it stands. In a
-power-on downshift (a kickdown) and a power-off upshift the oncoming element slips against the
-speed change the shift needs (its torque would brake the input's flare: a tie-up), so the
-speed phase comes first: the offgoing element releases by its template (the input flares to the
-new gear's synchronous speed, driven by the engine or, power-off, pulled down by its drag), the
-oncoming element only fills (held at ``fill_level``), and when its slip has fallen to
-:data:`SYNC_FRACTION` of its slip at the command (at least :data:`SYNC_MIN`: near
-synchronism) it is applied, from its level to full over ``final_time`` (and what is left of the
-offgoing element's apply is released in :data:`SYNC_RELEASE`), and locks at or just past
-synchronism. If synchronism is not reached by the end of the template's inertia phase
-(``fill_time + ramp_time + hold_time`` after the command) it is applied then. This needs the
-element slips (:attr:`AutoShift.slips`, the rows of the transmission's slip matrix); without them
-every shift follows its template. A speed-phase-first shift takes its template from
-:attr:`AutoShift.speed_first` (``[auto_shift.speed_first_templates]``) where given, else the
-shift's own.
-
-Engine torque intervention (the TCU's torque request to the engine; optional, none by default). The
-template gives a torque-request *factor* [-] that multiplies the engine's driving torque, 1 meaning
-no intervention, built from two trapezoids anchored at the template's own phases:
-
-torque-phase increase
-    from ``t_r + boost_delay`` (``t_r = t0 + fill_time + offgoing_delay``: the offgoing element
-    starts to let go, the oncoming one takes over the torque) the factor ramps over
-    ``torque_ramp`` to ``torque_boost`` (>= 1 raises the torque), is held there for
-    ``boost_time`` and ramps back over ``torque_ramp``;
-inertia-phase reduction
-    from ``t_e + cut_delay`` (``t_e = t_r + offgoing_ramp``: the offgoing element is released,
-    the speed change begins) the factor ramps over ``torque_ramp`` to ``torque_cut`` (<= 1
-    lowers the torque), is held for ``cut_time`` and ramps back over ``torque_ramp``.
-
-Where the two overlap their changes add: ``factor = max(0, 1 + (torque_boost - 1)*b(t) +
-(torque_cut - 1)*c(t))`` with ``b``, ``c`` the trapezoids' shapes in [0, 1]. The ramps make the
-engine torque continuous; ``torque_ramp = 0`` asks for steps. How an engine obeys the factor is its
-component's business (:mod:`transgen.sim.model.components`, the turbodiesel in
-:mod:`transgen.sim.model.powertrain`): a map engine scales its driving (positive) torque and gets no more
-than its full-load torque at the current speed; the diesel scales its fuel command, bounded by the
-full-load fuel. :func:`torque_request_signal` turns the events' templates into one signal; an
-:class:`AutoShift` splices a shift's profile into :attr:`AutoShift.torque_request` when it commands
-the shift.
+The template's phases and parameters and the automatic schedule: docs/explanation/shift-schedules.md.
 """
 from __future__ import annotations
 

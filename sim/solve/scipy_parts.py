@@ -1,7 +1,7 @@
 """The one home of scipy's private names in the simulator, each with a public fallback; and the parts
 of scipy the default path uses, imported without the rest of their packages.
 
-Private names used (scipy 1.10-1.17): ``scipy.integrate._odepack.lsoda`` (the compiled routine
+Private names used (scipy 1.10-1.17 seen; 1.15-1.17 supported): ``scipy.integrate._odepack.lsoda`` (the compiled routine
 :class:`~.ode_solvers.LeanLSODA` steps directly), ``scipy.integrate._ivp.lsoda`` / ``.base`` /
 ``.common`` / ``.bdf`` / ``.radau`` (classes, BDF's constants and ``compute_R``), ``scipy.integrate._ode``
 and ``scipy.optimize._zeros._brentq``. Where one fails to import or to pass its check, or where the

@@ -13,7 +13,8 @@ per shift (``shift1.torque_hole``, ...) and the turbocharger figures where an en
 * :mod:`.plots` - metrics over one parameter, heat maps over two;
 * :mod:`.optimize` - :func:`~.optimize.optimize`: shift calibration, one shift window per candidate from a
   saved state, candidates evaluated in batches on an executor (``transgen optimize``,
-  :mod:`.optimize_cli`).
+  :mod:`.optimize_cli`), with the template <-> vector conversion (:mod:`.templates`), the objective
+  and score (:mod:`.scoring`) and the finished result's texts (:mod:`.tuned`).
 """
 from __future__ import annotations
 
