@@ -173,7 +173,7 @@ def test_unique_times_without_a_result_file_is_refused(capsys):
     assert capsys.readouterr().err.startswith("error: --unique-times applies to the result file")
 
 
-@pytest.mark.parametrize("name", sorted(__import__("transgen.sim.scenario", fromlist=["x"]).bundled_scenarios()))
+@pytest.mark.parametrize("name", sorted(__import__("transgen.sim.scenario.library", fromlist=["x"]).bundled_scenarios()))
 def test_every_signal_of_the_bundled_scenarios_is_a_matlab_name(name):
     """In the .mat file the columns are variables by their own names (R.w_L1), none renamed."""
     import re
