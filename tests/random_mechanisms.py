@@ -399,7 +399,7 @@ def _burst_at_a_step(problem: str, case: Case) -> bool:
 KNOWN_BUGS = {
     "slip crossing missed between integrator steps": (
         lambda p, case: bool(re.search(r"invariant 'oneway_free_sign' violated|invariant 'dissipation' violated by \w+ "
-                                       r".*the slipping element creates energy", p)),
+                                       r".*the slipping element creates energy|a slip dip one solver resolved", p)),
         "solve_ivp finds an event only where its function changes sign between two steps; the dense "
         "output of every step is scanned at 16 interior points for a slip dipping through zero and "
         "back (integration.missed_crossing; test_reproducer_oneway_grazing_under_an_alternating_load_locks "
@@ -438,6 +438,28 @@ def known_bug(problem: str, case: Case, outcome: "Outcome | None" = None) -> str
     return None
 
 
+#: [s] a lock and an unlock of the same element closer than this are one slip dip through zero
+DIP_WINDOW = 1e-3
+
+
+def _without_dips(events) -> list[tuple[str, tuple[str, ...]]]:
+    """The event signature with every lock that the same elements' unlock follows within
+    :data:`DIP_WINDOW` left out, with that unlock: a slip dipping through zero and back, which a
+    solver whose steps straddle it misses (the known bug "slip crossing missed between integrator
+    steps"); the rest of the two runs must still agree."""
+    out, k = [], 0
+    events = list(events)
+    while k < len(events):
+        e = events[k]
+        if (e.kind == "lock" and k + 1 < len(events) and events[k + 1].kind == "unlock"
+                and events[k + 1].elements == e.elements and events[k + 1].t - e.t < DIP_WINDOW):
+            k += 2
+            continue
+        out.append((e.kind, e.elements))
+        k += 1
+    return out
+
+
 def event_signature(r) -> list[tuple[str, tuple[str, ...]]]:
     return [(e.kind, e.elements) for e in r.events]
 
@@ -453,7 +475,10 @@ def solver_differences(results: dict) -> list[str]:
     for m in methods[1:]:
         r = results[m]
         if event_signature(r) != event_signature(ref):
-            problems.append(f"events differ: {methods[0]} {describe_events(ref)} vs {m} {describe_events(r)}")
+            dip = _without_dips(ref.events) == _without_dips(r.events)
+            problems.append(("events differ only by a lock and unlock of one element within "
+                             f"{DIP_WINDOW * 1e3:g} ms (a slip dip one solver resolved and the other missed): "
+                             if dip else "events differ: ") + f"{methods[0]} {describe_events(ref)} vs {m} {describe_events(r)}")
         else:
             dt = max((abs(a.t - b.t) for a, b in zip(ref.events, r.events)), default=0.0)
             if dt > EVENT_ATOL:

@@ -247,12 +247,12 @@ def test_the_monitor_flags_an_idle_hub_running_away():
 
 
 def test_the_readme_series_example_has_its_idle_hub():
-    """README, 'Elements in series and idle members': the worked Simpson example with its band B2
-    replaced by a brake on F1's outer race H."""
+    """The language reference (docs/reference/language.md), 'Elements in series and idle members':
+    the worked Simpson example with its band B2 replaced by a brake on F1's outer race H."""
     import re
     from pathlib import Path
 
-    readme = (Path(__file__).resolve().parent.parent / "README.md").read_text(encoding="utf-8")
+    readme = (Path(__file__).resolve().parent.parent / "docs" / "reference" / "language.md").read_text(encoding="utf-8")
     simpson = re.search(r"^```\n(# Simpson.*?)^```", readme, flags=re.S | re.M).group(1)
     series = re.search(r"^```\n(# B2 holds the hub H.*?)^```", readme, flags=re.S | re.M).group(1)
     lines = [x for x in simpson.splitlines() if not x.startswith(("brake  B2", "gear 2 ="))]

@@ -96,7 +96,7 @@ def test_overrides_reach_every_table():
 
 def test_an_entry_of_a_list_is_a_key():
     s = load_scenario("ht740_improved", {"elements.C4.apply.t.2": 5.5, "input.torque_table.2.3": 1650})
-    assert s.data["elements"]["C4"]["apply"]["t"] == [0.0, 4.0, 5.5, 9.0, 9.02, 9.3]
+    assert s.data["elements"]["C4"]["apply"]["t"] == [0.0, 4.0, 5.5, 9.0, 9.02, 9.508]
     assert s.data["input"]["torque_table"][2][3] == 1650
     with pytest.raises(ScenarioError, match=r"^--set elements.C4.apply.t.9: error: 'elements.C4.apply.t' is a list of "
                                             r"6 entries: give an index 0..5"):

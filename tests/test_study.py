@@ -389,8 +389,10 @@ def test_readme_sweep_commands_parse_and_name_known_keys():
     from transgen.cli import build_parser
     from transgen.sim import scenario_keys
 
-    readme = (Path(__file__).resolve().parent.parent / "README.md").read_text(encoding="utf-8")
-    lines = [line for line in re.sub(r"\\\n\s*", " ", readme).splitlines() if line.strip().startswith("transgen sweep ")]
+    docs = Path(__file__).resolve().parent.parent / "docs"
+    readme = "\n".join(p.read_text(encoding="utf-8") for p in sorted(docs.rglob("*.md")) if "generated" not in p.parts)
+    lines = [line.strip().removeprefix("$ ") for line in re.sub(r"\\\n\s*", " ", readme).splitlines()
+             if line.strip().removeprefix("$ ").startswith("transgen sweep ")]
     assert len(lines) >= 5
     parser = build_parser()
     keys = {}
