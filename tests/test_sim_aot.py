@@ -95,12 +95,15 @@ def test_compiled_forms_come_from_the_built_module():
     assert out.tolist() == expected.tolist()
 
 
-def test_a_run_in_a_new_process_loads_the_built_kernels_without_numba():
+def test_a_run_in_a_new_process_loads_the_built_kernels_without_numba(tmp_path):
     _built()
     code = ("import sys\nfrom transgen.sim.scenario.load import load_scenario\n"
             "r = load_scenario('ht740_improved', {'simulation.t_end': 1.0}).run()\n"
             "from transgen.sim.core.jit import compiled_loaded\n"
             "print(r.success, compiled_loaded(), 'numba' in sys.modules)")
     env = {k: v for k, v in os.environ.items() if k != "TRANSGEN_JIT"}
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
+    # in a folder of its own: from the checkout's root, `python -c` would import the source folder
+    # transgen/ (which has no sim/) instead of the installed package
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True,
+                         cwd=tmp_path)
     assert out.stdout.split() == ["True", "True", "False"]
