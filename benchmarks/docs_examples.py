@@ -9,6 +9,7 @@ Prints every command with its wall time and whether it ran as the page says; exi
 from __future__ import annotations
 
 import argparse
+import subprocess
 import sys
 import tempfile
 from pathlib import Path
@@ -23,6 +24,7 @@ def main() -> int:
     parser.add_argument("--slow", action="store_true", help="also the examples marked slow")
     parser.add_argument("--only-slow", action="store_true", help="only the examples marked slow")
     parser.add_argument("--page", help="only this page (path under docs/)")
+    parser.add_argument("--timeout", type=float, default=600.0, help="seconds a command may take (default 600)")
     args = parser.parse_args()
     failures = 0
     for page in ex.pages():
@@ -43,7 +45,13 @@ def main() -> int:
                     cluster.__enter__()
                 try:
                     for command in block.commands:
-                        code, output, wall, errors = ex.run_command(command, folder)
+                        try:
+                            code, output, wall, errors = ex.run_command(command, folder, timeout=args.timeout)
+                        except subprocess.TimeoutExpired:
+                            failures += 1
+                            print(f"{args.timeout:7.2f} s  TIMEOUT  {block.page}:{block.line}  "
+                                  f"{command.text.splitlines()[0][:90]}", flush=True)
+                            continue
                         ok = code == block.exit_code and ex.shown(command.expected, output, errors)
                         failures += not ok
                         print(f"{wall:7.2f} s  {'ok  ' if ok else 'FAIL'}  {block.page}:{block.line}  "
