@@ -51,6 +51,7 @@ from transgen.graph import build_graph
 
 from transgen.kinematics import link_speeds
 from transgen.model import Mechanism
+from transgen.own_converter import own_converter
 
 from ..control.schedule import ShiftTemplate
 
@@ -110,8 +111,12 @@ def synchronised_inertia(mech: Mechanism, source: tuple[str, ...], target: tuple
     (engaged elements) speeds up or slows down at a fixed output speed: ``sum J_i (dw_i/dw_in)^2``
     with ``dw_i`` the change of link i's speed per unit output speed between the two gears. A
     member that floats in either gear is counted with the speed of the other (its own inertia
-    moves it freely)."""
+    moves it freely). Where the mechanism models its own converter (:mod:`transgen.own_converter`)
+    the input is the turbine: the pump (engine) link keeps its speed behind the open converter and
+    is not counted."""
     a, b = link_speeds(mech, source, graph), link_speeds(mech, target, graph)
+    own = own_converter(mech)
+    pump = own.pump if own is not None else None
     out = mech.output
     ra, rb = 1.0 / a[out], 1.0 / b[out]  # input/output ratios
     d_in = ra - rb
@@ -120,7 +125,7 @@ def synchronised_inertia(mech: Mechanism, source: tuple[str, ...], target: tuple
     total = 0.0
     for link in mech.links:
         wa, wb = a.get(link.name), b.get(link.name)
-        if wa is None or wb is None:
+        if wa is None or wb is None or link.name == pump:
             continue
         total += link.inertia * ((wa * ra - wb * rb) / d_in) ** 2
     return total
