@@ -14,7 +14,7 @@ A ``.mech`` *has its own converter* (``mechanisms/ht740_tc.mech``) when
 Then the turbine is the gearbox input: with the lock-up open the converter drives it, the pump's
 inertia is the engine's (the scenario adds none), the shifts synchronise the turbine side, and the
 lock-up is no shift element (:func:`transgen.sim.control.schedule.gear_swap` leaves it out).
-``docs/how-to/own_converter.md`` explains how to write such a file.
+``docs/guide/own_converter.md`` explains how to write such a file.
 """
 from __future__ import annotations
 

@@ -588,7 +588,7 @@ def launch_scenario(mech: Mechanism, vehicle: str = "car", mechanism_ref: str | 
         "",
     ]
     own = own_converter(mech)
-    if own is not None:  # the .mech models its converter (docs/how-to/own_converter.md)
+    if own is not None:  # the .mech models its converter (docs/guide/own_converter.md)
         from . import launch_converter as lcv
 
         lines += lcv.initial_lines(mech, vc, first, own, _num) + [""] + lcv.input_head_lines(mech, vc, own, _num)

@@ -330,7 +330,7 @@ def _schedule(auto, tr, engine, inputs) -> dict:
         numbers = [float(getattr(template, f)) for f in fields]
         if numbers not in templates:
             templates.append(numbers)
-        on, off = gear_swap(auto.gears, source, target, oneway)
+        on, off = gear_swap(auto.gears, source, target, oneway, auto.lockup)
         shifts.append((sum(1 << tr.element_index[n] for n in on), sum(1 << tr.element_index[n] for n in off),
                        templates.index(numbers)))
     throttle_in = -1
