@@ -22,6 +22,9 @@ vehicle class (:data:`VEHICLES`), the way one starts with a new gearbox:
 * each upshift's own calibration from the statics of its two gears, the inertia it synchronises
   and the expected input torque (:mod:`~transgen.sim.derive.calibration`, ``docs/calibration.md``), and
   the driveline's compliance from the class's parts (:mod:`~transgen.sim.derive.driveline_class`);
+* for a mechanism that models its own converter (:mod:`transgen.own_converter`), the engine map on
+  its pump link (no ``J_engine``: the link's inertia is the engine's), its ``[converter]`` and the
+  lock-up open through the launch (:mod:`.launch_converter`, ``docs/guide/own_converter.md``);
 * the final drive from the class's overall first-gear ratio, an automatic schedule whose upshift
   and downshift lines are the class's engine-speed band divided by the gear ratios, and ``t_end``
   from a quasi-static estimate of the launch (vehicle speed integrated gear by gear with the
