@@ -184,7 +184,9 @@ def _links(result: Result, input_link: str | None, output_link: str | None) -> t
     meta = result.meta or {}
     coords = list(meta.get("coordinates") or [])
     links = list(meta.get("links") or [k[2:] for k in result.signals if k.startswith("w_")])
-    inp = meta.get("input_link") or input_link
+    # the gearbox's input: the turbine where the mechanism models its own converter (the flare of a
+    # shift is the turbine's, the engine behind the converter keeps its speed)
+    inp = meta.get("gearbox_input") or meta.get("input_link") or input_link
     out = meta.get("output_link") or output_link
     if not inp:
         inp = coords[0] if coords else links[0]
