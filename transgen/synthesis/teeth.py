@@ -45,6 +45,7 @@ from ..errors import TransgenError
 from ..kinematics import _half_unit
 from ..model import Mechanism
 from .kinematic import GearKinematics, gear_kinematics
+from .shares import share_rules, shared_choices
 
 __all__ = [
     "AssemblyRules",
@@ -55,6 +56,7 @@ __all__ = [
     "parse_ratio_targets",
     "ratio_targets",
     "planet_count",
+    "planet_counts",
     "synthesize_teeth",
     "completed_text",
 ]
@@ -94,21 +96,25 @@ class AssemblyRules:
 def planet_count(n_sun: int, n_ring: int, pinions: int, rules: AssemblyRules) -> int | None:
     """The largest admissible number of equally spaced planets, ``None`` when the set cannot be
     assembled under ``rules``."""
+    fits = planet_counts(n_sun, n_ring, pinions, rules)
+    return max(fits) if fits else None
+
+
+def planet_counts(n_sun: int, n_ring: int, pinions: int, rules: AssemblyRules) -> tuple[int, ...]:
+    """Every admissible number of equally spaced planets (none: the set cannot be assembled)."""
     if n_sun < rules.min_teeth or n_ring <= n_sun:
-        return None
+        return ()
     if not rules.k_min <= n_ring / n_sun <= rules.k_max:
-        return None
+        return ()
     if pinions == 2:
-        fits = [n for n in rules.planets if (n_ring - n_sun) % n == 0]
-        return max(fits) if fits else None
+        return tuple(n for n in rules.planets if (n_ring - n_sun) % n == 0)
     if (n_ring - n_sun) % 2 and not rules.profile_shift:
-        return None
+        return ()
     n_planet = (n_ring - n_sun) // 2
     if n_planet < rules.min_teeth:
-        return None
-    fits = [n for n in rules.planets
-            if (n_sun + n_ring) % n == 0 and (n_sun + n_planet) * math.sin(math.pi / n) > n_planet + 2]
-    return max(fits) if fits else None
+        return ()
+    return tuple(n for n in rules.planets
+                 if (n_sun + n_ring) % n == 0 and (n_sun + n_planet) * math.sin(math.pi / n) > n_planet + 2)
 
 
 @dataclass(frozen=True)
@@ -454,21 +460,33 @@ def _search(pb: _Problem, candidates: list[list[Fraction]], progress) -> list[tu
 
 def _expand(pb: _Problem, combos: list[tuple[tuple[Fraction, ...], dict, dict]],
             pairs: list[dict], top: int) -> tuple[list[TeethSolution], int]:
-    """The tooth counts of each exact solution in ``k``: ``top`` best (0: all) and the count."""
+    """The tooth counts of each exact solution in ``k``: ``top`` best (0: all) and the count.
+    The sets named by a ``share`` are chosen jointly (:func:`~transgen.synthesis.shares.shared_choices`),
+    the others independently."""
     count = 0
     out: list[TeethSolution] = []
-    known = [SetTeeth(p.name, p.n_sun, p.n_ring, planet_count(p.n_sun, p.n_ring, p.pinions, pb.rules) or 0,
-                      p.pinions) for p in pb.mech.planetaries if p.teeth_known]
+    shares = share_rules(pb.mech)
+    known_sets = [p for p in pb.mech.planetaries if p.teeth_known]
+    joint = [i for i, name in enumerate(pb.unknown) if shares is not None and name in shares.sets]
+    free = [i for i in range(len(pb.unknown)) if i not in joint]
     for ks, ratios, errors in combos:
         lists = [pairs[p][kp] for p, kp in enumerate(ks)]
-        count += math.prod(len(v) for v in lists)
+        together = ([({}, ())] if shares is None else
+                    shared_choices(shares, [pb.unknown[i] for i in joint], [lists[i] for i in joint],
+                                   {p.name: (p.n_sun, p.n_ring) for p in known_sets}, pb.rules,
+                                   lambda ns, nr, pinions: planet_counts(ns, nr, pinions, pb.rules)))
+        count += len(together) * math.prod(len(lists[i]) for i in free)
         if top:
             lists = [v[:top] for v in lists]
+            together = together[:top]
         max_error = max((abs(e) for e in errors.values()), default=0.0)
-        for choice in itertools.product(*lists):
-            teeth = tuple(SetTeeth(name, ns, nr, n, pin) for name, (ns, nr, n), pin
-                          in zip(pb.unknown, choice, pb.pinions))
-            out.append(TeethSolution(_in_file_order(pb.mech, teeth + tuple(known)), ratios, errors, max_error))
+        for (planets, shared), *rest in itertools.product(together, *(lists[i] for i in free)):
+            choice = dict(zip(joint, shared)) | dict(zip(free, rest))
+            teeth = tuple(SetTeeth(pb.unknown[i], *choice[i], pb.pinions[i]) for i in range(len(pb.unknown)))
+            known = tuple(SetTeeth(p.name, p.n_sun, p.n_ring, planets.get(p.name) or
+                                   planet_count(p.n_sun, p.n_ring, p.pinions, pb.rules) or 0, p.pinions)
+                          for p in known_sets)
+            out.append(TeethSolution(_in_file_order(pb.mech, teeth + known), ratios, errors, max_error))
         if top:
             out.sort(key=lambda s: (s.max_error, s.size))
             del out[top:]
