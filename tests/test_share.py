@@ -213,3 +213,12 @@ def test_the_completed_file_keeps_its_shares(tmp_path, capsys):
     m = load_mechanism(done)
     assert m.shares == load_mechanism("hsw_ravigneaux4").shares
     assert math.isclose(gear_ratios(m)["1"], 2.4)
+
+
+def test_no_solution_with_shares_lists_only_candidates_that_obey_them(tmp_path, capsys):
+    path = tmp_path / "u.mech"
+    path.write_text(re.sub(r"Ns=\d+ Nr=\d+", "Ns=? Nr=?", load_mechanism("hsw_ravigneaux4").text))
+    assert main(["synthesize", "teeth", str(path), "--ratios", "1=2.4,2=1.47,3=1,OD=0.67,R=-2.5"]) == 1
+    out = capsys.readouterr().out
+    assert "note: shared gears (PG_small.ring = PG_large.ring" in out
+    assert "none of them obeys the shares" in out

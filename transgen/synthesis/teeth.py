@@ -471,10 +471,7 @@ def _expand(pb: _Problem, combos: list[tuple[tuple[Fraction, ...], dict, dict]],
     free = [i for i in range(len(pb.unknown)) if i not in joint]
     for ks, ratios, errors in combos:
         lists = [pairs[p][kp] for p, kp in enumerate(ks)]
-        together = ([({}, ())] if shares is None else
-                    shared_choices(shares, [pb.unknown[i] for i in joint], [lists[i] for i in joint],
-                                   {p.name: (p.n_sun, p.n_ring) for p in known_sets}, pb.rules,
-                                   lambda ns, nr, pinions: planet_counts(ns, nr, pinions, pb.rules)))
+        together = [({}, ())] if shares is None else _shared(pb, shares, joint, [lists[i] for i in joint])
         count += len(together) * math.prod(len(lists[i]) for i in free)
         if top:
             lists = [v[:top] for v in lists]
@@ -492,6 +489,13 @@ def _expand(pb: _Problem, combos: list[tuple[tuple[Fraction, ...], dict, dict]],
             del out[top:]
     out.sort(key=lambda s: (s.max_error, s.size))
     return out, count
+
+
+def _shared(pb: _Problem, shares, joint: list[int], lists: list) -> list[tuple[dict, tuple]]:
+    """:func:`~transgen.synthesis.shares.shared_choices` for the unknown sets ``joint``."""
+    known = {p.name: (p.n_sun, p.n_ring) for p in pb.mech.planetaries if p.teeth_known}
+    return shared_choices(shares, [pb.unknown[i] for i in joint], lists, known, pb.rules,
+                          lambda ns, nr, pinions: planet_counts(ns, nr, pinions, pb.rules))
 
 
 def _in_file_order(mech: Mechanism, teeth: tuple[SetTeeth, ...]) -> tuple[SetTeeth, ...]:
@@ -519,8 +523,16 @@ def _closest(pb: _Problem, minima, top: int) -> list[TeethSolution]:
             if exact is not None:
                 combos.append((ks, exact[0], exact[1], {p: lst for p, (_, lst) in enumerate(choice)}))
     out = []
+    shares = share_rules(pb.mech)
     for ks, ratios, errors, lists in combos:
-        teeth = tuple(SetTeeth(name, *lists[p][0], pin) for p, (name, pin) in enumerate(zip(pb.unknown, pb.pinions)))
+        first = {p: lst[0] for p, lst in lists.items()}
+        if shares is not None:  # the smallest choice that obeys the shares, if any
+            joint = [p for p, name in enumerate(pb.unknown) if name in shares.sets]
+            found = _shared(pb, shares, joint, [lists[p] for p in joint])
+            if not found:
+                continue
+            first.update(zip(joint, found[0][1]))
+        teeth = tuple(SetTeeth(name, *first[p], pin) for p, (name, pin) in enumerate(zip(pb.unknown, pb.pinions)))
         out.append(TeethSolution(_in_file_order(pb.mech, teeth), ratios, errors,
                                  max(abs(e) for e in errors.values()), feasible=False))
     out.sort(key=lambda s: (s.max_error, s.size))
@@ -593,6 +605,10 @@ def synthesize_teeth(mech: Mechanism, targets: tuple[RatioTarget, ...], rules: A
     _check_search_size(pb, force)
     notes = []
     free = {p for p in range(len(pb.unknown)) if not any(p in gk.depends for gk in pb.gears)}
+    if mech.shares:
+        notes.append("shared gears (" + ", ".join(f"{s.set1}.{s.member1} = {s.set2}.{s.member2}" for s in mech.shares)
+                     + "): equal teeth on a shared sun or ring; a shared pinion has one tooth count at one centre "
+                       "distance, a double-pinion set on it a partner pinion that fits, and one planet count")
     for p, name in enumerate(pb.unknown):
         if p in free:
             notes.append(f"no target ratio depends on set {name}: any admissible teeth fit, the smallest are listed")
