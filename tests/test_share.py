@@ -100,8 +100,8 @@ LINE = len(HSW.split("\n")) + 1
 def test_bad_shares_are_located_errors(extra, column, message):
     text = _error(extra) if "SET.MEMBER" not in message else _syntax(extra)
     line = LINE + extra.count("\n")
-    first = text.split("\n")[0]
-    assert first.startswith(f"x.mech:{line}:{column}: error: ") and message.format(line=LINE) in first, text
+    assert any(row.startswith(f"x.mech:{line}:{column}: error: ") and message.format(line=LINE) in row
+               for row in text.split("\n")), text
 
 
 def _syntax(extra: str) -> str:
@@ -110,6 +110,15 @@ def _syntax(extra: str) -> str:
     with pytest.raises(MechSyntaxError) as exc:
         parse_mechanism(HSW + "\n" + extra + "\n", "x.mech")
     return str(exc.value)
+
+
+def test_a_shared_pinion_needs_a_shared_gear_it_meshes():
+    """The kinematics know nothing of shares: a pinion is one only if a gear it meshes in both
+    sets is one too (with the carrier, that fixes its one speed)."""
+    message = "a pinion turns with the gears it meshes, and PG_small and PG_large share none of them"
+    assert message in _error("share PG_small.outer_pinion PG_large.pinion")
+    assert message in _error("share PG_small.inner_pinion PG_large.pinion\nshare PG_small.ring PG_large.ring")
+    parse_mechanism(HSW + "\nshare PG_large.pinion PG_small.outer_pinion\nshare PG_large.ring PG_small.ring\n")
 
 
 def test_shared_gears_must_agree_on_links_and_known_teeth():
@@ -222,3 +231,24 @@ def test_no_solution_with_shares_lists_only_candidates_that_obey_them(tmp_path, 
     out = capsys.readouterr().out
     assert "note: shared gears (PG_small.ring = PG_large.ring" in out
     assert "none of them obeys the shares" in out
+
+
+# ------------------------------------------------------------------------------ lever
+
+
+@pytest.mark.parametrize("name", RAVIGNEAUX)
+def test_a_ravigneaux_set_is_one_four_node_lever(name):
+    """The sets on one pinion share its carrier and a gear it meshes (the language requires it),
+    so the lever layout, combining levers on two common nodes, draws them as one lever."""
+    from transgen.drawing.lever import lever_layout
+
+    m = load_mechanism(name)
+    levers = lever_layout(m)
+    for group in share_groups(m.shares):
+        sets = {s for s, _ in group}
+        lever = next(lv for lv in levers if sets <= set(lv.sets))
+        assert len(lever.nodes) == 4 and len(lever.sets) == 2
+    if name == "hsw_ravigneaux4":
+        # Benford-Leising in PG_small's units: S-R = Nr - Ns = 42, R-C = Ns = 30; PG_large's C-S
+        # is Nr = 72 where its R-C is Ns = 36, so 72 * 30/36 = 60 beyond C
+        assert [(n.link, n.position) for n in lever.nodes] == [("Ss", 0), ("OUT_R", 42), ("C", 72), ("Sl", 132)]

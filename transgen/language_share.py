@@ -5,8 +5,10 @@ A share is read after every other statement (it may come before the sets it name
 reported at its word: the set is a declared planetary, the member one it has
 (:func:`transgen.model.share_members`), the two sides are different sets, the same kind of gear
 (sun with sun, ring with ring, carrier with carrier, pinion with pinion), on the same link (a
-pinion: on the same carrier), with equal tooth counts where both are known; and no two shares
-make two members of one set one gear, or repeat what others already say.
+pinion: on the same carrier), with equal tooth counts where both are known; no two shares
+make two members of one set one gear, or repeat what others already say; and the sets of a shared
+pinion also share a gear it meshes in both (so the kinematics of the two statements, which know
+nothing of shares, hold the pinion's one speed).
 """
 from __future__ import annotations
 
@@ -99,7 +101,28 @@ def resolve_shares(statements: list[_Statement], declared: dict, planetaries: li
                                     f"would be one gear")
             continue
         out.append(share)
+    for share in list(out):
+        if _kind(share.member1) == "pinion" and not _meshes_shared(share, out):
+            report.error(share.span, f"share {share.set1}.{share.member1} {share.set2}.{share.member2}: a pinion turns "
+                                     f"with the gears it meshes, and {share.set1} and {share.set2} share none of them: "
+                                     f"share the sun or ring it meshes in both (one link), or the kinematics miss it")
+            out.remove(share)
     return tuple(out)
+
+
+_MESHES = {"pinion": ("sun", "ring"), "inner_pinion": ("sun",), "outer_pinion": ("ring",)}
+"""The gears a pinion meshes."""
+
+
+def _meshes_shared(share: Share, shares: list[Share]) -> bool:
+    """Whether the two sets of a pinion share also share a gear that this pinion meshes in both:
+    then the pinion's speed is the same in both statements (with the shared carrier), and the
+    kinematics of the two statements hold it."""
+    groups = share_groups(shares)
+    for gear in set(_MESHES[share.member1]) & set(_MESHES[share.member2]):
+        if any((share.set1, gear) in g and (share.set2, gear) in g for g in groups):
+            return True
+    return False
 
 
 def _same_set(members: list[tuple[str, str]]) -> tuple[str, str, str] | None:
