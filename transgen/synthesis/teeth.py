@@ -28,6 +28,8 @@ Assembly rules (:class:`AssemblyRules`, for each set, checked on every solution)
   for a simple set the neighbouring planets must clear each other, ``(Ns + Np) sin(pi/n) > Np + 2``
   (tip diameters at a standard addendum of one module; KHK gear handbook, eqs. 13-5, 13-7, 13-9).
   The planet count reported is the largest admissible one.
+* the sets named by ``share`` statements are chosen together: equal teeth on a shared sun or ring,
+  a shared pinion at one centre distance with one planet count (:mod:`transgen.synthesis.shares`).
 
 Solutions are ranked by their largest absolute ratio error, then by size ``sum(Ns + Nr)``.
 """
