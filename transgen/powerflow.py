@@ -305,7 +305,7 @@ def _gear_flow(mech: Mechanism, g: Graph, gear_decl, eta: dict, input_rpm, max_s
             loss = 0.0 if d == 0 else (1.0 - eta[t.name]) * abs(values[driver] * rel[driver])
         # rolling power: what the members feed into the meshes in the carrier frame (none when a
         # member floats: it carries no torque)
-        rolling = sum(max(0.0, v * r) for v, r in zip(values, rel)) if ok else 0.0
+        rolling = float(sum(max(0.0, v * r) for v, r in zip(values, rel))) if ok else 0.0
         sets.append(SetFlow(t.name, t.kind, eta[t.name], torques, speeds, powers,
                             sum(p for p in powers.values() if p > 0), loss, driving,
                             {port: link for link, port, _ in t.ports}, rolling))
