@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING
 
 from .errors import Diagnostic, MechSyntaxError, MechValidationError
 from .grammar_cache import parser_module
+from .language_share import resolve_shares
 from .library import package_folder
 from .mech_format import ALTERNATIVE, format_mechanism
 from .mech_numbers import (CAPACITY, EFFICIENCY, INERTIA, MAX_NUMBER_LENGTH, RADIUS, RATIO, RATIO_TOL, SLIP_SPEED, TEETH,
@@ -56,7 +57,7 @@ RESERVED = frozenset(
     {
         "transmission", "link", "planetary", "gears", "clutch", "brake", "oneway", "input",
         "output", "torque", "gear", "neutral", "mode", "coordinates", "none", HOUSING,
-        ALTERNATIVE, "stepped", "dog",
+        ALTERNATIVE, "stepped", "dog", "share",
         "T_in", "T_out",  # the input and output torques of every mechanism
     }
 )
@@ -82,6 +83,7 @@ def _grammar() -> ModuleType:
 _TERMINAL_NAMES = {
     "NAME": "a name",
     "GEARNAME": "a gear name",
+    "MEMBER": "a planetary member SET.MEMBER (e.g. PG1.ring)",
     "NUMBER": "a number",
     "STRING": 'a quoted string ("...")',
     "EQUAL": "'='",
@@ -351,6 +353,7 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str,
     outputs: list[_Word] = []
     link_refs: list[tuple[_Word, bool]] = []  # (reference, housing allowed)
     element_refs: list[_Word] = []
+    share_statements: list[_Statement] = []
 
     for stmt in statements:
         params = _check_params(stmt, report)
@@ -488,12 +491,15 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str,
                                  "give tol= (an explicit tolerance) or rounding= (how the ratio was printed), not both")
                 gears.append(Gear(name.text, tuple(dict.fromkeys(engaged)), kw, params.get("ratio"), name.span,
                                   params.get("tol"), params.get("rounding", "nearest"), bool(flags)))
+        elif kw == "share":
+            share_statements.append(stmt)
         elif kw == "coordinates":
             if coordinates:
                 report.error(stmt.span, "coordinates are given twice")
             coordinates = list(words)
             link_refs.extend((w, False) for w in words)
 
+    shares = resolve_shares(share_statements, declared, planetaries, report)
     link_names = {n for n, (what, _) in declared.items() if what == "link"}
     for ref, housing_ok in link_refs:
         if ref.text == HOUSING and housing_ok:
@@ -539,6 +545,7 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str,
         modes=tuple(modes),
         coordinates=tuple(coord_texts),
         stepped=tuple(stepped),
+        shares=shares,
         source=filename,
         text=report.text,
     )

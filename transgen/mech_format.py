@@ -36,6 +36,7 @@ def format_mechanism(m: Mechanism) -> str:
         ns, nr = (_teeth_text(n, b) for n, b in ((p.n_sun, p.sun_bounds), (p.n_ring, p.ring_bounds)))
         out.append(f"planetary {p.name} sun={p.sun} ring={p.ring} carrier={p.carrier} Ns={ns} Nr={nr}{pin}"
                    + _optional("eta0", p.eta0))
+    out += [f"share {s.set1}.{s.member1} {s.set2}.{s.member2}" for s in m.shares]
     for sp in m.stepped:
         members = " ".join(f"{role}={link} {'Ns' if role.startswith('sun') else 'Nr'}{role[-1]}={teeth}"
                            for role, link, teeth in sp.members)
