@@ -84,9 +84,12 @@ class LossModel:
     source: str = "defaults"
 
     def drag_model(self, element):
-        """The drag model of a :class:`~transgen.model.ShiftElement`."""
+        """The drag model of a :class:`~transgen.model.ShiftElement`: the file's model of it, else
+        its ``drag=`` in the ``.mech`` (``c * slip``), else the default of its kind."""
         if element.name in self.drag:
             return self.drag[element.name]
+        if getattr(element, "drag", None) is not None:
+            return ViscousDrag(element.drag)
         return self.default_drag if element.kind in DRAGGING_KINDS else NO_DRAG
 
     def spin_model(self, link: str):

@@ -1,0 +1,68 @@
+"""The ``[losses]`` table of a scenario: drag, spin and pump losses in the simulation
+(:mod:`transgen.sim.model.losses`).
+
+Keys (all optional; an empty ``[losses]`` turns every kind on with the documented defaults of
+:mod:`transgen.losses.lossfile`)::
+
+    [losses]
+    file = "my.losses.toml"          # a loss file (the format of `transgen powerflow --losses`),
+                                     # relative to the scenario; default: the defaults
+    kinds = ["drag", "spin", "pump"] # the kinds on (default all three)
+    pump_link = "E"                  # the link that drives the pump (default the input link)
+
+Without ``[losses]`` the simulation has no such losses (and is what it was before them).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from transgen.losses import LossFileError, LossModel, parse_losses
+
+from ..model.losses import LOSS_KINDS, loss_links, with_loss_torques
+from . import schema as S
+
+__all__ = ["LossSettings", "read_losses"]
+
+
+@dataclass(frozen=True)
+class LossSettings:
+    """What ``[losses]`` asks for: the loss model, the kinds on, the pump's link."""
+
+    model: LossModel
+    kinds: tuple[str, ...]
+    pump_link: str
+
+    def mechanism(self, mech):
+        """``mech`` with the link torques the spin and pump losses act through."""
+        return with_loss_torques(mech, loss_links(mech, self.model, self.kinds, self.pump_link))
+
+
+def read_losses(r, data: dict, mech) -> LossSettings | None:
+    """The :class:`LossSettings` of the scenario's ``[losses]`` (None when it has none); errors
+    located at the key (a bad loss file's own location is in the message)."""
+    if "losses" not in data:
+        return None
+    keys = ("losses",)
+    table = r.table(data, keys, S.LOSSES_KEYS)
+    model = LossModel()
+    if "file" in table:
+        path = r.file_path(keys + ("file",), r.text(table, keys, "file"))
+        text = r.read_text(keys + ("file",), path, "loss file")
+        try:
+            model = parse_losses(text, str(path), mech)
+        except LossFileError as exc:
+            raise r.error(keys + ("file",), f"bad loss file: {exc}") from None
+    kinds = tuple(r.names(table, keys, "kinds")) if "kinds" in table else LOSS_KINDS
+    for k, kind in enumerate(kinds):
+        if kind not in LOSS_KINDS:
+            raise r.error(keys + ("kinds", k), f"unknown loss kind {kind!r} (kinds: {', '.join(LOSS_KINDS)})")
+    if len(set(kinds)) != len(kinds):
+        raise r.error(keys + ("kinds",), "a loss kind is named twice")
+    pump_link = r.text(table, keys, "pump_link", mech.input)
+    if pump_link not in mech.link_names:
+        raise r.error(keys + ("pump_link",), f"pump_link {pump_link!r} is not a link of the mechanism "
+                                             f"(links: {', '.join(mech.link_names)})")
+    if "pump" in kinds and model.pump.pressure_per_torque != 0.0:
+        raise r.error(keys + ("file",), "the simulation's pump works at the constant line pressure: "
+                                        "pressure_per_torque must be 0 in the loss file")
+    return LossSettings(model, kinds, pump_link)
