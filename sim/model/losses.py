@@ -21,7 +21,9 @@ with the speed; both are multiplied by ``w^2 / (w^2 + w_s^2)`` (:data:`REGULARIZ
 
 The component dissipates the power the torques take (``sum T_k slip_k + sum T_j w_j + P``,
 never negative), so the energy balance of :mod:`transgen.sim.solve.monitor` closes with them,
-and integrates it by kind in its states ``E_drag_<element>``, ``E_spin``, ``E_pump`` [J].
+and integrates it by kind in its states ``E_drag_<element>``, ``E_spin``, ``E_pump`` [J]
+(and ``E_mesh``, whose rate the mode-switching right-hand side gives: the mesh loss of
+:mod:`.mesh` is the transmission's, not a torque of this component).
 It has no compiled form: the compiled right-hand side evaluates it in Python
 (:mod:`transgen.sim.solve.kernel`), so the two paths give the same numbers.
 """
@@ -40,8 +42,8 @@ from .components import Component
 __all__ = ["LOSS_KINDS", "LOSS_TORQUE_PREFIX", "REGULARIZATION_SPEED", "LossComponent", "with_loss_torques",
            "loss_links", "loss_component"]
 
-LOSS_KINDS = ("drag", "spin", "pump")
-"""The kinds of :class:`LossComponent` (``[losses] kinds`` of a scenario)."""
+LOSS_KINDS = ("drag", "spin", "pump", "mesh")
+"""The kinds of losses (``[losses] kinds`` of a scenario); ``mesh``: :mod:`.mesh`."""
 LOSS_TORQUE_PREFIX = "loss@"
 """Name of the external torque a link's spin and pump losses act through: ``loss@<link>`` (not a
 name a ``.mech`` file can declare, so it cannot clash with the file's torques)."""
@@ -87,6 +89,7 @@ class LossComponent(Component):
     spin: tuple = ()
     pump: tuple | None = None
     oil_temperature: float = 90.0
+    mesh: bool = False
     name: str = "losses"
     state_names: tuple = field(init=False)
     signal_units: dict = field(init=False)
@@ -94,8 +97,10 @@ class LossComponent(Component):
     def __post_init__(self):
         names = [f"E_drag_{d[0]}" for d in self.drag] + (["E_spin"] if self.spin else []) + (
             ["E_pump"] if self.pump is not None else [])
-        self.state_names = tuple(names)
-        units = {n: "J" for n in names}
+        self.state_names = tuple(names) + (("E_mesh",) if self.mesh else ())
+        units = {n: "J" for n in self.state_names}
+        if self.mesh:
+            units["P_mesh"] = "W"
         units.update({f"P_drag_{d[0]}": "W" for d in self.drag})
         units.update({"P_spin": "W", "P_pump": "W", "P_losses": "W"})
         self.signal_units = units
@@ -124,6 +129,8 @@ class LossComponent(Component):
             t = pump.power(wk) * wk / (wk * wk + REGULARIZATION_SPEED ** 2)
             torques[col] = torques.get(col, 0.0) - t
             powers.append(t * wk)
+        if self.mesh:
+            powers.append(0.0)  # E_mesh: its rate is the transmission's (switching's right-hand side)
         return torques, powers
 
     def torques(self, t, x, w):
@@ -142,7 +149,7 @@ class LossComponent(Component):
     def sample(self, ts, X, W):
         n = len(ts)
         torques: dict = {}
-        powers = np.zeros((len(self.state_names), n))
+        powers = np.zeros((len(self.state_names), n))  # (the E_mesh row stays zero)
         for k in range(n):
             tk, pk = self._point(W[:, k])
             for name, value in tk.items():
@@ -153,7 +160,7 @@ class LossComponent(Component):
             signals[f"P_drag_{d[0]}"] = powers[j]
         j = len(self.drag)
         signals["P_spin"] = powers[j] if self.spin else np.zeros(n)
-        signals["P_pump"] = powers[-1] if self.pump is not None else np.zeros(n)
+        signals["P_pump"] = powers[len(self.state_names) - 1 - self.mesh] if self.pump is not None else np.zeros(n)
         signals["P_losses"] = powers.sum(axis=0)
         return torques, signals, np.zeros(n)
 
@@ -182,4 +189,4 @@ def loss_component(tr, model: LossModel, kinds=LOSS_KINDS, pump_link: str | None
     for col in [d[3] for d in drag] + [s[2] for s in spin] + ([pump[1]] if pump else []):
         if col not in tr.input_index:
             raise ValueError(f"the mechanism has no input {col}: build it with with_loss_torques(mech, loss_links(...))")
-    return LossComponent(tuple(drag), spin, pump, model.oil_temperature)
+    return LossComponent(tuple(drag), spin, pump, model.oil_temperature, "mesh" in kinds)

@@ -7,7 +7,9 @@ Keys (all optional; an empty ``[losses]`` turns every kind on with the documente
     [losses]
     file = "my.losses.toml"          # a loss file (the format of `transgen powerflow --losses`),
                                      # relative to the scenario; default: the defaults
-    kinds = ["drag", "spin", "pump"] # the kinds on (default all three)
+    kinds = ["drag", "spin", "pump", "mesh"]   # the kinds on (default all four)
+    eta0 = 0.98                      # mesh: planetary sets without eta0= in the .mech (power flow's default)
+    eta_pair = 0.99                  # mesh: gear pairs without eta= (default eta0, else the power flow's)
     pump_link = "E"                  # the link that drives the pump (default the input link)
 
 Without ``[losses]`` the simulation has no such losses (and is what it was before them).
@@ -31,13 +33,15 @@ class LossSettings:
     model: LossModel
     kinds: tuple[str, ...]
     pump_link: str
+    eta0: float | None = None
+    eta_pair: float | None = None
 
     def mechanism(self, mech):
         """``mech`` with the link torques the spin and pump losses act through."""
         return with_loss_torques(mech, loss_links(mech, self.model, self.kinds, self.pump_link))
 
 
-def read_losses(r, data: dict, mech) -> LossSettings | None:
+def read_losses(r, data: dict, mech, model_name: str = "switching") -> LossSettings | None:
     """The :class:`LossSettings` of the scenario's ``[losses]`` (None when it has none); errors
     located at the key (a bad loss file's own location is in the message)."""
     if "losses" not in data:
@@ -65,4 +69,17 @@ def read_losses(r, data: dict, mech) -> LossSettings | None:
     if "pump" in kinds and model.pump.pressure_per_torque != 0.0:
         raise r.error(keys + ("file",), "the simulation's pump works at the constant line pressure: "
                                         "pressure_per_torque must be 0 in the loss file")
-    return LossSettings(model, kinds, pump_link)
+    eta = {}
+    for key in ("eta0", "eta_pair"):
+        if key in table:
+            eta[key] = r.number(table, keys, key, positive=True)
+            if eta[key] > 1.0:
+                raise r.error(keys + (key,), f"'{key}' must be in (0, 1], not {eta[key]:g}")
+    if "mesh" in kinds:
+        if model_name != "switching":
+            raise r.error(keys + ("kinds",), "mesh losses are simulated with the mode-switching model only "
+                                             "([simulation] model = \"switching\")")
+        if mech.stepped:
+            raise r.error(keys + ("kinds",), "mesh losses in the simulation do not model stepped-pinion sets "
+                                             f"({', '.join(s.name for s in mech.stepped)})")
+    return LossSettings(model, kinds, pump_link, eta.get("eta0"), eta.get("eta_pair"))
