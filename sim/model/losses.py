@@ -190,3 +190,29 @@ def loss_component(tr, model: LossModel, kinds=LOSS_KINDS, pump_link: str | None
         if col not in tr.input_index:
             raise ValueError(f"the mechanism has no input {col}: build it with with_loss_torques(mech, loss_links(...))")
     return LossComponent(tuple(drag), spin, pump, model.oil_temperature, "mesh" in kinds)
+
+
+def loss_energy(time: np.ndarray, signals: dict, t0: float | None = None, t1: float | None = None) -> dict | None:
+    """The loss energies by kind [J] of a run from its ``E_drag_<element>``, ``E_spin``,
+    ``E_pump`` and ``E_mesh`` signals (the loss component's integrals): their change from the
+    first sample at or after ``t0`` to the last at or before ``t1`` (default the whole run).
+    ``{"drag": {element: J}, "drag_total", "spin", "pump", "mesh", "total"}`` with the kinds the
+    run has; None without losses."""
+    drag = [k for k in signals if k.startswith("E_drag_")]
+    kinds = [k for k in ("E_spin", "E_pump", "E_mesh") if k in signals]
+    if not drag and not kinds or not len(time):
+        return None
+    i0 = int(np.searchsorted(time, -math.inf if t0 is None else t0, side="left"))
+    i1 = int(np.searchsorted(time, math.inf if t1 is None else t1, side="right")) - 1
+    i0, i1 = min(i0, len(time) - 1), max(i1, 0)
+
+    def change(name):
+        y = signals[name]
+        return float(y[i1] - y[i0]) if i1 > i0 else 0.0
+
+    out: dict = {"drag": {k[len("E_drag_"):]: change(k) for k in drag}}
+    out["drag_total"] = math.fsum(out["drag"].values())
+    for k in kinds:
+        out[k[2:]] = change(k)
+    out["total"] = out["drag_total"] + math.fsum(out[k[2:]] for k in kinds)
+    return out

@@ -20,6 +20,7 @@ import numpy as np
 from transgen.errors import SimulationError, StateOutOfDomain
 
 from ..model.components import Component
+from ..model.losses import loss_energy
 from .dense import dense_values
 from .monitor import InvariantMonitor
 from ..core.result import Event, ModeSpan, Result
@@ -439,6 +440,9 @@ def collect(pt: Powertrain, options: SolverOptions, recorder: Recorder, events: 
         energy = {"work_in": float(e_in[-1]), "stored_change": float(d_stored), "dissipated": float(e_diss[-1]),
                   "work_to_load": float(e_load[-1]), "residual": float(residual),
                   "relative_residual": float(abs(residual) / energy_scale(arrays))}
+        losses = loss_energy(time_arr, arrays)
+        if losses is not None:  # by kind, within "dissipated" (:mod:`..model.losses`)
+            energy["losses"] = losses
     stats = {"wall_time": _time.perf_counter() - wall, "rhs_evaluations": model.calls,
              "input_evaluations": model.input_calls,
              "events": sum(1 for e in events if e.kind != "start"), "segments": len(recorder.segments)}
