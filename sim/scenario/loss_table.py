@@ -82,4 +82,6 @@ def read_losses(r, data: dict, mech, model_name: str = "switching") -> LossSetti
         if mech.stepped:
             raise r.error(keys + ("kinds",), "mesh losses in the simulation do not model stepped-pinion sets "
                                              f"({', '.join(s.name for s in mech.stepped)})")
+    if not kinds:
+        return None  # every kind off: the run without losses
     return LossSettings(model, kinds, pump_link, eta.get("eta0"), eta.get("eta_pair"))
