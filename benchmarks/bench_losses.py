@@ -5,6 +5,10 @@ energy by kind of each run with losses. ``--solvers`` repeats the full-loss runs
 solvers on the named scenarios.
 
     python benchmarks/bench_losses.py [--scenarios a b ...] [--solvers simple2_upshift oneway_overrun]
+                                      [--launch zf8hp70 ...]
+
+``--launch NAME`` adds the car launch of ``transgen scenario new NAME`` (written to a temporary
+folder) to the scenarios.
 
 Figures are CPU seconds (``time.process_time``) of one run after a warm-up run of the same
 scenario, side by side in one process.
@@ -12,7 +16,9 @@ scenario, side by side in one process.
 from __future__ import annotations
 
 import argparse
+import tempfile
 import time
+from pathlib import Path
 
 from transgen.sim.scenario import load_scenario
 from transgen.sim.scenario.library import bundled_scenarios
@@ -37,12 +43,22 @@ def run(path, kinds, method=None):
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--scenarios", nargs="*", default=None, help="bundled scenario names (default: all)")
+    p.add_argument("--scenarios", nargs="*", default=None, help="bundled scenario names (default: all; none: -)")
     p.add_argument("--solvers", nargs="*", default=["simple2_upshift", "oneway_overrun"],
                    help="scenarios run with the five solvers and every loss on")
+    p.add_argument("--launch", nargs="*", default=[], help="mechanisms whose derived car launch is run too")
     args = p.parse_args(argv)
-    bundled = bundled_scenarios()
-    names = args.scenarios or sorted(bundled)
+    bundled = dict(bundled_scenarios())
+    names = args.scenarios if args.scenarios is not None else sorted(bundled)
+    folder = Path(tempfile.mkdtemp(prefix="bench_losses_"))
+    for mech in args.launch:
+        from transgen.cli import main as cli
+
+        out = folder / f"{mech}_launch.toml"
+        if cli(["scenario", "new", mech, "--vehicle", "car", "-o", str(out)]) != 0:
+            return 2
+        bundled[f"{mech}_launch"] = out
+        names.append(f"{mech}_launch")
     failed = 0
     print(f"{'scenario':<34}{'losses':<16}{'ok':>4}{'CPU [s]':>9}{'balance worst':>15}{'losses [J]':>12}")
     for name in names:
