@@ -269,3 +269,23 @@ def test_drag_in_the_mech_file(tmp_path, capsys):
         assert main(["check", str(f)]) == 2
         err = capsys.readouterr().err
         assert f"{f}:4:" in err and words in err, err
+
+
+def test_the_compiled_path_runs_the_losses_as_the_python_path(monkeypatch):
+    """Drag, spin and pump run in Python inside the compiled right-hand side: both paths agree."""
+    from transgen.sim.solve.kernel import compiled_powertrain
+    from transgen.sim.solve.simulate import simulate
+
+    sc = load_scenario(bundled_scenarios()["simple2_upshift"], {"losses.kinds": ["drag", "spin", "pump"]})
+    if compiled_powertrain(sc.powertrain) is None:
+        pytest.skip("no compiled right-hand side in this process (numba, TRANSGEN_JIT or no built kernels)")
+    fast = simulate(sc.powertrain, sc.options)
+    monkeypatch.setenv("TRANSGEN_JIT", "0")
+    assert compiled_powertrain(sc.powertrain) is None
+    slow = simulate(sc.powertrain, sc.options)
+    assert fast.success and slow.success
+    assert [(e.kind, e.elements) for e in fast.events] == [(e.kind, e.elements) for e in slow.events]
+    grid = np.linspace(sc.options.t_start, sc.options.t_end, 401)
+    for name in ("w_Lo", "E_pump", "E_drag_C1"):
+        a, b = np.interp(grid, fast.time, fast[name]), np.interp(grid, slow.time, slow[name])
+        assert np.max(np.abs(a - b)) < 1e-6 * max(1.0, np.max(np.abs(b))), name
