@@ -491,7 +491,11 @@ def sample_block(pt: Powertrain, seg: Segment, ts: np.ndarray, ys: np.ndarray, n
     slips = tr.P @ W
     te, torques, power, extra = element_state(W, slips, U)
     U[tr.element_input] += te
-    A = seg.mode.C @ (seg.mode.B @ U)  # link accelerations [rad/s^2], for the components that need them
+    if tr.mesh is None:  # link accelerations [rad/s^2], for the components that need them
+        A = seg.mode.C @ (seg.mode.B @ U)
+    else:  # the lossy equations' (:meth:`Transmission.response`)
+        A = seg.mode.C @ np.column_stack([tr.response(seg.mode, U[:, k], W[:, k])[0] for k in range(n)]) if n \
+            else np.zeros((len(tr.links), 0))
     for c, sl in zip(pt.components, layout.slices):
         out.update(c.sample_rates(ts, ys[sl], W, A))
     for k, name in enumerate(tr.links):
