@@ -51,8 +51,17 @@ REGULARIZATION_SPEED = 0.1
 """``w_s`` [rad/s] of the factor ``w^2 / (w^2 + w_s^2)`` on the spin and pump torques (about 1 rpm)."""
 
 
-def _spins(model: LossModel, links) -> bool:
-    return model.spin_model(links).torque(1.0) != 0.0 or model.spin_model(links).torque(100.0) != 0.0
+def _active(model) -> bool:
+    """Whether a drag or spin model ever gives a torque (a coefficient or a table value not 0)."""
+    if hasattr(model, "c"):
+        return model.c != 0.0
+    if hasattr(model, "coefficients"):
+        return any(c != 0.0 for c in model.coefficients)
+    return bool(np.any(np.asarray(model.values, dtype=float) != 0.0))
+
+
+def _spins(model: LossModel, link: str) -> bool:
+    return _active(model.spin_model(link))
 
 
 def loss_links(mech: Mechanism, model: LossModel, kinds=LOSS_KINDS, pump_link: str | None = None) -> tuple[str, ...]:
@@ -178,7 +187,7 @@ def loss_component(tr, model: LossModel, kinds=LOSS_KINDS, pump_link: str | None
     if "drag" in kinds:
         for e, cfg in zip(mech.elements, tr.elements):
             m = model.drag_model(e)
-            if m.torque(1.0, model.oil_temperature) != 0.0 or m.torque(100.0, model.oil_temperature) != 0.0:
+            if _active(m):
                 drag.append((e.name, cfg.link1, cfg.link2, f"t_{e.name}", m))
     spin = tuple((k, tr.link_index[k], LOSS_TORQUE_PREFIX + k, model.spin_model(k)) for k in mech.link_names
                  if "spin" in kinds and _spins(model, k))
