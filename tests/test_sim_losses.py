@@ -289,3 +289,27 @@ def test_the_compiled_path_runs_the_losses_as_the_python_path(monkeypatch):
     for name in ("w_Lo", "E_pump", "E_drag_C1"):
         a, b = np.interp(grid, fast.time, fast[name]), np.interp(grid, slow.time, slow[name])
         assert np.max(np.abs(a - b)) < 1e-6 * max(1.0, np.max(np.abs(b))), name
+
+
+def test_loss_parameters_in_the_losses_table(tmp_path):
+    """The loss file's keys in ``[losses]`` itself: the same model, errors located there."""
+    base = """
+        mechanism = "two.mech"
+        [simulation]
+        t_end = 0.5
+        [initial]
+        speeds = { A = 100.0, B = 0.0 }
+        [losses]
+        kinds = ["drag"]
+        """
+    p = _write(tmp_path, TWO, base + "[losses.drag.elements.K]\nc = 0.1\n")
+    res = load_scenario(p).run()
+    assert res.success
+    assert np.allclose(res["P_drag_K"], 0.1 * res["slip_K"] ** 2, rtol=1e-12)
+    for extra, line, words in (("[losses.drag.elements.K]\nc = -1\n", 10, "'c' = -1 is outside"),
+                               ("[losses.drag.elements.Q]\nc = 1\n", 9, "no shift element 'Q'"),
+                               ('file = "x.toml"\noil_temperature = 40.0\n', 10, "not both")):
+        p = _write(tmp_path, TWO, base + extra)
+        with pytest.raises(ScenarioError) as exc:
+            load_scenario(p)
+        assert str(exc.value).startswith(f"{p}:{line}:") and words in str(exc.value), str(exc.value)

@@ -7,6 +7,9 @@ Keys (all optional; an empty ``[losses]`` turns every kind on with the documente
     [losses]
     file = "my.losses.toml"          # a loss file (the format of `transgen powerflow --losses`),
                                      # relative to the scenario; default: the defaults
+    oil_temperature = 90.0           # or the loss file's keys here (not both): oil_temperature,
+    [losses.drag.elements.C1]        # [losses.drag...], [losses.spin...], [losses.pump]
+    c = 0.05
     kinds = ["drag", "spin", "pump", "mesh"]   # the kinds on (default all four)
     eta0 = 0.98                      # mesh: planetary sets without eta0= in the .mech (power flow's default)
     eta_pair = 0.99                  # mesh: gear pairs without eta= (default eta0, else the power flow's)
@@ -19,6 +22,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from transgen.losses import LossFileError, LossModel, parse_losses
+from transgen.losses.lossfile import LOSS_KEYS, LossDataError, loss_model
 
 from ..model.losses import LOSS_KINDS, loss_links, with_loss_torques
 from . import schema as S
@@ -49,6 +53,14 @@ def read_losses(r, data: dict, mech, model_name: str = "switching") -> LossSetti
     keys = ("losses",)
     table = r.table(data, keys, S.LOSSES_KEYS)
     model = LossModel()
+    inline = {k: v for k, v in table.items() if k in LOSS_KEYS}
+    if inline and "file" in table:
+        raise r.error(keys + (next(iter(inline)),), "give the loss parameters in the loss file or in [losses], not both")
+    if inline:
+        try:
+            model = loss_model(inline, str(r.source.locate(keys)[0].path), mech)
+        except LossDataError as exc:
+            raise r.error(keys + exc.path, exc.message) from None
     if "file" in table:
         path = r.file_path(keys + ("file",), r.text(table, keys, "file"))
         text = r.read_text(keys + ("file",), path, "loss file")

@@ -33,7 +33,7 @@ INPUT_KEYS = frozenset({"type", "torque", "speed_rpm", "throttle", "torque_table
                         "crank_model", "shaft", "ports", "compressor_map", "turbine_map", "air", "exhaust",
                         "turbo_solver", "torque_request", "fuel_map"})
 LOAD_KEYS = frozenset({"torque", "signal", "c0", "c1", "c2"})
-LOSSES_KEYS = frozenset({"file", "kinds", "pump_link", "eta0", "eta_pair"})
+LOSSES_KEYS = frozenset({"file", "kinds", "pump_link", "eta0", "eta_pair", "oil_temperature", "drag", "spin", "pump"})
 CONVERTER_KEYS = frozenset({"pump", "turbine", "pump_torque", "turbine_torque", "file"})
 DRIVELINE_KEYS = frozenset({"output_inertia", "stiffness", "damping", "final_drive", "wheel_radius", "vehicle_mass",
                             "rolling_resistance", "cd_a", "air_density", "grade", "grade_percent", "output_torque",
