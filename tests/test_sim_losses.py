@@ -313,3 +313,40 @@ def test_loss_parameters_in_the_losses_table(tmp_path):
         with pytest.raises(ScenarioError) as exc:
             load_scenario(p)
         assert str(exc.value).startswith(f"{p}:{line}:") and words in str(exc.value), str(exc.value)
+
+
+@pytest.mark.parametrize("name, gear", [("zf8hp70", "3"), ("ht740", "2"), ("simple2", "1")])
+@pytest.mark.parametrize("coast", [False, True], ids=["drive", "coast"])
+def test_a_simulated_steady_state_brackets_the_power_flows_efficiency(tmp_path, name, gear, coast):
+    """A run in one gear with 100 N*m on the input and the output torque of the power flow's
+    efficiency prescribed, times (1 +- 1e-6): the input speeds up with the one and slows down
+    with the other, so the simulation's efficiency is the power flow's within 1e-6."""
+    mech = load_mechanism(bundled_path(name))
+    g = next(x for x in power_flow(mech, coast=coast).gears if x.name == gear)
+    t_in = -100.0 if coast else 100.0
+    t_out = t_in * g.ratio / g.efficiency if coast else t_in * g.ratio * g.efficiency
+    drift = {}
+    for sign in (1, -1):
+        p = tmp_path / f"s{sign}.toml"
+        p.write_text(textwrap.dedent(f"""
+            mechanism = "{name}"
+            [simulation]
+            t_end = 0.2
+            [initial]
+            gear = "{gear}"
+            speeds = {{ {mech.input} = 200.0 }}
+            [input]
+            torque = {t_in!r}
+            [driveline]
+            output_torque = {t_out * (1 + sign * 1e-6)!r}
+            [losses]
+            kinds = ["mesh"]
+            """))
+        res = load_scenario(p).run()
+        assert res.success, res.message
+        assert [m.name for m in res.modes] == [gear]
+        w = res[f"w_{mech.input}"]
+        drift[sign] = w[-1] - w[0]
+    # more output torque: the output takes more than the input gives, the input slows (drive: it
+    # is the load; coast: the driveline supplies more than the input absorbs, the input speeds up)
+    assert (drift[1] < 0 < drift[-1]) if not coast else (drift[1] > 0 > drift[-1]), drift
