@@ -350,3 +350,12 @@ def test_a_simulated_steady_state_brackets_the_power_flows_efficiency(tmp_path, 
     # more output torque: the output takes more than the input gives, the input slows (drive: it
     # is the load; coast: the driveline supplies more than the input absorbs, the input speeds up)
     assert (drift[1] < 0 < drift[-1]) if not coast else (drift[1] > 0 > drift[-1]), drift
+
+
+def test_drag_spin_and_pump_run_with_the_compliant_model():
+    path = bundled_scenarios()["simple2_upshift"]
+    res = load_scenario(path, {"simulation.model": "compliant", "losses.kinds": ["drag", "spin", "pump"]}).run()
+    assert res.success, res.message
+    assert res.stats["invariants"]["invariants"]["energy_balance"]["worst"] < 1.0
+    switching = load_scenario(path, {"losses.kinds": ["drag", "spin", "pump"]}).run()
+    assert res.energy["losses"]["pump"] == pytest.approx(switching.energy["losses"]["pump"], rel=1e-3)
