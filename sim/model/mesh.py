@@ -12,7 +12,8 @@ changes smoothly through a reversal of the power (drive to coast) instead of jum
 whose power passes through zero does not chatter; beyond a few ``P_0`` it is the power flow's
 ``eta0 ** (+-1)`` to round-off, so a steady state (same gear, same torque) gives the power flow's
 efficiency. The port torques depend on ``f`` and ``f`` on the port torques: each evaluation
-iterates ``f`` to a fixed point (from the last one of the mode: usually one or two solves).
+iterates ``f`` to a fixed point (from the last one of the mode: one to seven solves in the
+bundled runs); one that does not settle stops the run with a :class:`SimulationError`.
 
 The transformers' efficiencies are the power flow's (:func:`transgen.powerflow._efficiencies`:
 the file's ``eta0=``/``eta=``, else the given, else the defaults); their ports, coefficients and
@@ -28,6 +29,7 @@ import math
 import numpy as np
 
 from transgen.equations import assemble
+from transgen.errors import SimulationError
 from transgen.graph import TRANSFORMER_KINDS, link_nodes
 from transgen.model import HOUSING
 from transgen.powerflow import _efficiencies
@@ -71,6 +73,7 @@ class _ModeMesh:
             row += len(cols) - 1
             base = links[t.base] if t.base is not None else -1
             self.sets.append((cols[t.a], links[t.a], base, cols, links))
+        self.names = [t.name for t in (by_name[x] for x in nodes)]
         self.n_links, self.n_locked = n, eq.n_locked
         self.F = np.array(eq.F, dtype=float)
         self.rows = np.array([e[0] for e in entries], dtype=int)
@@ -107,6 +110,9 @@ class _ModeMesh:
             if np.max(np.abs(new - f), initial=0.0) <= 1e-13:
                 break
             f = new
+        else:
+            raise SimulationError(f"the mesh loss factors of {', '.join(self.names)} do not settle in "
+                                  f"{_MAX_ITERATIONS} iterations (a self-locking set with these efficiencies?)")
         self.f = f
         z = self._solve(f, rhs)
         loss = 0.0
