@@ -12,8 +12,9 @@ changes smoothly through a reversal of the power (drive to coast) instead of jum
 whose power passes through zero does not chatter; beyond a few ``P_0`` it is the power flow's
 ``eta0 ** (+-1)`` to round-off, so a steady state (same gear, same torque) gives the power flow's
 efficiency. The port torques depend on ``f`` and ``f`` on the port torques: each evaluation
-iterates ``f`` to a fixed point (from the last one of the mode: one to seven solves in the
-bundled runs); one that does not settle stops the run with a :class:`SimulationError`.
+iterates ``f`` to a fixed point, to 1e-10 (from the last one of the mode: one to seven solves in the
+bundled runs; Newton's method where the plain iteration cycles); one that does not settle stops
+the run with a :class:`SimulationError`.
 
 The transformers' efficiencies are the power flow's (:func:`transgen.powerflow._efficiencies`:
 the file's ``eta0=``/``eta=``, else the given, else the defaults); their ports, coefficients and
@@ -39,7 +40,9 @@ __all__ = ["BLEND_POWER", "MeshModel"]
 
 BLEND_POWER = 1.0
 """``P_0`` [W]: the carrier-frame power over which a set's loss factor blends from coast to drive."""
-_MAX_ITERATIONS = 50
+_PLAIN_ITERATIONS = 20
+_MAX_ITERATIONS = 30  # Newton steps after the plain iteration
+_F_TOL = 1e-10  # a set turning as a block has round-off power (1e-10 W): its factor moves by 1e-12
 
 
 class _ModeMesh:
@@ -101,18 +104,39 @@ class _ModeMesh:
             out[k] = self.eta[k] ** math.tanh(z[col] * rel / BLEND_POWER)
         return out
 
+    def _fixed_point(self, f: np.ndarray, rhs: np.ndarray, w: np.ndarray) -> np.ndarray:
+        """The factors ``f = factors(z(f))``: plain iteration (it settles in a few steps where
+        the sets' powers are far from zero), then Newton's method on ``factors(z(f)) - f`` with
+        a forward-difference Jacobian, each step kept inside the factors' range ``[eta, 1/eta]``
+        (where a set's power passes near zero while the others carry much more, the plain
+        iteration can cycle)."""
+        for _ in range(_PLAIN_ITERATIONS):
+            new = self.factors(self._solve(f, rhs), w)
+            if np.max(np.abs(new - f), initial=0.0) <= _F_TOL:
+                return new
+            f = new
+        low, high = np.minimum(self.eta, 1.0 / self.eta), np.maximum(self.eta, 1.0 / self.eta)
+        for _ in range(_MAX_ITERATIONS):
+            g = self.factors(self._solve(f, rhs), w) - f
+            if np.max(np.abs(g), initial=0.0) <= _F_TOL:
+                return f + g
+            jac = np.empty((len(f), len(f)))
+            for j in range(len(f)):
+                h = 1e-7 * max(1.0, abs(f[j]))
+                fj = f.copy()
+                fj[j] += h
+                jac[:, j] = (self.factors(self._solve(fj, rhs), w) - fj - g) / h
+            try:
+                step = np.linalg.solve(jac, -g)
+            except np.linalg.LinAlgError:
+                step = g
+            f = np.clip(f + step, low, high)
+        raise SimulationError(f"the mesh loss factors of {', '.join(self.names)} do not settle "
+                              "(a self-locking set with these efficiencies?)")
+
     def solve(self, u: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
         rhs = -(self.F @ u)
-        f = self.f
-        for _ in range(_MAX_ITERATIONS):
-            z = self._solve(f, rhs)
-            new = self.factors(z, w)
-            if np.max(np.abs(new - f), initial=0.0) <= 1e-13:
-                break
-            f = new
-        else:
-            raise SimulationError(f"the mesh loss factors of {', '.join(self.names)} do not settle in "
-                                  f"{_MAX_ITERATIONS} iterations (a self-locking set with these efficiencies?)")
+        f = self._fixed_point(self.f, rhs, w)
         self.f = f
         z = self._solve(f, rhs)
         loss = 0.0
