@@ -249,7 +249,8 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None, st
                         events.append(Event(t_end, "command", (), tr.mode_name(locked), tr.mode_name(locked), description))
                 if len(te) and kind == "torque":
                     row = mode.locked_order.index(i)
-                    forced.update(tr.unlock_directions(mode, row, t_end, tr.response(mode, u_end, w)[1][row]))
+                    torque = mode.D[row] @ u_end if tr.mesh is None else tr.response(mode, u_end, w)[1][row]
+                    forced.update(tr.unlock_directions(mode, row, t_end, torque))
             if n_events > options.max_events:
                 success, message = False, f"t={t_end:.6g} s: more than {options.max_events} events"
                 break
