@@ -1,5 +1,5 @@
-"""The ``[losses]`` table of a scenario: drag, spin and pump losses in the simulation
-(:mod:`transgen.sim.model.losses`).
+"""The ``[losses]`` table of a scenario: drag, spin, pump and mesh losses in the simulation
+(:mod:`transgen.sim.model.losses`, :mod:`transgen.sim.model.mesh`).
 
 Keys (all optional; an empty ``[losses]`` turns every kind on with the documented defaults of
 :mod:`transgen.losses.lossfile`)::
@@ -7,13 +7,13 @@ Keys (all optional; an empty ``[losses]`` turns every kind on with the documente
     [losses]
     file = "my.losses.toml"          # a loss file (the format of `transgen powerflow --losses`),
                                      # relative to the scenario; default: the defaults
-    oil_temperature = 90.0           # or the loss file's keys here (not both): oil_temperature,
-    [losses.drag.elements.C1]        # [losses.drag...], [losses.spin...], [losses.pump]
-    c = 0.05
-    kinds = ["drag", "spin", "pump", "mesh"]   # the kinds on (default all four)
+    kinds = ["drag", "spin", "pump", "mesh"]   # the kinds on (default all four; [] none)
     eta0 = 0.98                      # mesh: planetary sets without eta0= in the .mech (power flow's default)
     eta_pair = 0.99                  # mesh: gear pairs without eta= (default eta0, else the power flow's)
     pump_link = "E"                  # the link that drives the pump (default the input link)
+    oil_temperature = 90.0           # or, instead of file, the loss file's keys here:
+    [losses.drag.elements.C1]        # oil_temperature, [losses.drag...], [losses.spin...],
+    c = 0.05                         # [losses.pump]
 
 Without ``[losses]`` the simulation has no such losses (and is what it was before them).
 """
