@@ -30,7 +30,7 @@ from .grammar_cache import parser_module
 from .language_share import resolve_shares
 from .library import package_folder
 from .mech_format import ALTERNATIVE, format_mechanism
-from .mech_numbers import (CAPACITY, EFFICIENCY, INERTIA, MAX_NUMBER_LENGTH, RADIUS, RATIO, RATIO_TOL, SLIP_SPEED, TEETH,
+from .mech_numbers import (CAPACITY, DRAG, EFFICIENCY, INERTIA, MAX_NUMBER_LENGTH, RADIUS, RATIO, RATIO_TOL, SLIP_SPEED, TEETH,
                            _NOT_FINITE, Quantity, _suggest, read_number, shorten)
 from .model import (
     HOUSING,
@@ -239,8 +239,9 @@ _PARAMS: dict[str, dict[str, object]] = {
                   "eta0": EFFICIENCY},
     "gears": {"N1": TEETH, "N2": TEETH, "r1": RADIUS, "r2": RADIUS, "mesh": ("external", "internal"),
               "eta": EFFICIENCY},
-    "clutch": {"static": CAPACITY, "dynamic": CAPACITY, "max_slip_rpm": SLIP_SPEED},
-    "brake": {"static": CAPACITY, "dynamic": CAPACITY, "type": ("plate", "band"), "max_slip_rpm": SLIP_SPEED},
+    "clutch": {"static": CAPACITY, "dynamic": CAPACITY, "max_slip_rpm": SLIP_SPEED, "drag": DRAG},
+    "brake": {"static": CAPACITY, "dynamic": CAPACITY, "type": ("plate", "band"), "max_slip_rpm": SLIP_SPEED,
+              "drag": DRAG},
     "oneway": {"free": ("positive", "negative"), "max_slip_rpm": SLIP_SPEED},
     "dog": {"static": CAPACITY, "max_slip_rpm": SLIP_SPEED},
     "gear": {"ratio": RATIO, "tol": RATIO_TOL, "rounding": ("nearest", "truncated")},
@@ -448,7 +449,7 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str,
                                      f"{kw} {name.text}: dynamic capacity {dynamic:g} N*m exceeds static capacity {static:g} N*m")
                 elements.append(ShiftElement(name.text, kw, w1.text, w2.text, static, dynamic,
                                              params.get("free"), params.get("type"), name.span,
-                                             params.get("max_slip_rpm")))
+                                             params.get("max_slip_rpm"), params.get("drag")))
         elif kw == "input":
             inputs.append(words[0])
             link_refs.append((words[0], False))

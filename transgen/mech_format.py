@@ -47,7 +47,7 @@ def format_mechanism(m: Mechanism) -> str:
         v1, v2 = (int(g.n1), int(g.n2)) if g.by == "teeth" else (_number(g.n1), _number(g.n2))
         out.append(f"gears {g.name} {g.link1} {g.link2} {k1}={v1} {k2}={v2} mesh={g.mesh}" + _optional("eta", g.eta))
     for e in m.elements:
-        slip = _optional("max_slip_rpm", e.max_slip_rpm)
+        slip = _optional("max_slip_rpm", e.max_slip_rpm) + _optional("drag", e.drag)
         if e.kind == "clutch":
             out.append(f"clutch {e.name} {e.link1} {e.link2} static={_number(e.static)} dynamic={_number(e.dynamic)}{slip}")
         elif e.kind == "brake":

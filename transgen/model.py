@@ -227,6 +227,9 @@ class ShiftElement:
     max_slip_rpm: float | None = None
     """Highest admissible slip speed while open [rpm] (``None``: no limit given); see
     :func:`transgen.powerflow.power_flow`."""
+    drag: float | None = None
+    """Viscous drag coefficient of the open pack [N*m*s/rad] (``drag=`` in the file; ``None``: the
+    loss model's default): the drag torque ``drag * slip`` of :mod:`transgen.losses`."""
 
     @property
     def links(self) -> tuple[str, str]:

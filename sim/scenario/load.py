@@ -39,6 +39,9 @@ from transgen.limits import LIMITS, limit
 from transgen.model import Mechanism
 
 from ..model.components import Driveline, EngineMap, EngineOnLink, EngineWithConverter, InputTorque, LinkLoad
+from ..model.losses import loss_component
+from ..model.mesh import MeshModel
+from .loss_table import read_losses
 from . import schema as S
 from ..control.schedule import AutoShift, ShiftEvent, ShiftTemplate, shift_trajectories
 from ..core.signals import Constant
@@ -351,8 +354,10 @@ def _build(data: dict, source: Source, path: Path, overrides=None, access: FileA
         element_extra.setdefault(name, {}).setdefault("apply", Constant(1.0))
 
     sim_coords = r.names(sim_t, ("simulation",), "coordinates") if "coordinates" in sim_t else None
+    losses = read_losses(r, data, mech, model)
     try:
-        tr = Transmission(mech, element_extra, sim_coords, r.text(sim_t, ("simulation",), "modes", "auto"))
+        tr = Transmission(losses.mechanism(mech) if losses else mech, element_extra, sim_coords,
+                          r.text(sim_t, ("simulation",), "modes", "auto"))
     except MechError as exc:  # a mode the simulator cannot run (as `transgen check` says)
         raise r.error(("mechanism",), f"mechanism '{mech_ref}' has errors:\n{exc}") from None
     except (ModeError, ValueError) as exc:
@@ -361,6 +366,10 @@ def _build(data: dict, source: Source, path: Path, overrides=None, access: FileA
 
     w0 = _initial_speeds(r, mech, tr, init_t, init_locked)
     components = _components(r, data, mech, tr)
+    if losses:
+        components.append(loss_component(tr, losses.model, losses.kinds, losses.pump_link))
+        if "mesh" in losses.kinds:
+            tr.mesh = MeshModel(tr.mech, tr.graph, losses.eta0, losses.eta_pair)
     controllers = []
     auto_t = r.table(data, ("auto_shift",), S.AUTO_SHIFT_KEYS)
     if auto_t:
