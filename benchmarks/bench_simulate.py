@@ -118,11 +118,15 @@ def realtime(repeats: int = 5) -> None:
     (``time.process_time``, one thread: the BLAS is limited to one) varies much less. ``RHS``: full
     right-hand-side evaluations; ``inputs``: evaluations of the input vector alone (the torque
     events at the step ends; with the compiled right-hand side, one evaluation gives every event's
-    value there); ``met``: the wall-time factor against the goal. The warm-up run also loads the
-    compiled right-hand side (``transgen.sim.solve.kernel``) from numba's disk cache, or compiles it
-    once after an install (about 8 s of CPU time)."""
+    value there); ``met``: the wall-time factor against the goal. The compiled right-hand side
+    (``transgen.sim.solve.kernel``) is built first where it is not (:func:`~.jit.expect_many_runs`:
+    without that, the first run of a fresh install goes on in Python and so would every run
+    measured here); ``TRANSGEN_JIT=0`` measures the Python path."""
+    from transgen.sim.core.jit import expect_many_runs, jit_enabled
+
+    expect_many_runs()  # the compiled path, built now if it is not (else a first run goes on in Python)
     print(f"real-time factor = simulated time / time of the run, in-process, median of {repeats} "
-          f"(wall and CPU time)")
+          f"(wall and CPU time); right-hand side: {'compiled' if jit_enabled() else 'Python'}")
     print(f"  {'scenario':<24} {'t_sim [s]':>9} {'wall [s]':>9} {'x real':>7} {'CPU [s]':>8} {'x CPU':>7} "
           f"{'RHS':>7} {'inputs':>7} {'goal':>6}  met")
     for name, goal in REALTIME_GOALS.items():

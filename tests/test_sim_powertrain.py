@@ -339,3 +339,25 @@ def test_turbo_comparison_plots(turbo_runs, tmp_path):
     paths = plot_turbo_comparison(runs, tmp_path, formats=("svg",))
     assert {p.stem for p in paths} >= {stem for stem, *_ in THESIS_SIGNALS} | {"engine_overview"}
     assert all(p.stat().st_size > 1000 for p in paths)
+
+
+@pytest.mark.parametrize("name", ["ht740_turbo", "ht740_turbo_iterative"])
+def test_engine_sampled_over_times_is_its_signals_at_each_time_bit_for_bit(name):
+    # TurbodieselSource.sample computes the named signals over all output times at once; they must
+    # be those of signals() at each time, the same numbers (the iterative turbocharger's warm start
+    # follows the evaluations: both engines see the same sequence)
+    def component():
+        return next(c for c in load_scenario(name).powertrain.components if isinstance(c, TurbodieselSource))
+
+    a, b = component(), component()
+    n = 400
+    ts = np.linspace(0.0, 6.0, n)
+    X = np.array([np.linspace(1.1e5, 2.6e5, n), np.linspace(1.2e5, 2.9e5, n), np.linspace(2e3, 9e3, n)])
+    W = np.zeros((a.link + 1, n))
+    W[a.link] = np.linspace(70.0, 230.0, n)
+    _, signals, stored = a.sample(ts, X, W)
+    rows = [b.signals(ts[k], X[:, k], W[:, k]) for k in range(n)]
+    assert list(signals) == list(rows[0]) and not stored.any()
+    for key, values in signals.items():
+        assert values.tobytes() == np.array([r[key] for r in rows], dtype=float).tobytes(), key
+    assert np.any(signals["mach_c_in"] != 0.0) == (name == "ht740_turbo_iterative")

@@ -236,7 +236,7 @@ def _check_finite(component: str, t: float, x, names: tuple[str, ...], values: t
 def _named_signals(p: EngineParams, turbo: BasicTurbo, quantities: tuple) -> dict[str, float]:
     """The engine's named signals (SI units) from the quantities of one evaluation."""
     p_im, p_em, w_tc, omega_e, u_f, out = quantities
-    o = out.tolist()
+    o = out.tolist() if out.ndim == 1 else list(out)  # numbers, or (:meth:`sample`) rows over times
     torque = o[_k.O_TORQUE]
     sig = {"p_im": p_im, "p_em": p_em, "boost_pressure_ratio": p_im / p.p_amb,
            "turbo_speed": w_tc, "turbo_speed_rpm": w_tc / RPM, "engine_speed": omega_e,
@@ -427,6 +427,17 @@ class TurbochargedDiesel:
         """Torque [N*m] delivered to the crank link; positive drives it."""
         return self._cached(t, x, omega_engine)[1]
 
+    def torque_and_derivatives(self, t: float, x: np.ndarray, omega_engine: float) -> tuple[float, list]:
+        """:meth:`torque` and :meth:`derivatives` (as a list) from one look-up of the evaluation
+        cache: what the simulator's right-hand side asks at every call."""
+        p_im, p_em, w_tc = x.tolist()
+        key = (t, p_im, p_em, w_tc, omega_engine)  # :meth:`_key`
+        if key != self._cache_key:
+            self._cache = self._evaluate(t, x, omega_engine, self.fuel(t, omega_engine))
+            self._cache_key = key
+        cache = self._cache
+        return cache[1], cache[0].tolist()
+
     def crank_torque(self, t: float, x: np.ndarray, omega_engine: float) -> float:
         """:meth:`torque` from the cylinders' model alone (the same number): the exhaust
         temperature and the turbocharger, most of an evaluation's cost, only set the state
@@ -440,6 +451,16 @@ class TurbochargedDiesel:
         """Named quantities (SI units): turbo speed, chi, mass flows, PR, ER, temperatures,
         boost, torque, lambda, ..."""
         return _named_signals(self.params, self.turbo, self._cached(t, x, omega_engine)[2])
+
+    def sample(self, ts: np.ndarray, X: np.ndarray, omegas: np.ndarray) -> dict[str, np.ndarray]:
+        """:meth:`signals` at the times ``ts`` [s] (states: the columns of ``X``; engine speeds
+        ``omegas`` [rad/s]) as arrays: the same evaluations in the same order (the iterative
+        turbocharger's warm start follows them), the names computed once over all times."""
+        if not len(ts):
+            return {}
+        rows = [self._cached(t, X[:, k], omega)[2] for k, (t, omega) in enumerate(zip(ts, omegas.tolist()))]
+        columns = [np.array(c, dtype=float) for c in zip(*(r[:5] for r in rows))]
+        return _named_signals(self.params, self.turbo, (*columns, np.array([r[5] for r in rows]).T))
 
     # ---------------------------------------------------------------- steady state
     def steady_state(self, engine_speed: float, fuel: float | None = None,

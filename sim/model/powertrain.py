@@ -91,6 +91,13 @@ CONVERTER_SIGNAL_UNITS = {"converter_speed_ratio": "1", "converter_torque_ratio"
 # ----------------------------------------------------------------------------- components
 
 
+def _squared(x):
+    """``x ** 2`` for a number, and for each number of an array (C ``pow``, as Python computes it:
+    numpy's square rounds differently in about one case in a thousand)."""
+    return np.array([v ** 2 for v in x.tolist()]) if isinstance(x, np.ndarray) else x ** 2
+
+
+
 class TurbodieselSource(Component):
     """The mean-value turbodiesel driving the mechanism's input link.
 
@@ -155,34 +162,44 @@ class TurbodieselSource(Component):
 
     def evaluate(self, t, x, w):
         omega = float(w[self.link])
-        torque = self.engine.torque(t, x, omega)
-        return {"T_in": torque}, self.engine.derivatives(t, x, omega), torque * omega, 0.0, 0.0
+        torque, derivatives = self.engine.torque_and_derivatives(t, x, omega)
+        return {"T_in": torque}, derivatives, torque * omega, 0.0, 0.0
 
     def signals(self, t, x, w):
         omega = float(w[self.link])
-        sig = self.engine.signals(t, x, omega)
+        return self._signals(self.engine.signals(t, x, omega), omega, float(self.engine.rack(t)),
+                             None if self.request is None else float(self.request.value(t)))
+
+    def _signals(self, sig: dict, omega, rack, request) -> dict:
+        """The engine's signals ``sig`` with this component's own, at the engine speed ``omega``
+        [rad/s], the demanded ``rack`` and the torque ``request`` (numbers, or arrays over times)."""
         p = self.engine.params
         sig["T_in"] = sig["torque_engine"]
         sig["engine_speed_rpm"] = omega / RPM
-        sig["rack"] = float(self.engine.rack(t))        # demanded (before the idle governor)
-        if self.request is not None:
-            sig["torque_request"] = float(self.request.value(t))
+        sig["rack"] = rack        # demanded (before the idle governor)
+        if request is not None:
+            sig["torque_request"] = request
         # temperature rise and drop across the devices, total to total (thesis Figs. 4.21, 4.22):
         # the outlet temperatures are totals; the inlet states (ambient, exhaust manifold) are
         # static at the ports, made total with the port Mach number (eq. 4.34; 0 for the basic
         # algorithm, where static and total coincide)
-        T0_c_in = p.T_amb * (1.0 + 0.5 * (AIR.gamma - 1.0) * sig.get("mach_c_in", 0.0) ** 2)
-        T0_t_in = sig["T_em"] * (1.0 + 0.5 * (EXHAUST.gamma - 1.0) * sig.get("mach_t_in", 0.0) ** 2)
+        T0_c_in = p.T_amb * (1.0 + 0.5 * (AIR.gamma - 1.0) * _squared(sig.get("mach_c_in", 0.0)))
+        T0_t_in = sig["T_em"] * (1.0 + 0.5 * (EXHAUST.gamma - 1.0) * _squared(sig.get("mach_t_in", 0.0)))
         sig["dT_c"] = sig["T_c_out"] - T0_c_in
         sig["dT_t"] = T0_t_in - sig["T_t_out"]
         return sig
 
     def sample(self, ts, X, W):
-        """The signals at the output times, one engine evaluation each (:meth:`signals`); the
-        torque is the signal ``T_in`` and the engine stores no energy of the mechanism."""
-        rows = [self.signals(ts[k], X[:, k], W[:, k]) for k in range(len(ts))]
-        signals = {name: np.array([r[name] for r in rows], dtype=float) for name in (rows[0] if rows else ())}
-        return ({"T_in": signals["T_in"]} if rows else {}), signals, np.zeros(len(ts))
+        """The signals at the output times (:meth:`signals`, one engine evaluation each, computed
+        over all times at once); the torque is the signal ``T_in`` and the engine stores no
+        energy of the mechanism."""
+        if not len(ts):
+            return {}, {}, np.zeros(0)
+        omega = np.asarray(W[self.link], dtype=float)
+        rack = np.array([float(self.engine.rack(t)) for t in ts])
+        request = None if self.request is None else np.array([float(self.request.value(t)) for t in ts])
+        signals = self._signals(self.engine.sample(ts, X, omega), omega, rack, request)
+        return {"T_in": signals["T_in"]}, signals, np.zeros(len(ts))
 
     def breakpoints(self, t0=float("-inf"), t1=float("inf")):
         return self.fuel.breakpoints(t0, t1) if self.fuel is not None else ()

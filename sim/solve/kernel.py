@@ -538,18 +538,18 @@ class CompiledSegment:
                 return
             w = C @ y[:dof]
             for c, sl, off, n in python:
+                u = [0.0] * n_u  # the input block, summed as Python numbers, stored in one assignment
                 if derivatives:
                     torques, dx, p_in, diss, p_load = c.evaluate(t, y[sl], w)
                     if len(dx) != n:
                         raise ValueError(f"component derivatives of {len(dx)} states, expected {n}")
-                    ext[off:off + 3] = (p_in, diss, p_load)
-                    ext[off + 3:off + 3 + n] = dx
+                    for name, value in torques.items():
+                        u[index[name]] += value
+                    ext[off:off + 3 + n + n_u] = [p_in, diss, p_load, *dx, *u]
                 else:
-                    torques = c.torques(t, y[sl], w)
-                block = ext[off + 3 + n:off + 3 + n + n_u]
-                block[:] = 0.0
-                for name, value in torques.items():
-                    block[index[name]] += value
+                    for name, value in c.torques(t, y[sl], w).items():
+                        u[index[name]] += value
+                    ext[off + 3 + n:off + 3 + n + n_u] = u
 
         return fill
 

@@ -50,7 +50,9 @@ class _LeanLU:
 
     def _lu(self, a):
         self.nlu += 1
-        a = np.asarray_chkfinite(a)
+        a = np.asarray(a)
+        if not np.isfinite(a).all():  # ``np.asarray_chkfinite`` without its layers
+            raise ValueError("array must not contain infs or NaNs")
         getrf, _ = self._funcs(a)
         lu, piv, info = getrf(a, overwrite_a=True)
         if info < 0:
@@ -61,7 +63,8 @@ class _LeanLU:
 
     def _solve_lu(self, lu_piv, b):
         lu, piv = lu_piv
-        b = np.asarray_chkfinite(b)
+        if not np.isfinite(b).all():  # ``np.asarray_chkfinite(b)`` (b is an array) without its layers
+            raise ValueError("array must not contain infs or NaNs")
         getrs = self._funcs(lu)[1] if b.dtype == lu.dtype else get_lapack_funcs(("getrs",), (lu, b))[0]
         x, info = getrs(lu, piv, b, trans=0, overwrite_b=True)
         if info != 0:
@@ -150,7 +153,7 @@ class LeanBDF(_LeanLU, BDF):
                 dy_norm_old = None
                 for n_iter in range(1, NEWTON_MAXITER + 1):
                     f = fun(t_new, y_new)
-                    if not np.all(np.isfinite(f)):
+                    if not np.isfinite(f).all():
                         break
                     dy = solve_lu(LU, c * f - psi - d)
                     dy_norm = _rms(dy / scale)
