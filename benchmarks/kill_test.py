@@ -39,7 +39,7 @@ import time
 from pathlib import Path
 
 TEMP_PREFIX = ".transgen~"
-GRID = [f"{4.3 + 0.02 * k:.2f}" for k in range(24)]
+GRID = [f"{6.0 + 0.02 * k:.2f}" for k in range(24)]  # 2-2.5 s simulated each: the runs take the time, not the start
 
 
 def commands(folder: Path, grid: list[str]) -> dict[str, list[str]]:
@@ -122,6 +122,7 @@ def kill_once(argv: list[str], folder: Path, python: str, delay: float) -> dict:
         peak = max(peak, len(group(proc.pid)))
         time.sleep(0.05)
     writing = bool(temporaries(folder))  # a temporary output file exists: killed while writing
+    at_kill = len(group(proc.pid))  # the command and its workers (and resource tracker) at the kill
     finished = proc.poll() is not None
     ran = time.monotonic() - start
     if not finished:
@@ -137,7 +138,7 @@ def kill_once(argv: list[str], folder: Path, python: str, delay: float) -> dict:
         except ProcessLookupError:
             pass
     return {"delay": round(delay, 2), "finished_before_kill": finished, "ran": round(ran, 2),
-            "writing_at_kill": writing and not finished, "peak_group": peak,
+            "writing_at_kill": writing and not finished, "group_at_kill": 0 if finished else at_kill, "peak_group": peak,
             "alive_after_5s": len(alive), "temporaries_after_kill": len(temporaries(folder))}
 
 
@@ -190,6 +191,7 @@ def test_command(name: str, kills: int, rng: random.Random, base: Path, python: 
     result = {"command": name, "kills": kills, "unkilled_run": measured, "redrawn_after_the_end": retries,
               "killed_while_running": sum(not r["finished_before_kill"] for r in records),
               "killed_while_writing": sum(r["writing_at_kill"] for r in records), "sweep_rounds_completed": rounds,
+              "killed_with_workers": sum(r["group_at_kill"] >= 3 for r in records),
               "alive_after_5s": sum(r["alive_after_5s"] for r in records),
               "stale_temporaries_after_kills": sum(r["temporaries_after_kill"] > 0 for r in records),
               "final_exit": final.returncode, "temporaries_after_final_run": len(left), "records": records}
@@ -222,7 +224,7 @@ def main(argv=None) -> int:
         return 0
     base = Path(tempfile.mkdtemp(prefix="transgen-kill-"))
     rng = random.Random(args.seed)
-    grid = [f"{4.3 + 0.02 * k:.2f}" for k in range(args.grid)]
+    grid = [f"{6.0 + 0.02 * k:.2f}" for k in range(args.grid)]
     start = time.monotonic()
     results = []
     for name in args.commands.split(","):
@@ -237,7 +239,8 @@ def main(argv=None) -> int:
         for r in results:
             extra = f", rows {r['rows']} ({r['unique_rows']} distinct) of {r['design_rows']}" if "rows" in r else ""
             print(f"{r['command']}: unkilled run {r['unkilled_run']['wall']} s; {r['kills']} kills "
-                  f"({r['killed_while_running']} while running, {r['killed_while_writing']} while writing; "
+                  f"({r['killed_while_running']} while running, {r['killed_with_workers']} of them with 2 or more "
+                  f"processes beside the command, {r['killed_while_writing']} while writing; "
                   f"{r['redrawn_after_the_end']} delays drawn again after the run had ended): "
                   f"{r['alive_after_5s']} processes alive 5 s after, stale temporaries after {r['stale_temporaries_after_kills']} "
                   f"kills, {r['temporaries_after_final_run']} after the final run{extra}")
