@@ -480,93 +480,33 @@ def _add_sim_commands(sub) -> None:
     add_study_commands(sub)
 
 
-#: the program's state (:func:`entry_point`): "ended" once the command is over (the process exits),
-#: "late" the signals that arrived after that, "code" the exit code, "last" whether its exit hook
-#: runs last (no hook was registered before it)
-_EXIT: dict = {"ended": False, "late": [], "code": 0, "last": False}
-
-
-def _terminate(signum, frame):
-    """SIGTERM (SIGHUP) ends the run like Ctrl-C: the temporary files of the outputs are removed,
-    the workers stopped, the rows of a sweep kept; the exit code is 128 + signum. Once the command
-    is over (:func:`entry_point`) it is only noted: raised in an exit hook it was a traceback and
-    exit code 0."""
-    if _EXIT["ended"]:
-        _EXIT["late"].append(signum)
-        return
-    from .outputs import Terminated
-
-    raise Terminated(signum)
-
-
 def entry_point() -> int:
-    """The program ``transgen`` (its console script and ``python -m transgen``): :func:`main`,
-    whose exit code is ``128 + signum`` for a SIGTERM or SIGHUP that arrives at any time after
-    its handler is installed (the first thing done), also after the command, while the process
-    joins its threads and runs its exit hooks. Before, a signal then printed a traceback and exited
-    0 (in an exit hook) or killed the process (exit -15: Python resets the handlers while it frees
-    its modules). The process then ends at the last exit hook (:func:`_exit_hook`)."""
+    """The program ``transgen`` (console script, ``python -m transgen``): :func:`main`, with the
+    exit code ``128 + signum`` for a SIGTERM or SIGHUP at any time after its handler is installed,
+    also after the command while the process joins its threads and runs its exit hooks; it ends
+    at its last exit hook (:func:`transgen.exiting.exit_hook`), before Python frees its modules
+    and resets the handlers (a signal then killed it: exit -15)."""
     import atexit
     import signal
 
-    installed = _install_terminate()
-    _EXIT["last"] = getattr(atexit, "_ncallbacks", lambda: 1)() == 0
-    atexit.register(_exit_hook)  # registered before any pool's hooks: runs after them
+    from .exiting import EXIT, exit_hook, install_terminate, late_code
+
+    installed = install_terminate()
+    EXIT["last"] = getattr(atexit, "_ncallbacks", lambda: 1)() == 0
+    atexit.register(exit_hook)  # registered before any pool's hooks: runs after them
     try:
         try:
             code = main()
         finally:
-            _EXIT["ended"] = installed  # from now on a signal is noted, not raised
+            EXIT["ended"] = installed  # from now on a signal is noted, not raised
     except KeyboardInterrupt as exc:  # outside main's own handling (before its command, after its return)
         signum = getattr(exc, "signum", signal.SIGINT)
         _error("interrupted" if signum == signal.SIGINT else f"terminated ({signal.Signals(signum).name})")
         code = 128 + signum
     except SystemExit as exc:  # argparse: --help, --version, a usage error
         code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
-    _EXIT["code"] = code = _late_code(code)
+    EXIT["code"] = code = late_code(code)
     return code
-
-
-def _install_terminate() -> bool:
-    """:func:`_terminate` for SIGTERM and SIGHUP where they have their default action (not in a
-    program that set its own, nor outside the main thread); whether both were installed."""
-    import signal
-
-    installed = True
-    for signum in (signal.SIGTERM, signal.SIGHUP):
-        if signal.getsignal(signum) is signal.SIG_DFL:
-            try:
-                signal.signal(signum, _terminate)
-            except ValueError:  # not the main thread
-                installed = False
-        else:
-            installed = installed and signal.getsignal(signum) is _terminate
-    return installed
-
-
-def _late_code(code: int) -> int:
-    """``code``, or 128 + the first signal noted after the command had ended."""
-    return 128 + _EXIT["late"][0] if _EXIT["late"] and code < 128 else code
-
-
-def _exit_hook() -> None:
-    """The program's last exit hook: the threads are joined and every other hook has run. SIGTERM
-    and SIGHUP are ignored from here on, and the process ends now with its exit code (``128 +
-    signum`` for a signal noted since the code was chosen): while Python frees its modules it
-    resets the handlers to the default action, so that a signal then killed the process. Where
-    a hook of another program was registered before this one (it must still run) the process is
-    left to end as usual and a signal in those last milliseconds is ignored."""
-    import signal
-
-    if not _EXIT["ended"]:
-        return
-    for signum in (signal.SIGTERM, signal.SIGHUP):
-        signal.signal(signum, signal.SIG_IGN)
-    if _EXIT["late"] or _EXIT["last"]:
-        for stream in (sys.stdout, sys.stderr):
-            with contextlib.suppress(Exception):
-                stream.flush()
-        os._exit(_late_code(_EXIT["code"]))
 
 
 #: options that name a file the command writes, and options that name a file it reads
@@ -652,9 +592,10 @@ def main(argv: list[str] | None = None) -> int:
     from .blas import one_thread_from_start
 
     one_thread_from_start()  # small linear algebra: no BLAS thread pool to start (transgen.blas)
+    from .exiting import install_terminate
     from .outputs import Terminated, command_scope, remove_temporaries
 
-    _install_terminate()
+    install_terminate()
     parser = build_parser()
     args = parser.parse_args(argv)
     refused = _output_is_input(args)
