@@ -153,7 +153,7 @@ def test_command(name: str, kills: int, rng: random.Random, base: Path, python: 
     run_time, first_row = measured["wall"], measured["first_row"]
     records, problems, retries, rounds = [], [], 0, 0
     for k in range(kills):
-        for attempt in range(RETRIES + 1):
+        for _ in range(RETRIES + 1):
             expected = run_time
             if name == "sweep":  # a resume runs only the rows left
                 left = len(grid) - len(set(sweep_keys(folder / "r.csv")))
