@@ -5,7 +5,11 @@ the command's own inputs, folders, read-only folders, a full file system, standa
 Every invocation is a real ``transgen`` process in a sandbox folder (``TMPDIR`` inside it). After
 each one the fuzzer checks (issue 22):
 
-* no traceback, an exit code of 0, 1 or 2, no hang (60 s);
+* no traceback, an exit code of 0, 1 or 2, no hang: an invocation still running after 600 s
+  (killed), or one over 60 s of wall time whose process group gained no CPU time for 30 s (it
+  waits for something that does not come). One over 60 s that kept gaining CPU time is slow, not
+  hung (starved by the machine's load): reported with its wall and CPU times, not a failure. The
+  CPU time of the group (the command and its workers, from ``/proc``) is sampled every second;
 * no file replaced that was not the command's output: every node, FIFO and symbolic link is still
   what it was (same type, inode, device numbers, link text), every input is unchanged (unless
   ``--force`` named it as the output), every other file of the sandbox unchanged;
@@ -37,6 +41,9 @@ from pathlib import Path
 
 TIMEOUT = 60.0  # an invocation over this wall time is reported (a hang by the acceptance's measure)
 KILL_AFTER = 600.0  # one still running after this is killed: it does not end by itself
+STALL = 30.0  # over TIMEOUT, a stretch this long [s] without CPU progress of the group is a hang
+SAMPLE = 1.0  # the period [s] of the CPU samples
+TICK = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
 TEMP_PREFIX = ".transgen~"
 ROOT = hasattr(os, "geteuid") and os.geteuid() == 0
 
@@ -204,47 +211,80 @@ def _make_target(case: Path, kind: str, suffix: str, sandbox: Sandbox, input_fil
     return out, allowed, reader
 
 
-def _subprocess(args: list[str], case: Path, python: str, log: Path) -> tuple[int | None, str, bool, float | None]:
-    """Run ``transgen ARGS`` as a new interpreter: (exit code, standard error, hung)."""
+def _group_cpu(pgid: int) -> float:
+    """CPU time [s] of process group ``pgid`` so far: its live processes' own and that of the
+    children they have reaped (a finished worker counts once it is joined), from /proc."""
+    total = 0
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry}/stat", "rb") as fh:
+                data = fh.read()
+        except OSError:
+            continue
+        fields = data[data.rfind(b")") + 2:].split()
+        if len(fields) > 14 and int(fields[2]) == pgid:
+            total += sum(int(f) for f in fields[11:15])  # utime, stime, cutime, cstime
+    return total / TICK
+
+
+def _wait(pid: int) -> tuple[int | None, bool, float, float]:
+    """Wait for process ``pid`` (the leader of its own group), sampling the group's CPU time every
+    :data:`SAMPLE` s; its group killed after :data:`KILL_AFTER` s. (exit code or None, killed,
+    CPU time [s] of the process and its reaped children, longest stretch [s] of wall time in
+    which the group gained no CPU time)."""
+    start = time.monotonic()
+    next_sample, last_cpu, last_progress, stall = start + SAMPLE, 0.0, start, 0.0
+    while time.monotonic() < start + KILL_AFTER:
+        done, status, usage = os.wait4(pid, os.WNOHANG)
+        if done:
+            return os.waitstatus_to_exitcode(status), False, usage.ru_utime + usage.ru_stime, stall
+        now = time.monotonic()
+        if now >= next_sample:
+            cpu = _group_cpu(pid)
+            if cpu > last_cpu:
+                last_cpu, last_progress = cpu, now
+            stall = max(stall, now - last_progress)
+            next_sample = now + SAMPLE
+        time.sleep(0.02)
+    with contextlib.suppress(ProcessLookupError):
+        os.killpg(pid, 9)
+    _, status, usage = os.wait4(pid, 0)
+    return None, True, usage.ru_utime + usage.ru_stime, max(stall, time.monotonic() - last_progress)
+
+
+def _subprocess(args: list[str], case: Path, python: str, log: Path) -> tuple[int | None, str, bool, float, float]:
+    """Run ``transgen ARGS`` as a new interpreter: (exit code, standard error, killed, CPU time,
+    longest stall; see :func:`_wait`)."""
+    log.parent.mkdir(exist_ok=True)
     env = dict(os.environ, MPLBACKEND="Agg", TMPDIR=str(case / "tmp"))
-    try:
-        proc = subprocess.run([python, "-m", "transgen", *args], capture_output=True, text=True, timeout=KILL_AFTER,
-                              env=env, cwd=case, stdin=subprocess.DEVNULL, start_new_session=True)
-        return proc.returncode, proc.stderr, False, None
-    except subprocess.TimeoutExpired as exc:
-        err = exc.stderr.decode(errors="replace") if isinstance(exc.stderr, bytes) else (exc.stderr or "")
-        return None, err, True, None
+    err_path = log.with_suffix(".err")
+    with open(log.with_suffix(".out"), "wb") as out, open(err_path, "wb") as err:
+        proc = subprocess.Popen([python, "-m", "transgen", *args], stdout=out, stderr=err, env=env, cwd=case,
+                                stdin=subprocess.DEVNULL, start_new_session=True)
+    code, killed, cpu, stall = _wait(proc.pid)
+    proc.returncode = -9 if code is None else code  # reaped by _wait: Popen must not wait for it
+    return code, err_path.read_text(errors="replace"), killed, cpu, stall
 
 
 _FORK_LOCK = threading.Lock()
 
 
-def _forked(args: list[str], case: Path, python: str, log: Path) -> tuple[int | None, str, bool, float | None]:
+def _forked(args: list[str], case: Path, python: str, log: Path) -> tuple[int | None, str, bool, float, float]:
     """Run the command line's ``main(ARGS)`` in a process forked from this one (transgen imported
     and its compiled code loaded here once: no interpreter start per invocation). The child is a
     process of its own (group, standard streams, working folder, TMPDIR, signal handlers); an
-    exception escaping ``main`` is printed with its traceback. (exit code, standard error, hung)."""
+    exception escaping ``main`` is printed with its traceback. (exit code, standard error, killed,
+    CPU time, longest stall; see :func:`_wait`)."""
     log.parent.mkdir(exist_ok=True)
     err_path = log.with_suffix(".err")
     with _FORK_LOCK:  # one fork at a time; the child touches no lock of this process's threads
         pid = os.fork()
         if pid == 0:
             _child(args, case, err_path, log.with_suffix(".out"))
-    end = time.monotonic() + KILL_AFTER
-    status = usage = None
-    while time.monotonic() < end:
-        done, status, usage = os.wait4(pid, os.WNOHANG)
-        if done:
-            break
-        time.sleep(0.02)
-    else:
-        with contextlib.suppress(ProcessLookupError):
-            os.killpg(pid, 9)
-        os.waitpid(pid, 0)
-        return None, err_path.read_text(errors="replace") if err_path.exists() else "", True, None
-    code = os.waitstatus_to_exitcode(status)
-    cpu = usage.ru_utime + usage.ru_stime  # the child's own (its workers are counted when it waits for them)
-    return code, err_path.read_text(errors="replace") if err_path.exists() else "", False, cpu
+    code, killed, cpu, stall = _wait(pid)
+    return code, err_path.read_text(errors="replace") if err_path.exists() else "", killed, cpu, stall
 
 
 def _child(args: list[str], case: Path, err_path: Path, out_path: Path) -> None:
@@ -313,17 +353,15 @@ def run_one(index: int, rng: random.Random, sandbox: Sandbox, python: str, fork:
     before = _snapshot(case)  # this case's folder only: the other jobs write theirs meanwhile
     inputs_before = {p: _identity(p) for p in inputs.iterdir()}
     start = time.monotonic()
-    code, err, killed, cpu = (_forked if fork else _subprocess)(args, case, python, sandbox.base / "logs" / case.name)
+    code, err, killed, cpu, stall = (_forked if fork else _subprocess)(args, case, python, sandbox.base / "logs" / case.name)
     wall = time.monotonic() - start
-    hang = killed or wall > TIMEOUT
+    hang = killed or (wall > TIMEOUT and stall >= STALL)
     if reader is not None:
         reader[1].set()
         reader[0].join(KILL_AFTER + 10)
     problems = []
-    if killed:
-        problems.append("hang")  # killed after KILL_AFTER s
-    elif hang:
-        problems.append(f"over {TIMEOUT:g} s")
+    if hang:  # killed after KILL_AFTER s, or over TIMEOUT and idle for STALL s
+        problems.append("hang")
     if "Traceback" in err:
         problems.append("traceback")
     if code not in (0, 1, 2, None):
@@ -352,7 +390,14 @@ def run_one(index: int, rng: random.Random, sandbox: Sandbox, python: str, fork:
         with contextlib.suppress(OSError):
             out.unlink()
     return {"index": index, "command": name, "kind": kind, "suffix": suffix, "args": args, "exit": code,
-            "wall": round(wall, 2), "cpu": None if cpu is None else round(cpu, 2), "problems": problems, "stderr": err[-600:] if problems else ""}
+            "wall": round(wall, 2), "cpu": None if cpu is None else round(cpu, 2), "stall": round(stall, 1),
+            "killed": killed, "problems": problems, "stderr": err[-600:] if problems else ""}
+
+
+def _span(values) -> list | None:
+    """[smallest, largest] of ``values``, None where there is none."""
+    values = list(values)
+    return [min(values), max(values)] if values else None
 
 
 def main(argv=None) -> int:
@@ -404,15 +449,21 @@ def main(argv=None) -> int:
         results.append({"index": -1, "command": "(end)", "kind": "", "suffix": "", "args": [], "exit": 0, "wall": 0,
                         "problems": [f"temporaries left {left[:3]}"], "stderr": ""})
     bad = [r for r in results if r["problems"]]
+    slow = [r for r in results if r["index"] >= 0 and r["wall"] > TIMEOUT and "hang" not in r["problems"]]
     summary = {
         "invocations": len(results), "seed": args.seed, "root": ROOT, "timeout": TIMEOUT,
         "mode": "subprocess" if args.subprocess else "fork", "full_filesystem": sandbox.full is not None,
         "wall_time": round(time.monotonic() - start, 1),
         "tracebacks": sum("traceback" in r["problems"] for r in results),
         "hangs": sum("hang" in r["problems"] for r in results),
-        "over_timeout": sum(f"over {TIMEOUT:g} s" in r["problems"] for r in results),
-        "over_timeout_cpu_max": max((r["cpu"] or 0 for r in results if f"over {TIMEOUT:g} s" in r["problems"]),
-                                    default=None),
+        "killed": sum(bool(r.get("killed")) for r in results),
+        "over_timeout": len(slow),
+        "over_timeout_wall": _span(r["wall"] for r in slow),
+        "over_timeout_cpu": _span(r["cpu"] or 0 for r in slow),
+        "over_timeout_stall_max": max((r["stall"] for r in slow), default=None),
+        "cpu_max": max((r["cpu"] or 0 for r in results if r["index"] >= 0), default=None),
+        "slowest": sorted(({k: r[k] for k in ("index", "command", "kind", "wall", "cpu", "stall")} for r in results
+                           if r["index"] >= 0), key=lambda r: -r["wall"])[:15],
         "replaced": sum(any(p.startswith(("replaced", "input changed")) for p in r["problems"]) for r in results),
         "temporaries_left": sum(any(p.startswith("temporaries") for p in r["problems"]) for r in results),
         "bad_exit": sum(any(p.startswith("exit code") for p in r["problems"]) for r in results),
@@ -426,10 +477,14 @@ def main(argv=None) -> int:
         print(json.dumps(summary, indent=2))
     else:
         print(f"{summary['invocations']} invocations in {summary['wall_time']} s (root: {ROOT}, full file system: "
-              f"{summary['full_filesystem']}): {summary['tracebacks']} tracebacks, {summary['hangs']} hangs (killed after {KILL_AFTER:g} s), "
-              f"{summary['over_timeout']} over {TIMEOUT:g} s wall (CPU at most {summary['over_timeout_cpu_max']} s), "
+              f"{summary['full_filesystem']}): {summary['tracebacks']} tracebacks, {summary['hangs']} hangs "
+              f"({summary['killed']} killed after {KILL_AFTER:g} s), {summary['over_timeout']} slow: over {TIMEOUT:g} s "
+              f"wall but gaining CPU time (wall {summary['over_timeout_wall']} s, CPU {summary['over_timeout_cpu']} s, "
+              f"longest stall {summary['over_timeout_stall_max']} s), "
               f"{summary['replaced']} with files replaced, {summary['temporaries_left']} with temporaries left, "
               f"{summary['bad_exit']} other exit codes; exit codes {summary['exit_codes']}")
+        for r in slow[:20]:
+            print(f"  slow: {r['command']} {r['kind']}: {r['wall']} s wall, {r['cpu']} s CPU, longest stall {r['stall']} s")
         for r in bad[:20]:
             print(f"  {r['command']} {r['kind']} {r['suffix']}: {r['problems']}\n    {' '.join(r['args'])}\n"
                   f"    {r['stderr'].strip()[-300:]}")

@@ -2,8 +2,17 @@
 
 For each command (``sweep --workers 2``, ``simulate -o ... --plot ...``, ``optimize --workers 2``)
 the test starts it N times in its own session (its own process group, as a shell starts a job),
-sends SIGKILL to the command after a random delay (seeded: during the start, the runs or the
-writing) and checks:
+sends SIGKILL to the command after a random delay and checks what is below. The delays are
+scaled to the command's own run time, measured first by one run that is not killed (in a folder
+of its own): a delay is drawn (seeded) from 0.05 to 0.95 of the expected run time, so that the
+kills fall in the start, the runs and the writing. A resumed sweep has only the rows left to run:
+its expected time is the time to the first row plus that of the rows left; once a kill leaves the
+design complete, the results file is checked (every row once) and removed, and the next kill
+starts the design afresh. A run that ends before its kill (the machine got faster) is not
+counted as a kill: its delay is drawn again with the run time just seen (at most 5 times).
+For every kill the report says whether the command was still running (by ``poll`` just before
+the signal) and whether a temporary output file existed at that moment (killed while writing).
+Checked:
 
 * no process of the command's group alive 5 s after the kill (workers, resource tracker);
 * no temporary file (``.transgen~*``) after the next complete run of the command (the stale
@@ -30,7 +39,7 @@ import time
 from pathlib import Path
 
 TEMP_PREFIX = ".transgen~"
-GRID = [f"{4.3 + 0.02 * k:.2f}" for k in range(24)]
+GRID = [f"{6.0 + 0.02 * k:.2f}" for k in range(24)]  # 2-2.5 s simulated each: the runs take the time, not the start
 
 
 def commands(folder: Path, grid: list[str]) -> dict[str, list[str]]:
@@ -44,8 +53,9 @@ def commands(folder: Path, grid: list[str]) -> dict[str, list[str]]:
     }
 
 
-#: the delays [s] before the kill are drawn from 0.2 s to this
-DELAY = {"sweep": 14.0, "simulate": 12.0, "optimize": 16.0}
+#: the delays before the kill are drawn from these fractions of the command's expected run time
+FRACTIONS = (0.05, 0.95)
+RETRIES = 5  # a kill that comes after the run's end is drawn again, at most this many times
 
 
 def group(pgid: int) -> list[int]:
@@ -82,16 +92,39 @@ def run(argv: list[str], folder: Path, python: str, timeout: float = 900) -> sub
                           env=env, cwd=folder)
 
 
+def measure(argv: list[str], folder: Path, python: str, first_row: Path | None = None) -> dict:
+    """One run of the command, not killed, in ``folder``: its wall time [s] and (``first_row``: a
+    sweep's results file) the time to its first row [s]."""
+    (folder / "tmp").mkdir(parents=True, exist_ok=True)
+    env = dict(os.environ, MPLBACKEND="Agg", TMPDIR=str(folder / "tmp"))
+    start = time.monotonic()
+    proc = subprocess.Popen([python, "-m", "transgen", *argv], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            text=True, env=env, cwd=folder, start_new_session=True)
+    first = None
+    while proc.poll() is None:
+        if first is None and first_row is not None and sweep_keys(first_row):
+            first = time.monotonic() - start
+        time.sleep(0.05)
+    wall = time.monotonic() - start
+    if proc.returncode != 0:
+        raise SystemExit(f"kill_test: the unkilled run of {argv[0]} exited {proc.returncode}: {proc.stderr.read()[-300:]}")
+    return {"wall": round(wall, 2), "first_row": round(first if first is not None else wall, 2)}
+
+
 def kill_once(argv: list[str], folder: Path, python: str, delay: float) -> dict:
     env = dict(os.environ, MPLBACKEND="Agg", TMPDIR=str(folder / "tmp"))
+    start = time.monotonic()
     proc = subprocess.Popen([python, "-m", "transgen", *argv], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                             env=env, cwd=folder, start_new_session=True)
-    end = time.monotonic() + delay
+    end = start + delay
     peak = 1
     while time.monotonic() < end and proc.poll() is None:
         peak = max(peak, len(group(proc.pid)))
         time.sleep(0.05)
+    writing = bool(temporaries(folder))  # a temporary output file exists: killed while writing
+    at_kill = len(group(proc.pid))  # the command and its workers (and resource tracker) at the kill
     finished = proc.poll() is not None
+    ran = time.monotonic() - start
     if not finished:
         os.kill(proc.pid, signal.SIGKILL)
     proc.wait()
@@ -104,7 +137,8 @@ def kill_once(argv: list[str], folder: Path, python: str, delay: float) -> dict:
             os.kill(pid, signal.SIGKILL)
         except ProcessLookupError:
             pass
-    return {"delay": round(delay, 2), "finished_before_kill": finished, "peak_group": peak,
+    return {"delay": round(delay, 2), "finished_before_kill": finished, "ran": round(ran, 2),
+            "writing_at_kill": writing and not finished, "group_at_kill": 0 if finished else at_kill, "peak_group": peak,
             "alive_after_5s": len(alive), "temporaries_after_kill": len(temporaries(folder))}
 
 
@@ -113,14 +147,36 @@ def test_command(name: str, kills: int, rng: random.Random, base: Path, python: 
     folder = base / name
     (folder / "tmp").mkdir(parents=True)
     argv = commands(folder, grid)[name]
-    records, problems = [], []
+    timed = base / f"{name}-unkilled"
+    measured = measure(commands(timed, grid)[name], timed, python, timed / "r.csv" if name == "sweep" else None)
+    shutil.rmtree(timed, ignore_errors=True)
+    run_time, first_row = measured["wall"], measured["first_row"]
+    records, problems, retries, rounds = [], [], 0, 0
     for k in range(kills):
-        record = kill_once(argv, folder, python, rng.uniform(0.2, DELAY[name]))
-        if name == "sweep":
-            keys = sweep_keys(folder / "r.csv")
-            record["rows"] = len(keys)
-            if len(keys) != len(set(keys)):
-                problems.append(f"kill {k}: a row twice in the results file")
+        for _ in range(RETRIES + 1):
+            expected = run_time
+            if name == "sweep":  # a resume runs only the rows left
+                left = len(grid) - len(set(sweep_keys(folder / "r.csv")))
+                expected = first_row + (run_time - first_row) * left / len(grid)
+            record = kill_once(argv, folder, python, rng.uniform(*FRACTIONS) * expected)
+            record["expected"] = round(expected, 2)
+            if name == "sweep":
+                keys = sweep_keys(folder / "r.csv")
+                record["rows"] = len(keys)
+                if len(keys) != len(set(keys)):
+                    problems.append(f"kill {k}: a row twice in the results file")
+                if len(set(keys)) == len(grid):  # the design complete: checked, then afresh
+                    rounds += 1
+                    if len(keys) != len(grid):
+                        problems.append(f"kill {k}: {len(keys)} rows of a complete {len(grid)}-run design")
+                    (folder / "r.csv").unlink()
+            if record["alive_after_5s"]:
+                problems.append(f"kill {k}: {record['alive_after_5s']} process(es) of the group alive 5 s after the kill")
+            if not record["finished_before_kill"]:
+                break
+            retries += 1
+            if name != "sweep":  # the run just seen, shorter than expected
+                run_time = record["ran"]
         if complete_each:  # the next run, to its end: no temporary file after it
             done = run(argv, folder, python)
             record["next_run_exit"] = done.returncode
@@ -129,12 +185,13 @@ def test_command(name: str, kills: int, rng: random.Random, base: Path, python: 
                 problems.append(f"kill {k}: the next run exited {done.returncode}: {done.stderr[-300:]}")
             if record["temporaries_after_next_run"]:
                 problems.append(f"kill {k}: temporaries after the next run: {temporaries(folder)[:3]}")
-        if record["alive_after_5s"]:
-            problems.append(f"kill {k}: {record['alive_after_5s']} process(es) of the group alive 5 s after the kill")
         records.append(record)
     final = run(argv, folder, python)
     left = temporaries(folder)
-    result = {"command": name, "kills": kills, "killed_while_running": sum(not r["finished_before_kill"] for r in records),
+    result = {"command": name, "kills": kills, "unkilled_run": measured, "redrawn_after_the_end": retries,
+              "killed_while_running": sum(not r["finished_before_kill"] for r in records),
+              "killed_while_writing": sum(r["writing_at_kill"] for r in records), "sweep_rounds_completed": rounds,
+              "killed_with_workers": sum(r["group_at_kill"] >= 3 for r in records),
               "alive_after_5s": sum(r["alive_after_5s"] for r in records),
               "stale_temporaries_after_kills": sum(r["temporaries_after_kill"] > 0 for r in records),
               "final_exit": final.returncode, "temporaries_after_final_run": len(left), "records": records}
@@ -167,7 +224,7 @@ def main(argv=None) -> int:
         return 0
     base = Path(tempfile.mkdtemp(prefix="transgen-kill-"))
     rng = random.Random(args.seed)
-    grid = [f"{4.3 + 0.02 * k:.2f}" for k in range(args.grid)]
+    grid = [f"{6.0 + 0.02 * k:.2f}" for k in range(args.grid)]
     start = time.monotonic()
     results = []
     for name in args.commands.split(","):
@@ -181,7 +238,10 @@ def main(argv=None) -> int:
     else:
         for r in results:
             extra = f", rows {r['rows']} ({r['unique_rows']} distinct) of {r['design_rows']}" if "rows" in r else ""
-            print(f"{r['command']}: {r['kills']} kills ({r['killed_while_running']} while running): "
+            print(f"{r['command']}: unkilled run {r['unkilled_run']['wall']} s; {r['kills']} kills "
+                  f"({r['killed_while_running']} while running, {r['killed_with_workers']} of them with 2 or more "
+                  f"processes beside the command, {r['killed_while_writing']} while writing; "
+                  f"{r['redrawn_after_the_end']} delays drawn again after the run had ended): "
                   f"{r['alive_after_5s']} processes alive 5 s after, stale temporaries after {r['stale_temporaries_after_kills']} "
                   f"kills, {r['temporaries_after_final_run']} after the final run{extra}")
             for p in r["problems"]:

@@ -33,7 +33,7 @@ def test_output_fuzzer_small_seed(capsys):
 @pytest.mark.skipif(sys.platform != "linux", reason="process groups and /proc: Linux")
 def test_kill_test_small_seed(capsys):
     kill = _load("kill_test")
-    code = kill.main(["--kills", "1", "--seed", "5", "--commands", "simulate,optimize"])
+    code = kill.main(["--kills", "1", "--seed", "5", "--commands", "simulate,optimize", "--no-complete-each"])
     out = capsys.readouterr().out
     assert code == 0, out
     assert "0 processes alive 5 s after" in out and "0 after the final run" in out

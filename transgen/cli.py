@@ -480,12 +480,33 @@ def _add_sim_commands(sub) -> None:
     add_study_commands(sub)
 
 
-def _terminate(signum, frame):
-    """SIGTERM (SIGHUP) ends the run like Ctrl-C: the temporary files of the outputs are removed,
-    the workers stopped, the rows of a sweep kept; the exit code is 128 + signum."""
-    from .outputs import Terminated
+def entry_point() -> int:
+    """The program ``transgen`` (console script, ``python -m transgen``): :func:`main`, with the
+    exit code ``128 + signum`` for a SIGTERM or SIGHUP at any time after its handler is installed,
+    also after the command while the process joins its threads and runs its exit hooks; it ends
+    at its last exit hook (:func:`transgen.exiting.exit_hook`), before Python frees its modules
+    and resets the handlers (a signal then killed it: exit -15)."""
+    import atexit
+    import signal
 
-    raise Terminated(signum)
+    from .exiting import EXIT, exit_hook, install_terminate, late_code
+
+    installed = install_terminate()
+    EXIT["last"] = getattr(atexit, "_ncallbacks", lambda: 1)() == 0
+    atexit.register(exit_hook)  # registered before any pool's hooks: runs after them
+    try:
+        try:
+            code = main()
+        finally:
+            EXIT["ended"] = installed  # from now on a signal is noted, not raised
+    except KeyboardInterrupt as exc:  # outside main's own handling (before its command, after its return)
+        signum = getattr(exc, "signum", signal.SIGINT)
+        _error("interrupted" if signum == signal.SIGINT else f"terminated ({signal.Signals(signum).name})")
+        code = 128 + signum
+    except SystemExit as exc:  # argparse: --help, --version, a usage error
+        code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
+    EXIT["code"] = code = late_code(code)
+    return code
 
 
 #: options that name a file the command writes, and options that name a file it reads
@@ -571,12 +592,10 @@ def main(argv: list[str] | None = None) -> int:
     from .blas import one_thread_from_start
 
     one_thread_from_start()  # small linear algebra: no BLAS thread pool to start (transgen.blas)
+    from .exiting import install_terminate
     from .outputs import Terminated, command_scope, remove_temporaries
 
-    for signum in (signal.SIGTERM, signal.SIGHUP):
-        if signal.getsignal(signum) is signal.SIG_DFL:
-            with contextlib.suppress(ValueError):  # not the main thread
-                signal.signal(signum, _terminate)
+    install_terminate()
     parser = build_parser()
     args = parser.parse_args(argv)
     refused = _output_is_input(args)
