@@ -17,7 +17,7 @@ import warnings
 import transgen.sim.solve.switching as switching_module
 from transgen.sim.engine import RPM
 from transgen.sim.engine.turbo_report import turbo_report
-from transgen.sim.model.powertrain import TurbodieselSource
+from transgen.sim.model.turbodiesel import TurbodieselSource
 from transgen.sim.scenario.load import load_scenario
 
 SCENARIOS = (("basic", "ht740_turbo"), ("iterative", "ht740_turbo_iterative"))

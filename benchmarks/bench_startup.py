@@ -8,11 +8,17 @@ cached). Prints figures; asserts nothing.
 
     python benchmarks/bench_startup.py [--repeats N] [--instructions]
     python benchmarks/bench_startup.py --first-run [--fresh-install] [--repeats N]
+    python benchmarks/bench_startup.py --side-by-side OTHER_PYTHON [--repeats N]
 
 ``--first-run`` (issue 23): the first ``transgen simulate ht740_improved`` (with
 ``--fresh-install``: in a new virtual environment after a non-editable ``pip install`` of this
 checkout, about 3 minutes), then, once the kernels built in the background are there, later cold
 runs, and the first simulation in a process against a warm one.
+
+``--side-by-side OTHER_PYTHON``: the later cold run and the first simulation in a process
+against a warm one, for this Python and another one's installation of transgen (e.g. a virtual
+environment of the main branch), kernels built in both: each figure alternately for the two, the
+median of ``N`` (default 7) runs, CPU and wall time, with the load average before and after.
 
 ``--instructions`` also counts the instructions of one run of each command under valgrind's
 callgrind (slow: about a minute per command; independent of the machine's load, so the figure to
@@ -176,6 +182,40 @@ def first_run(fresh: bool, repeats: int) -> None:
                   f"{c0 / c:.2f}x CPU (goal {FIRST_GOALS['ratio']:g}x; compiled: {out[4]})", flush=True)
 
 
+def side_by_side(other: str, repeats: int) -> None:
+    """Later cold runs and first / warm simulations in a process (issue 23) of this Python and
+    ``other``, measured alternately (the order swapped every round), medians of ``repeats``."""
+    pythons = {"this": sys.executable, "other": other}
+    for label, python in pythons.items():
+        if not _kernels_built(python):
+            print(f"  {label} ({python}): kernels not built; `python -m transgen.sim.core.build_kernels` first")
+            return
+        _run_with(python, FIRST_RUN)  # warm-up: bytecode, the grammar's parser
+    load = os.getloadavg()
+    cold: dict[str, list] = {k: [] for k in pythons}
+    inside: dict[tuple[str, str], list] = {(k, how): [] for k in pythons for how in ("cli", "script")}
+    for r in range(repeats):
+        for label in (list(pythons) if r % 2 == 0 else list(pythons)[::-1]):
+            cold[label].append(_run_with(pythons[label], FIRST_RUN))
+            for how in ("cli", "script"):
+                out = subprocess.run([pythons[label], "-c", _IN_PROCESS, how], capture_output=True, text=True, env=ENV,
+                                     cwd=CWD, check=True).stdout.split()
+                inside[label, how].append(tuple(map(float, out[:4])))
+    print(f"side by side, median of {repeats} alternating runs (load average {load[0]:.1f} before, "
+          f"{os.getloadavg()[0]:.1f} after; 1-minute)")
+    med = statistics.median
+    for label, python in pythons.items():
+        runs = cold[label]
+        print(f"  {label} ({python})")
+        print(f"    later cold `transgen simulate ht740_improved`: {med(c for _, c in runs):.3f} s CPU, "
+              f"{med(w for w, _ in runs):.3f} s wall (goal {FIRST_GOALS['later']:g} s)")
+        for how in ("cli", "script"):
+            rows = inside[label, how]
+            print(f"    first simulation in a process ({how}): {med(r[1] for r in rows):.3f} s CPU against warm "
+                  f"{med(r[3] for r in rows):.3f} s: {med(r[1] / r[3] for r in rows):.2f}x CPU, "
+                  f"{med(r[0] / r[2] for r in rows):.2f}x wall (goal {FIRST_GOALS['ratio']:g}x)", flush=True)
+
+
 def _run_with(python: str, args: list[str]) -> tuple[float, float]:
     """Wall and CPU time of ``python args`` as a fresh process (its children waited for included;
     a detached background build is not)."""
@@ -190,7 +230,9 @@ def _run_with(python: str, args: list[str]) -> tuple[float, float]:
 
 if __name__ == "__main__":
     n = int(sys.argv[sys.argv.index("--repeats") + 1]) if "--repeats" in sys.argv else 7
-    if "--first-run" in sys.argv:
+    if "--side-by-side" in sys.argv:
+        side_by_side(sys.argv[sys.argv.index("--side-by-side") + 1], n)
+    elif "--first-run" in sys.argv:
         first_run("--fresh-install" in sys.argv, n if "--repeats" in sys.argv else 5)
     else:
         main(n, "--instructions" in sys.argv)

@@ -318,7 +318,7 @@ def _comparison_plots(scenario, result, other_s, other, directory: Path, formats
 
 def _engine_of(scenario):
     """The scenario's turbodiesel engine, or None."""
-    from .model.powertrain import TurbodieselSource
+    from .model.turbodiesel import TurbodieselSource
 
     return next((c.engine for c in scenario.powertrain.components if isinstance(c, TurbodieselSource)), None)
 

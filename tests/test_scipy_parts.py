@@ -77,6 +77,34 @@ out['linalg'] = type(scipy.linalg).__name__
     assert answer["dir"] == ordinary["dir"]  # once asked for more, the package is scipy's own
 
 
+def test_scipy_sparse_stays_deferred_and_its_stand_ins_are_scipys_functions():
+    """The LSODA path leaves scipy.sparse's ``__init__`` unrun: ``_ivp.common`` holds stand-ins for
+    ``find`` and ``coo_matrix`` that run it and call scipy's own (a sparse numerical Jacobian
+    gives scipy's result), and are replaced by scipy's own names once it has run."""
+    answer = fresh("""
+import numpy as np
+from transgen.sim.solve.ode_solvers import LeanLSODA
+common = sys.modules['scipy.integrate._ivp.common']
+out['deferred'] = type(sys.modules['scipy.sparse']).__name__
+out['names'] = sorted(n for n in ('find', 'coo_matrix') if n in vars(sys.modules['scipy.sparse']))
+out['before'] = common.find.__module__
+def f(t, y):
+    return np.array([y[1] ** 2, -3.0 * y[0] + y[2], np.sin(y[2])])
+y = np.array([0.3, -0.2, 0.5])
+structure = np.array([[0, 1, 0], [1, 0, 1], [0, 0, 1]])
+sparsity = (structure, np.array([0, 0, 1]))  # columns 0 and 1 share no row: one group
+jac, _ = common.num_jac(f, 0.0, y, f(0.0, y), 1e-8, None, sparsity)
+import scipy.sparse
+out['after'] = [common.find is scipy.sparse.find, common.coo_matrix is scipy.sparse.coo_matrix]
+out['completed'] = type(sys.modules['scipy.sparse']).__name__
+reference, _ = common.num_jac(f, 0.0, y, f(0.0, y), 1e-8, None, sparsity)
+out['same'] = scipy.sparse.issparse(jac) and (jac != reference).nnz == 0 and jac.format == reference.format
+""")
+    assert answer["deferred"] == "_DeferredPackage" and answer["names"] == []
+    assert answer["before"] == "transgen.sim.solve.scipy_parts"
+    assert answer["completed"] == "module" and answer["after"] == [True, True] and answer["same"]
+
+
 def test_a_package_imported_already_is_used_as_it_is():
     answer = fresh("""
 import scipy.integrate, scipy.optimize

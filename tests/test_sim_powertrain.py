@@ -18,7 +18,8 @@ from transgen.sim.core.causality import AlgebraicLoopError, Causality
 from transgen.sim.engine import RPM
 from transgen.sim.engine.torque_converter import TorqueConverter
 from transgen.sim.engine.turbo_report import turbo_report
-from transgen.sim.model.powertrain import ConverterComponent, TurbodieselSource
+from transgen.sim.model.powertrain import ConverterComponent
+from transgen.sim.model.turbodiesel import TurbodieselSource
 from transgen.sim.scenario.load import bundled_scenarios, load_scenario
 
 SCENARIOS = Path(__file__).resolve().parent.parent / "sim" / "scenarios"

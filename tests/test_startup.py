@@ -123,6 +123,27 @@ def test_a_run_limits_the_blas_to_one_thread_every_time():
     assert all(after != [1] for after in seen[1::2])
 
 
+def test_a_blas_loaded_inside_a_run_is_limited_where_the_run_says():
+    """single_threaded limits the BLAS libraries loaded when it starts; one loaded later (scipy's,
+    by the stiff solvers) from limit_loaded() on; both restored at its end."""
+    many = _blas_threads("import numpy\n", OPENBLAS_NUM_THREADS="2")
+    if many in ("[]", "[1]"):
+        pytest.skip("no multi-threaded BLAS that threadpoolctl knows")
+    code = ("import json, numpy, threadpoolctl\nfrom transgen.blas import limit_loaded, single_threaded\n"
+            "def blas():\n    return sorted({i['num_threads'] for i in threadpoolctl.threadpool_info() "
+            "if i['user_api'] == 'blas'})\n"
+            "seen = [len(threadpoolctl.threadpool_info())]\nwith single_threaded():\n    import scipy.linalg\n"
+            "    seen += [len(threadpoolctl.threadpool_info()), blas()]\n    limit_loaded()\n    seen.append(blas())\n"
+            "seen.append(blas())\nprint(json.dumps(seen))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                         env={k: v for k, v in os.environ.items() if not k.endswith("_NUM_THREADS")}
+                         | {"OPENBLAS_NUM_THREADS": "2"}, cwd=tempfile.gettempdir())
+    before, during, loaded, limited, after = json.loads(out.stdout.strip().splitlines()[-1])
+    if during == before:
+        pytest.skip("scipy shares numpy's BLAS here")
+    assert 1 in loaded and len(loaded) == 2 and limited == [1] and after == json.loads(many)
+
+
 def test_the_package_names_still_resolve():
     assert transgen.load_mechanism("ht740").name
     assert {"build_graph", "gear_table", "Mechanism"} <= set(dir(transgen))
@@ -197,3 +218,69 @@ def test_a_mechanism_parses_the_same_without_the_cache(monkeypatch):
         assert load_mechanism("ht740") == cached
     finally:
         _grammar.cache_clear()
+
+
+# --- the simulator's cold start (issue 23): what `transgen simulate` and a script's first run import
+
+def modules_after(code: str, **env: str) -> dict[str, str]:
+    """Module name -> type name of every module in ``sys.modules`` after ``code`` in a fresh
+    interpreter (``_DeferredPackage``: a package registered whose ``__init__`` has not run)."""
+    probe = code + "\nimport sys, json\nprint(json.dumps({m: type(v).__name__ for m, v in list(sys.modules.items())}))"
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True,
+                         env=dict(os.environ, MPLBACKEND="Agg") | env, cwd=tempfile.gettempdir())
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+UNNEEDED_BY_A_RUN = (
+    "sympy", "matplotlib", "networkx", "lark", "numba",
+    "numpy.f2py", "numpy.testing", "numpy.ma",  # scipy's array-API layer imports these (0.2-0.3 s)
+    "scipy._lib._array_api", "scipy.sparse._base", "scipy.linalg._basic", "scipy.optimize._optimize",
+    "scipy.integrate._quadpack", "scipy.special",
+    "transgen.sim.engine.diesel", "transgen.sim.model.turbodiesel", "transgen.sim.engine.map_generator",
+    "transgen.parameters", "transgen.sim.study.runner", "transgen.synthesis.fit")
+DEFERRED = ("scipy.integrate", "scipy.linalg", "scipy.optimize", "scipy.sparse")
+
+
+def _jit_settings() -> list[str]:
+    """``TRANSGEN_JIT`` values to probe: the Python path, and the compiled one where its kernels
+    are built (else the probe would start their 30-60 s build in the background)."""
+    from transgen.sim.core import aot
+
+    return ["0", "1"] if aot.kernels() is not None else ["0"]
+
+
+@pytest.mark.parametrize("jit", _jit_settings())
+@pytest.mark.parametrize("how", ["cli", "script"])
+def test_a_simulation_imports_only_what_it_uses(how, jit, warm_cache):
+    """``transgen simulate ht740_improved`` and a script's ``load_scenario(...).run()`` (the
+    switching model on LSODA with a torque converter) import neither the symbolic, plotting or
+    graph libraries nor the turbodiesel, nor scipy's packages beyond the parts the run uses."""
+    code = (run_cli(["simulate", "ht740_improved"]) if how == "cli" else
+            "from transgen.sim import load_scenario\nassert load_scenario('ht740_improved').run().success\n")
+    loaded = modules_after(code, TRANSGEN_JIT=jit, XDG_CACHE_HOME=str(warm_cache))
+    assert "transgen.sim.solve.ode_solvers" in loaded and "scipy.integrate._ivp.lsoda" in loaded  # it ran
+    found = [m for m in loaded if any(m == u or m.startswith(u + ".") for u in UNNEEDED_BY_A_RUN)]
+    assert not found, found
+    assert {p: loaded[p] for p in DEFERRED if p in loaded} == {p: "_DeferredPackage" for p in DEFERRED}
+
+
+def test_the_probe_sees_a_package_completed():
+    """The check above can fail: asking scipy.sparse for a name runs its ``__init__``."""
+    loaded = modules_after("from transgen.sim.solve import ode_solvers\nimport scipy.sparse\nscipy.sparse.eye\n")
+    assert loaded["scipy.sparse"] == "module" and "scipy._lib._array_api" in loaded and "numpy.ma" in loaded
+
+
+def test_the_engine_package_loads_each_name_from_its_module():
+    """``transgen.sim.engine`` (names loaded on first use) offers every public name of its
+    modules, each from the module that defines it (``turbo_report`` is that module)."""
+    import importlib
+
+    import transgen.sim.engine as engine
+
+    table = engine._WHERE
+    assert table and set(engine.__all__) == set(table)
+    for module in set(table.values()):
+        names = set(importlib.import_module(f"transgen.sim.engine.{module}").__all__) - {"turbo_report"}
+        assert {n for n, m in table.items() if m == module} == names, module
+    assert all(getattr(engine, n) is getattr(importlib.import_module(f"transgen.sim.engine.{m}"), n)
+               for n, m in table.items())

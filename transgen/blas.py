@@ -14,11 +14,12 @@ which cost a numeric command 40-60 ms of its 0.25-0.3 s on a loaded 2-core machi
 """
 from __future__ import annotations
 
+import contextlib
 import functools
 import os
 import sys
 
-__all__ = ["single_threaded", "one_blas_thread", "one_thread_from_start", "BLAS_THREAD_VARIABLES"]
+__all__ = ["single_threaded", "limit_loaded", "one_blas_thread", "one_thread_from_start", "BLAS_THREAD_VARIABLES"]
 
 BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 """The environment variables that set a BLAS library's threads when it is loaded."""
@@ -37,18 +38,47 @@ def one_thread_from_start() -> None:
 
 def single_threaded(*preload: str):
     """Context manager: the BLAS libraries loaded in this process use one thread inside it (the
-    previous limits are restored on exit; nested use is harmless). A library loaded later is not
-    limited: ``preload`` names modules to import first (``"scipy.linalg"``: scipy has a BLAS of
-    its own), except where every variable of :data:`BLAS_THREAD_VARIABLES` is 1 (the command line,
-    a sweep's worker): a library loaded later starts with one thread, and a run that does not
-    need it does not import it (scipy.linalg costs a worker 0.05 s)."""
+    previous limits are restored on exit; nested use is harmless). A library loaded later is
+    limited where :func:`limit_loaded` is called after its import (the simulator does before each
+    integration segment); ``preload`` names modules to import first (``"scipy.linalg"``: scipy
+    has a BLAS of its own), except where every variable of :data:`BLAS_THREAD_VARIABLES` is 1
+    (the command line, a sweep's worker): a library loaded later starts with one thread, and a
+    run that does not need it does not import it (scipy.linalg costs a worker 0.05 s)."""
     import importlib
 
     if not all(os.environ.get(name) == "1" for name in BLAS_THREAD_VARIABLES):
         for name in preload:
             importlib.import_module(name)
+    return _Limits()
 
-    return _controller().limit(limits=1, user_api="blas")
+
+class _Limits(contextlib.ExitStack):
+    """The limits of one :func:`single_threaded`: the first set when it is made, those of
+    :func:`limit_loaded` after; undone in the reverse order on exit."""
+
+    def __init__(self):
+        super().__init__()
+        self.enter_context(_controller().limit(limits=1, user_api="blas"))
+        self.modules = len(sys.modules)
+        _ACTIVE.append(self)
+
+    def __exit__(self, *exc):
+        with contextlib.suppress(ValueError):
+            _ACTIVE.remove(self)
+        return super().__exit__(*exc)
+
+
+_ACTIVE: list = []  # the single_threaded limits in force
+
+
+def limit_loaded() -> None:
+    """Inside :func:`single_threaded`: limit to one thread the BLAS libraries loaded since it
+    began or since the last call (a module that brings one was imported: e.g. scipy.linalg by
+    the stiff solvers); nothing where no module was imported since (a comparison of counts)."""
+    if _ACTIVE and _ACTIVE[-1].modules != len(sys.modules):
+        limits = _ACTIVE[-1]
+        limits.modules = len(sys.modules)
+        limits.enter_context(_controller().limit(limits=1, user_api="blas"))
 
 
 _CONTROLLER: list = []  # [(number of modules loaded when scanned, threadpoolctl.ThreadpoolController)]

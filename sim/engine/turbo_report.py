@@ -5,7 +5,7 @@ speed, chi range) and compares two runs (basic vs iterative algorithm) binned by
 flow, as thesis section 4.6 discusses Figs. 4.17-4.24; :func:`algorithm_difference` evaluates both
 turbocharger algorithms on the same states of one run, without the engine's feedback.  A run is
 a :class:`~transgen.sim.core.result.Result` with the signals of
-:class:`~transgen.sim.model.powertrain.TurbodieselSource`.  Times in s, speeds in rpm, flows in kg/s.
+:class:`~transgen.sim.model.turbodiesel.TurbodieselSource`.  Times in s, speeds in rpm, flows in kg/s.
 """
 from __future__ import annotations
 

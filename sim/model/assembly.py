@@ -16,7 +16,6 @@ from dataclasses import dataclass, field
 from ..core.causality import AlgebraicLoopError, Block, Causality, CausalityError, check_connections
 from .components import Driveline, EngineOnLink, EngineWithConverter, InputTorque, LinkLoad
 from ..engine.torque_converter import TorqueConverter
-from .powertrain import ConverterComponent, TurbodieselSource
 
 __all__ = ["Assembly", "causal_assembly", "check_powertrain", "check_scenario_causality"]
 
@@ -50,11 +49,12 @@ def causal_assembly(pt) -> Assembly:
     Mechanism links are inertial blocks (``link NAME``); each shift element is a resistive block
     on its link(s) (its causality while slipping; locked, it is a rigid connection whose loop the
     mode solution hides, thesis 2.4.3, as are the gearsets). Components: a turbodiesel's air path
-    and torque (:meth:`TurbodieselSource.causal_structure`), the converter (resistive between
+    and torque (:meth:`~transgen.sim.model.turbodiesel.TurbodieselSource.causal_structure`), the converter (resistive between
     two links), an input torque or engine map (an effort source, resistive), an engine with its
     own inertia behind a converter (inertial crank, resistive converter), loads (resistive), the
     driveline (compliant driveshaft and inertial vehicle). A component with a
-    ``causal_structure(link_block)`` method gives its own blocks and joints.
+    ``causal_structure(link_block)`` method gives its own blocks and joints, and with
+    ``causal_keys`` the scenario keys an error about them names (else its name).
     """
     tr = pt.transmission
     asm = Assembly()
@@ -74,13 +74,8 @@ def causal_assembly(pt) -> Assembly:
     for c in pt.components:
         if hasattr(c, "causal_structure") and callable(c.causal_structure):
             blocks, joints = c.causal_structure(link_block)
-            if isinstance(c, TurbodieselSource):
-                origin = ("input", "crank_model") if c.crank_model != "torque" else ("input",)
-            elif isinstance(c, ConverterComponent):
-                origin = ("converter",)
-            else:
-                origin = (getattr(c, "name", "") or type(c).__name__,)
-            asm.add(blocks, joints, origin)
+            origin = getattr(c, "causal_keys", None) or (getattr(c, "name", "") or type(c).__name__,)
+            asm.add(blocks, joints, tuple(origin))
         elif isinstance(c, Driveline):
             asm.add([Block("driveshaft", {"a": _K, "b": _K}), Block("vehicle", {"shaft": _I})],
                     [("driveshaft.a", link_block(c.output)), ("driveshaft.b", "vehicle")], ("driveline",))

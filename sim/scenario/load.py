@@ -462,7 +462,7 @@ def _attach_request(r: Reader, components: list, requests: list) -> None:
     ((signal, keys) pairs, the keys where each is asked for, for the error when the input has no
     engine). A map engine scales its torque (:meth:`EngineMap.requested`); the turbodiesel its
     fuel command (bounded by the full-load fuel at the current speed)."""
-    from ..model.powertrain import TurbodieselSource
+    from ..model.turbodiesel import TurbodieselSource
     from ..core.signals import Product
 
     signal = requests[0][0] if len(requests) == 1 else Product(tuple(s for s, _ in requests))
@@ -609,7 +609,7 @@ def _components(r: Reader, data: dict, mech: Mechanism, tr: Transmission) -> lis
                                              omega_start=r.number(inp, keys, "engine_speed_rpm", 700.0) * RPM,
                                              idle=r.number(inp, keys, "idle_rpm", 0.0) * RPM, fuel=fuel))
     elif kind == "turbodiesel":
-        from ..model.powertrain import turbodiesel_component
+        from ..model.turbodiesel import turbodiesel_component
 
         comps.append(turbodiesel_component(r, inp, keys, mech, tr))
     else:

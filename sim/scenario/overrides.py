@@ -158,6 +158,8 @@ def check_keys(overrides: Mapping[str, object] | None, data: dict, mech) -> None
     """Check the overrides' keys against the keys the scenario accepts with the mechanism's
     element and link names (unknown keys: with the closest known key)."""
     scenario, _ = _split(overrides)
+    if not scenario:
+        return  # the key tree imports every model (the turbodiesel's keys are its parameters' fields)
     tree = key_tree(mech.element_names, mech.link_names)
     for parts, (key, _value) in scenario.items():
         _check(parts, key, tree, data, mech)
@@ -166,9 +168,11 @@ def check_keys(overrides: Mapping[str, object] | None, data: dict, mech) -> None
 def mech_overrides(mech, overrides: Mapping[str, object] | None):
     """``mech`` with the ``mech.NAME.PARAM`` overrides set (each checked, see
     :func:`transgen.parameters.with_parameter`)."""
+    _, params = _split(overrides)
+    if not params:
+        return mech
     from transgen.parameters import ParameterError, with_parameter
 
-    _, params = _split(overrides)
     for parts, (key, value) in params.items():
         if len(parts) != 3 or not all(isinstance(p, str) for p in parts):
             raise _error(key, "a mechanism parameter is mech.NAME.PARAM, e.g. mech.L1.J or mech.C4.static")
@@ -246,7 +250,7 @@ def settable_keys(data: dict, mech=None) -> dict[str, object]:
     walk(tree, data, "")
     inp = data.get("input")
     if isinstance(inp, dict) and inp.get("type") == "turbodiesel":
-        from ..model.powertrain import turbodiesel_defaults
+        from ..model.turbodiesel import turbodiesel_defaults
 
         for key, value in turbodiesel_defaults().items():
             if out.get(f"input.{key}", 0) is None and (inp.get("turbo") == "iterative" or not key.startswith(("ports.", "turbo_solver."))):

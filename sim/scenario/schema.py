@@ -64,7 +64,7 @@ def key_tree(elements=None, links=None) -> dict:
     name, the key :data:`ANY`)."""
     from ..control.driver import DRIVER_KEYS
     from ..engine.fuel import FUEL_KEYS
-    from ..model.powertrain import ENGINE_KEYS, GAS_KEYS, GOVERNOR_KEYS, PORT_KEYS, SHAFT_KEYS, SOLVER_KEYS
+    from ..model.turbodiesel import ENGINE_KEYS, GAS_KEYS, GOVERNOR_KEYS, PORT_KEYS, SHAFT_KEYS, SOLVER_KEYS
     from ..control.schedule import ShiftTemplate
 
     signals = {"torque", "throttle_signal", "fuel_signal", "output_torque", "signal", "apply", "torque_request",

@@ -59,7 +59,7 @@ def dense_values(sol, ts: np.ndarray) -> np.ndarray:
     # OdeSolution's choice of the interpolant of each time
     segment = np.searchsorted(sol.ts_sorted, ts, side=sol.side) - 1
     np.clip(segment, 0, sol.n_segments - 1, out=segment)
-    used = np.unique(segment)  # only the steps with a time to evaluate
+    used = np.flatnonzero(np.bincount(segment))  # the steps with a time: np.unique (which imports numpy.ma)
     index = np.searchsorted(used, segment)
     parts = [interpolants[s] for s in used.tolist()]
     n = parts[0].yh.shape[0]

@@ -21,6 +21,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from ...blas import limit_loaded
 from .scipy_parts import brentq, is_bdf, lsoda_classes, lsoda_routine
 
 LSODA, LsodaDenseOutput, ConstantDenseOutput, OdeSolution = lsoda_classes()
@@ -261,6 +262,7 @@ def solve_segment(fun, t0: float, t1: float, y0: np.ndarray, method, events: lis
             raise ValueError(f"unknown solve_ivp method {method!r}")
         method = getattr(scipy.integrate, method)
     t0, t1 = float(t0), float(t1)
+    limit_loaded()  # a BLAS the solver's import brought (scipy.linalg): one thread as well
     solver = method(fun, t0, y0, t1, vectorized=False, **options)
     ts, ys, interpolants = [t0], [y0], []
     directions = [getattr(e, "direction", 0) for e in events]

@@ -68,6 +68,48 @@ def _complete(module: types.ModuleType) -> None:
         finally:
             _RUNNING.discard(name)
             module.__class__ = types.ModuleType
+        for done in _ON_COMPLETE.pop(name, ()):
+            done(module)
+
+
+_ON_COMPLETE: dict[str, list] = {}  # package -> what to do once its __init__ has run
+
+
+def _stand_ins(package: types.ModuleType, names: tuple[str, ...], load):
+    """``load()`` (an import that takes ``names`` from the deferred ``package``) with stand-ins
+    for those names in the package: functions that complete the package and call its own. The
+    stand-ins are in the package during ``load()`` only; in the modules that took them, they are
+    replaced by the package's own names once its ``__init__`` has run."""
+    def stand_in(name: str):
+        def forward(*args, **kwargs):
+            _complete(package)
+            return getattr(package, name)(*args, **kwargs)
+
+        forward.__name__ = forward.__qualname__ = name
+        return forward
+
+    placed = {name: stand_in(name) for name in names}
+    before = set(sys.modules)
+    package.__dict__.update(placed)
+    try:
+        loaded = load()
+    finally:
+        for name, value in placed.items():
+            if package.__dict__.get(name) is value:
+                del package.__dict__[name]
+    takers = [sys.modules[m] for m in set(sys.modules) - before]
+
+    def restore(done: types.ModuleType) -> None:
+        for module in takers:
+            for name, value in placed.items():
+                if getattr(module, name, None) is value:
+                    setattr(module, name, getattr(done, name))
+
+    if type(package) is _DeferredPackage:
+        _ON_COMPLETE.setdefault(package.__name__, []).append(restore)
+    else:
+        restore(package)
+    return loaded
 
 
 def deferred_package(name: str) -> types.ModuleType:
@@ -123,7 +165,10 @@ def lsoda_classes() -> tuple:
 
     scipy.linalg is deferred too: the simulator's path does not use it, but loading numba's
     compiled code imports ``scipy.linalg.cython_blas`` (numba's check for a BLAS), which ran
-    scipy.linalg's ``__init__`` (0.03 s of a sweep worker's start)."""
+    scipy.linalg's ``__init__`` (0.03 s of a sweep worker's start). So is scipy.sparse, whose
+    ``find`` and ``coo_matrix`` ``_ivp.common`` imports for sparse Jacobians (not the simulator's)
+    and whose ``__init__`` costs 0.2-0.3 s (scipy's array-API layer, which imports numpy.f2py,
+    numpy.testing and numpy.ma): ``_ivp.common`` takes stand-ins (:func:`_stand_ins`)."""
 
     def load():
         integrate = sys.modules["scipy.integrate"]
@@ -131,6 +176,9 @@ def lsoda_classes() -> tuple:
             from scipy.integrate._ode import ode  # the one name _ivp.lsoda takes from the package
 
             integrate.ode = ode
+        sparse = sys.modules["scipy.sparse"]
+        if type(sparse) is _DeferredPackage and "scipy.integrate._ivp.common" not in sys.modules:
+            _stand_ins(sparse, ("find", "coo_matrix"), lambda: importlib.import_module("scipy.integrate._ivp.common"))
         from scipy.integrate._ivp.base import ConstantDenseOutput
         from scipy.integrate._ivp.common import OdeSolution
         from scipy.integrate._ivp.lsoda import LSODA, LsodaDenseOutput
@@ -140,7 +188,7 @@ def lsoda_classes() -> tuple:
     if PUBLIC:
         return _public_lsoda_classes()
     try:
-        return _deferred_import(("scipy.integrate", "scipy.integrate._ivp", "scipy.linalg"), load)
+        return _deferred_import(("scipy.integrate", "scipy.integrate._ivp", "scipy.linalg", "scipy.sparse"), load)
     except Exception:  # noqa: BLE001 - a scipy without these private modules: the public classes
         return _public_lsoda_classes()
 

@@ -17,7 +17,7 @@ __all__ = ["SolverOptions", "Powertrain", "simulate"]
 _MODELS = {"switching": simulate_switching, "compliant": simulate_compliant}
 
 
-@one_blas_thread("scipy.linalg")
+@one_blas_thread()
 def simulate(pt: Powertrain, options: SolverOptions = SolverOptions(), progress=None, start=None) -> Result:
     """Simulate ``pt`` from ``options.t_start`` to ``options.t_end`` with the clutch model
     ``options.model``.
@@ -29,7 +29,8 @@ def simulate(pt: Powertrain, options: SolverOptions = SolverOptions(), progress=
     ``progress``: optional callable ``progress(t)`` called after every integration segment.
     Returns a :class:`Result`; on failure ``success`` is False and ``message`` says when, in which
     mode and why (the samples up to the failure are kept). The run's small dense linear algebra
-    uses one BLAS thread (:mod:`transgen.blas`).
+    uses one BLAS thread (:mod:`transgen.blas`; also a BLAS loaded during the run, e.g. scipy's with the stiff
+    solvers, before they step).
     """
     try:
         run = _MODELS[options.model]

@@ -23,7 +23,8 @@ __all__ = ["run_variant", "run_task", "result_scalars", "flatten", "PRELOAD", "w
 
 #: modules a worker needs, imported once when a local worker process starts (not at its first task)
 PRELOAD = ("transgen.sim.study.task", "transgen.sim.scenario", "transgen.sim.analysis.report", "transgen.sim.solve.switching",
-           "transgen.sim.solve.compliant", "transgen.sim.model.powertrain", "transgen.sim.engine.turbo_report",
+           "transgen.sim.solve.compliant", "transgen.sim.model.powertrain", "transgen.sim.model.turbodiesel",
+           "transgen.sim.engine.turbo_report",
            "transgen.sim.solve.ode_solvers")  # the integrator (scipy.integrate): else imported by the first run
 
 #: fields of the turbo report that compare two runs (a sweep row is one run)

@@ -61,7 +61,7 @@ def has_engine(scenario) -> bool:
     """Whether the scenario's input is an engine that takes a torque request (map engine, engine
     with converter, turbodiesel)."""
     from transgen.sim.model.components import EngineOnLink, EngineWithConverter
-    from transgen.sim.model.powertrain import TurbodieselSource
+    from transgen.sim.model.turbodiesel import TurbodieselSource
 
     return any(isinstance(c, (EngineOnLink, EngineWithConverter, TurbodieselSource))
                for c in scenario.powertrain.components)
