@@ -76,7 +76,6 @@ def _squared(x):
     return np.array([v ** 2 for v in x.tolist()]) if isinstance(x, np.ndarray) else x ** 2
 
 
-
 class TurbodieselSource(Component):
     """The mean-value turbodiesel driving the mechanism's input link.
 
