@@ -9,9 +9,11 @@ from __future__ import annotations
 
 import ctypes
 import json
+import re
 import zipfile
 
 import numpy as np
+
 import pytest
 
 fmpy = pytest.importorskip("fmpy")
@@ -49,6 +51,8 @@ def sources(tmp_path_factory):
             path = folder / "zf8hp70_launch.toml"
             if not path.exists():
                 assert main(["scenario", "new", "zf8hp70", "-o", str(path)]) == 0
+                # the FMU does not port easing (export refuses it): the launch without it
+                path.write_text(re.sub(r"(?m)^ease_slip = .*$", "ease_slip = 0.0", path.read_text()))
             return str(path)
         return name
 

@@ -327,6 +327,12 @@ def _schedule(auto, tr, engine, inputs) -> dict:
         if not isinstance(template, ShiftTemplate) or template.torque_intervention:
             raise FmuError(f"shift {source}-{target}: an automatic schedule's engine torque intervention cannot be "
                            f"exported yet")
+        if template.eases:
+            where = (f'[auto_shift.templates."{source}-{target}"]' if f"{source}-{target}" in auto.templates
+                     else "[auto_shift.template]")
+            raise FmuError(f"shift {source}-{target}: easing the inertia phase's end (ease_slip > 0, an event on the "
+                           f"measured slip) cannot be exported yet; set ease_slip = 0 in {where} (or export with "
+                           f"--set auto_shift.templates.{source}-{target}.ease_slip=0) to export the shift without it")
         numbers = [float(getattr(template, f)) for f in fields]
         if numbers not in templates:
             templates.append(numbers)
