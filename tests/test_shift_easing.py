@@ -141,3 +141,23 @@ def test_the_fmu_export_refuses_easing_with_the_fix(tmp_path):
     with pytest.raises(FmuError, match=r"ease_slip = 0 in \[auto_shift.template\]"):
         load_source(str(path), "eased")
     assert load_source(str(path), "plain", {"auto_shift.template.ease_slip": 0.0}) is not None
+
+
+#: the shift report starts a shift where its oncoming apply leaves zero: a fill level makes that the command
+TUNE = {"simulation.t_end": 4.0, "auto_shift.template.fill_level": 0.02}
+
+
+def test_optimize_tunes_the_easing_of_an_automatic_schedule(tmp_path):
+    from transgen.sim.study.optimize import EASE_PARAMETERS, optimize
+
+    path = _file(tmp_path, SCENARIO + EASE)
+    result = optimize(str(path), max_evaluations=10, population=9, seed=2, overrides=TUNE)
+    assert set(EASE_PARAMETERS) <= set(result.parameters)
+    rows = result.history
+    assert rows[0]["ease_slip"] == 0.5 and rows[0]["ease_level"] == 0.36  # the start: the scenario's own
+    assert len({r["ease_level"] for r in rows}) > 1  # the candidates vary it
+    tuned = result.shifts[0].best_template
+    template = result.overrides["auto_shift.template" + "s.1-2"]
+    assert {k: template[k] for k in EASE_PARAMETERS if k in template} == (
+        {k: getattr(tuned, k) for k in EASE_PARAMETERS} if tuned.eases else {})
+    assert load_scenario(path, {**TUNE, **result.overrides}).run().success
