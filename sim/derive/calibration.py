@@ -185,7 +185,8 @@ def _capacity(mech: Mechanism, name: str, kind: str) -> float:
 def upshift_calibration(mech: Mechanism, source, target, oncoming: tuple[str, ...], offgoing: tuple[str, ...],
                         input_torque: float, input_speed: float, timing: ShiftTiming = ShiftTiming(),
                         graph=None, output_accel: float = 0.0, torque_after: float | None = None,
-                        extra_inertia: float = 0.0, torque_end: float | None = None) -> UpshiftCalibration:
+                        extra_inertia: float = 0.0, torque_end: float | None = None,
+                        eases: bool = True) -> UpshiftCalibration:
     """The calibration of the upshift from ``source`` to ``target`` (:class:`~transgen.sim.derive.launch.ForwardGear`:
     ratio, engaged elements, static torque factors) with the commanded ``oncoming`` and
     ``offgoing`` elements, at the expected input torque ``input_torque`` [N*m] and input speed
@@ -195,7 +196,7 @@ def upshift_calibration(mech: Mechanism, source, target, oncoming: tuple[str, ..
     ``extra_inertia`` [kg*m^2] outside the gearbox that the input's speed change moves too (0 for
     an upshift: the converter leaves the engine at its speed) and the input torque expected when the
     slip closes ``torque_end`` [N*m] (None: the inertia phase's mean), the static share the
-    easing keeps (:func:`ease`); see the module docstring."""
+    easing keeps (:func:`ease`; ``eases`` False: no easing); see the module docstring."""
     t_in = max(float(input_torque), 1e-6)
     # the input's speed change at a fixed output speed (an upshift slows it, a downshift raises it)
     dw = max(float(input_speed), 0.0) * abs(1.0 - target.ratio / source.ratio)
@@ -223,7 +224,7 @@ def upshift_calibration(mech: Mechanism, source, target, oncoming: tuple[str, ..
     # the end of the inertia phase eased: the static share at the torque expected there
     a_end = level(oncoming, target.torque_factors, t_ip_in if torque_end is None else max(float(torque_end), 0.0),
                   "dynamic")
-    ease_level, ease_time, longer = ease(a_ip, a_static, a_end, t_ip)
+    ease_level, ease_time, longer = ease(a_ip, a_static, a_end, t_ip) if eases else (0.0, 0.0, 0.0)
     template = ShiftTemplate(
         fill_time=timing.fill, fill_level=0.0, ramp_time=_round(ramp_time), ramp_end=_round(a_ip),
         hold_time=_round(max(1.5 * t_ip, 0.1) + longer), final_time=timing.final, offgoing_delay=0.0,
@@ -274,12 +275,14 @@ def coast_downshift_calibration(mech: Mechanism, source, target, oncoming, offgo
     low speeds of the throttle-0 downshift lines the converter's torque is near zero (the engine
     idles), the handover level tiny and the ramp through it would take seconds: the oncoming ramp
     reaches its inertia-phase level by ``t_tp`` at the latest (there is hardly a torque to hand
-    over; the offgoing element, carrying almost nothing, is let go at once: no bindup to speak
-    of; a ramp to ``t_tp + t_ip`` synchronised the truck's 4-3 in 1.25 s)."""
+    of; a ramp to ``t_tp + t_ip`` synchronised the truck's 4-3 in 1.25 s). It does not ease
+    (:func:`ease`): the drag's share is too uncertain to ease to (eased to it plus 0.1 of the
+    inertia torque, the 8HP70 car's 4-3 and 2-1 stalled until the hold's end: 1.0 s to
+    synchronism, 26-30 m/s^3)."""
     from dataclasses import replace
 
     cal = upshift_calibration(mech, source, target, oncoming, offgoing, abs(float(drag_torque)), input_speed,
-                              timing, graph, extra_inertia=engine_inertia)
+                              timing, graph, extra_inertia=engine_inertia, eases=False)
     ramp = min(cal.template.ramp_time, _round(timing.torque_phase))
     return replace(cal, template=replace(cal.template, ramp_time=ramp))
 
