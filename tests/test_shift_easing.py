@@ -133,16 +133,6 @@ events = [ { t = 0.5, from = "1", to = "2", template = { ease_slip = 0.5, ease_t
         load_scenario(_file(tmp_path, text))
 
 
-def test_the_fmu_export_refuses_easing_with_the_fix(tmp_path):
-    from transgen.fmu.data import FmuError
-    from transgen.fmu.export import load_source
-
-    path = _file(tmp_path, SCENARIO + EASE)
-    with pytest.raises(FmuError, match=r"ease_slip = 0 in \[auto_shift.template\]"):
-        load_source(str(path), "eased")
-    assert load_source(str(path), "plain", {"auto_shift.template.ease_slip": 0.0}) is not None
-
-
 #: the shift report starts a shift where its oncoming apply leaves zero: a fill level makes that the command
 TUNE = {"simulation.t_end": 4.0, "auto_shift.template.fill_level": 0.02}
 
