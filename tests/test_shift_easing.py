@@ -151,3 +151,29 @@ def test_optimize_tunes_the_easing_of_an_automatic_schedule(tmp_path):
     assert {k: template[k] for k in EASE_PARAMETERS if k in template} == (
         {k: getattr(tuned, k) for k in EASE_PARAMETERS} if tuned.eases else {})
     assert load_scenario(path, {**TUNE, **result.overrides}).run().success
+
+
+def test_the_default_easing_is_the_static_share_plus_a_tenth_of_the_inertia_torque():
+    from transgen.sim.derive.calibration import EASE_RESIDUAL, EASE_SLIP, ease
+
+    # inertia-phase level 0.5 over a static share of 0.3 (mean torque), 0.35 at the phase's end
+    level, ramp, longer = ease(0.5, 0.3, 0.35, 0.4)
+    assert level == pytest.approx(0.35 + EASE_RESIDUAL * 0.2)
+    # the slip rate falls linearly from a = s0/t_ip to 0.1 a over the ramp: the slip it covers
+    # is the half left at the ease event
+    s0, t_ip = 1.0, 0.4
+    a = s0 / t_ip
+    assert 0.5 * (a + EASE_RESIDUAL * a) * ramp == pytest.approx(EASE_SLIP * s0)
+    assert longer == pytest.approx(ramp - EASE_SLIP * t_ip)
+    assert ease(0.3, 0.3, 0.3, 0.4) == (0.0, 0.0, 0.0)  # no inertia torque: nothing to ease
+    assert ease(0.5, 0.3, 0.9, 0.4)[0] == 0.5  # never above the inertia-phase level
+
+
+def test_scenario_new_eases_every_upshift_of_the_8hp70_car():
+    from transgen import load_mechanism
+    from transgen.sim.derive.launch import derive_launch
+
+    launch = derive_launch(load_mechanism("zf8hp70"), "car")
+    for c in launch.calibrations:
+        t = c.template
+        assert t.ease_slip == 0.5 and 0 < t.ease_level < t.ramp_end and t.ease_time > 0, c.source
