@@ -355,6 +355,10 @@ def cmd_scenario_new(args) -> int:
     from .derive.launch import derive_launch, launch_scenario, mechanism_reference
 
     mech = load_mechanism(args.file)
+    if args.maneuver != "launch":  # refused before the launch is derived (transgen.own_converter)
+        from .derive.maneuver import refuse_own_converter
+
+        refuse_own_converter(mech, args.maneuver)
     launch = derive_launch(mech, args.vehicle)
     # a bundled mechanism by its name, a user's file relative to where the scenario is written
     where = Path(args.output).resolve().parent if args.output else Path.cwd()

@@ -599,3 +599,59 @@ def test_unknown_teeth_are_refused():
     mech = parse(text, "x.mech", unknown_teeth=True)
     with pytest.raises(PowerFlowError, match="tooth counts of PS4 are unknown"):
         power_flow(mech)
+
+
+# ------------------------------------------------------------------------ rolling power
+
+WOLFROM = """
+link IN J=0.01
+link C J=0.01
+link R1 J=0.01
+link OUT J=0.01
+stepped W carrier=C sun1=IN Ns1=20 ring1=R1 Nr1=60 ring2=OUT Nr2=59 Np1=20 Np2=19
+brake B R1 static=100 dynamic=80
+input IN
+output OUT
+gear 1 = B
+"""
+
+
+def _wolfrom_by_hand():
+    """Ratio and rolling power of the Wolfrom stage above, lossless, carrier floating: with
+    u = w_pinion - w_c, a = Np1/Nr1, b = Np1/Ns1, c = Np2/Nr2, ring1 held gives w_c = -a*u, the
+    sun w_s = w_c - b*u = 1, the output w_r2 = w_c + c*u; i = (a + b)/(a - c). Unit sun torque
+    feeds b/(a + b) into the meshes in the carrier frame, the output ring (t = -i) feeds
+    -i*c*u = c/(a - c), the held ring takes both out."""
+    a, b, c = Fraction(20, 60), Fraction(20, 20), Fraction(19, 59)
+    return (a + b) / (a - c), b / (a + b) + c / (a - c)
+
+
+def test_rolling_power_of_a_wolfrom_stage_by_hand():
+    ratio, rolling = _wolfrom_by_hand()
+    assert (ratio, rolling) == (118, Fraction(117, 4))  # 29.25 times the input power in the meshes
+    g = power_flow(parse_mechanism(WOLFROM), eta0=1.0).gear("1")
+    assert g.ratio == pytest.approx(float(ratio), rel=1e-12)
+    assert g.set("W").rolling == pytest.approx(float(rolling), rel=1e-12)
+    # what leaves the set is the input power: neither throughput nor circulating power sees it
+    assert g.circulating_power == 0.0 and g.set("W").throughput == pytest.approx(1.0, rel=1e-12)
+    # with losses the meshes lose by the rolling power, not the throughput: eta far below eta0
+    lossy = power_flow(parse_mechanism(WOLFROM), eta0=0.99).gear("1")
+    assert lossy.efficiency < 0.8 and lossy.set("W").rolling > 20  # 77.2 %, 22.8
+
+
+@pytest.mark.parametrize("eta0", [1.0, 0.97])
+def test_rolling_power_of_a_simple_set_with_its_carrier_held_is_the_input_power(eta0):
+    g = _single(1, "carrier", "sun", "ring", 30, 72, eta0)  # every mesh carries the input power
+    assert g.set("P").rolling == pytest.approx(1.0, rel=1e-12)
+    g = _single(1, "ring", "sun", "carrier", 30, 72, eta0)  # ring held: Nr/(Ns+Nr) of it rolls
+    assert g.set("P").rolling == pytest.approx(72 / 102, rel=1e-12)
+
+
+def test_rolling_power_in_text_and_json(capsys):
+    flow = power_flow(load_mechanism("zf8hp70"))
+    assert all(r == 0.0 for r in flow.gear("6").set_rolling.values())  # direct drive: no rolling
+    assert main(["powerflow", "zf8hp70", "--gear", "1", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["gears"][0]["set_rolling"] == pytest.approx(flow.gear("1").set_rolling)
+    assert main(["powerflow", "zf8hp70", "--gear", "1"]) == 0
+    assert "rolling power" in capsys.readouterr().out

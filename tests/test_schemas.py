@@ -36,6 +36,8 @@ COMMANDS = [
     (["lever", "zf8hp70", "--json"], "transgen.lever/1"),
     (["simulate", "--list", "--json"], "transgen.scenarios/1"),
     (["simulate", "simple2_upshift", "--json"], "transgen.simulate/1"),
+    (["simulate", "simple2_upshift", "--set", 'losses.kinds=["drag", "pump", "mesh"]', "--report", "--json"],
+     "transgen.simulate/1"),
     (["simulate", "simple2_upshift", "--compare-model", "compliant", "--json"], "transgen.simulate/1"),
     (["simulate", "ht740_turbo", "--json"], "transgen.simulate/1"),
     (["scenario", "new", "ht740", "--vehicle", "truck", "--json"], "transgen.scenario-new/1"),

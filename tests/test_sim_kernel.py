@@ -77,6 +77,18 @@ def test_the_engine_torque_request_compiles_to_the_python_numbers(kind):
     _compare_compiled_with_python("ht740_original", overrides)
 
 
+def test_the_idle_governor_of_an_engine_map_compiles_to_the_python_numbers():
+    """An engine map on the input link with an idle governor (the engine of a mechanism with its
+    own converter, transgen.own_converter): idle far above the random states' speeds, so the
+    governed throttle is what both paths compute."""
+    _compare_compiled_with_python("ht740_original", {"input.type": "engine_map", "input.idle_rpm": 3000.0})
+    pt = load_scenario("ht740_original", {"input.type": "engine_map", "input.idle_rpm": 3000.0}).powertrain
+    engine = next(c for c in pt.components if hasattr(c, "idle"))
+    w = np.zeros(len(pt.transmission.links))
+    w[engine.link] = 0.5 * engine.idle  # half idle: the governor opens the throttle fully
+    assert engine.signals(0.0, None, w)["throttle"] == 1.0
+
+
 def test_an_engine_under_a_torque_request_samples_its_right_hand_side_numbers():
     """The output sampling of an engine behind a converter under a shift's torque request (one loop
     over the output times, compiled where the simulator is) gives the per-point numbers of its

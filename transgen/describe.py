@@ -16,7 +16,7 @@ def _capacity(x: float):
 
 MECHANISM_UNITS = {"J": "kg*m^2", "static": "N*m", "dynamic": "N*m", "Ns": "1", "Nr": "1",
                    "n1": "1 (by = teeth) or m (by = radius)", "n2": "1 (by = teeth) or m (by = radius)",
-                   "ratio": "1", "eta0": "1", "eta": "1", "max_slip_rpm": "rpm", "Np1": "1", "Np2": "1",
+                   "ratio": "1", "eta0": "1", "eta": "1", "max_slip_rpm": "rpm", "drag": "N*m*s/rad", "Np1": "1", "Np2": "1",
                    "teeth": "1"}
 """Units of the numeric fields of :func:`mechanism_to_dict` (``static`` None: no limit)."""
 
@@ -47,7 +47,7 @@ def mechanism_to_dict(m: Mechanism) -> dict:
         "elements": [
             {"name": e.name, "kind": e.kind, "links": [e.link1, e.link2], "static": _capacity(e.static),
              "dynamic": e.dynamic, "free": e.free, "brake_type": e.brake_type,
-             "max_slip_rpm": e.max_slip_rpm}
+             "max_slip_rpm": e.max_slip_rpm, "drag": e.drag}
             for e in m.elements
         ],
         "input": m.input,

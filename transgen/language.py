@@ -27,9 +27,10 @@ from typing import TYPE_CHECKING
 
 from .errors import Diagnostic, MechSyntaxError, MechValidationError
 from .grammar_cache import parser_module
+from .language_share import resolve_shares
 from .library import package_folder
 from .mech_format import ALTERNATIVE, format_mechanism
-from .mech_numbers import (CAPACITY, EFFICIENCY, INERTIA, MAX_NUMBER_LENGTH, RADIUS, RATIO, RATIO_TOL, SLIP_SPEED, TEETH,
+from .mech_numbers import (CAPACITY, DRAG, EFFICIENCY, INERTIA, MAX_NUMBER_LENGTH, RADIUS, RATIO, RATIO_TOL, SLIP_SPEED, TEETH,
                            _NOT_FINITE, Quantity, _suggest, read_number, shorten)
 from .model import (
     HOUSING,
@@ -56,7 +57,7 @@ RESERVED = frozenset(
     {
         "transmission", "link", "planetary", "gears", "clutch", "brake", "oneway", "input",
         "output", "torque", "gear", "neutral", "mode", "coordinates", "none", HOUSING,
-        ALTERNATIVE, "stepped", "dog",
+        ALTERNATIVE, "stepped", "dog", "share",
         "T_in", "T_out",  # the input and output torques of every mechanism
     }
 )
@@ -82,6 +83,7 @@ def _grammar() -> ModuleType:
 _TERMINAL_NAMES = {
     "NAME": "a name",
     "GEARNAME": "a gear name",
+    "MEMBER": "a planetary member SET.MEMBER (e.g. PG1.ring)",
     "NUMBER": "a number",
     "STRING": 'a quoted string ("...")',
     "EQUAL": "'='",
@@ -237,8 +239,9 @@ _PARAMS: dict[str, dict[str, object]] = {
                   "eta0": EFFICIENCY},
     "gears": {"N1": TEETH, "N2": TEETH, "r1": RADIUS, "r2": RADIUS, "mesh": ("external", "internal"),
               "eta": EFFICIENCY},
-    "clutch": {"static": CAPACITY, "dynamic": CAPACITY, "max_slip_rpm": SLIP_SPEED},
-    "brake": {"static": CAPACITY, "dynamic": CAPACITY, "type": ("plate", "band"), "max_slip_rpm": SLIP_SPEED},
+    "clutch": {"static": CAPACITY, "dynamic": CAPACITY, "max_slip_rpm": SLIP_SPEED, "drag": DRAG},
+    "brake": {"static": CAPACITY, "dynamic": CAPACITY, "type": ("plate", "band"), "max_slip_rpm": SLIP_SPEED,
+              "drag": DRAG},
     "oneway": {"free": ("positive", "negative"), "max_slip_rpm": SLIP_SPEED},
     "dog": {"static": CAPACITY, "max_slip_rpm": SLIP_SPEED},
     "gear": {"ratio": RATIO, "tol": RATIO_TOL, "rounding": ("nearest", "truncated")},
@@ -351,6 +354,7 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str,
     outputs: list[_Word] = []
     link_refs: list[tuple[_Word, bool]] = []  # (reference, housing allowed)
     element_refs: list[_Word] = []
+    share_statements: list[_Statement] = []
 
     for stmt in statements:
         params = _check_params(stmt, report)
@@ -445,7 +449,7 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str,
                                      f"{kw} {name.text}: dynamic capacity {dynamic:g} N*m exceeds static capacity {static:g} N*m")
                 elements.append(ShiftElement(name.text, kw, w1.text, w2.text, static, dynamic,
                                              params.get("free"), params.get("type"), name.span,
-                                             params.get("max_slip_rpm")))
+                                             params.get("max_slip_rpm"), params.get("drag")))
         elif kw == "input":
             inputs.append(words[0])
             link_refs.append((words[0], False))
@@ -488,12 +492,15 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str,
                                  "give tol= (an explicit tolerance) or rounding= (how the ratio was printed), not both")
                 gears.append(Gear(name.text, tuple(dict.fromkeys(engaged)), kw, params.get("ratio"), name.span,
                                   params.get("tol"), params.get("rounding", "nearest"), bool(flags)))
+        elif kw == "share":
+            share_statements.append(stmt)
         elif kw == "coordinates":
             if coordinates:
                 report.error(stmt.span, "coordinates are given twice")
             coordinates = list(words)
             link_refs.extend((w, False) for w in words)
 
+    shares = resolve_shares(share_statements, declared, planetaries, report)
     link_names = {n for n, (what, _) in declared.items() if what == "link"}
     for ref, housing_ok in link_refs:
         if ref.text == HOUSING and housing_ok:
@@ -539,6 +546,7 @@ def _resolve(statements: list[_Statement], report: _Reporter, filename: str,
         modes=tuple(modes),
         coordinates=tuple(coord_texts),
         stepped=tuple(stepped),
+        shares=shares,
         source=filename,
         text=report.text,
     )

@@ -36,6 +36,7 @@ def format_mechanism(m: Mechanism) -> str:
         ns, nr = (_teeth_text(n, b) for n, b in ((p.n_sun, p.sun_bounds), (p.n_ring, p.ring_bounds)))
         out.append(f"planetary {p.name} sun={p.sun} ring={p.ring} carrier={p.carrier} Ns={ns} Nr={nr}{pin}"
                    + _optional("eta0", p.eta0))
+    out += [f"share {s.set1}.{s.member1} {s.set2}.{s.member2}" for s in m.shares]
     for sp in m.stepped:
         members = " ".join(f"{role}={link} {'Ns' if role.startswith('sun') else 'Nr'}{role[-1]}={teeth}"
                            for role, link, teeth in sp.members)
@@ -46,7 +47,7 @@ def format_mechanism(m: Mechanism) -> str:
         v1, v2 = (int(g.n1), int(g.n2)) if g.by == "teeth" else (_number(g.n1), _number(g.n2))
         out.append(f"gears {g.name} {g.link1} {g.link2} {k1}={v1} {k2}={v2} mesh={g.mesh}" + _optional("eta", g.eta))
     for e in m.elements:
-        slip = _optional("max_slip_rpm", e.max_slip_rpm)
+        slip = _optional("max_slip_rpm", e.max_slip_rpm) + _optional("drag", e.drag)
         if e.kind == "clutch":
             out.append(f"clutch {e.name} {e.link1} {e.link2} static={_number(e.static)} dynamic={_number(e.dynamic)}{slip}")
         elif e.kind == "brake":

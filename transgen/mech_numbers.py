@@ -11,7 +11,7 @@ import sys
 from dataclasses import dataclass
 
 __all__ = ["Quantity", "MAX_NUMBER_LENGTH", "INERTIA", "TEETH", "RADIUS", "CAPACITY", "RATIO", "EFFICIENCY",
-           "SLIP_SPEED", "RATIO_TOL", "read_number", "shorten"]
+           "SLIP_SPEED", "DRAG", "RATIO_TOL", "read_number", "shorten"]
 
 
 @dataclass(frozen=True)
@@ -54,6 +54,7 @@ CAPACITY = Quantity(sys.float_info.min, 1e8, "N*m", ">=0")
 RATIO = Quantity(1e-6, 1e6)
 EFFICIENCY = Quantity(1e-6, 1.0, sign=">0")
 SLIP_SPEED = Quantity(1e-3, 1e6, "rpm", ">0")
+DRAG = Quantity(1e-9, 1e4, "N*m*s/rad", ">=0")
 RATIO_TOL = Quantity(1e-12, 1e6, sign=">0")
 """Ranges of the numbers of a ``.mech`` file (see README, "Numbers")."""
 

@@ -27,6 +27,9 @@ __all__ = [
     "Planetary",
     "SteppedPlanetary",
     "STEPPED_MEMBERS",
+    "Share",
+    "share_members",
+    "share_groups",
     "GearPair",
     "ShiftElement",
     "ExternalTorque",
@@ -95,6 +98,47 @@ class Planetary:
     def members(self) -> tuple[str, str, str]:
         """(sun, ring, carrier)."""
         return (self.sun, self.ring, self.carrier)
+
+
+def share_members(pinions: int) -> tuple[str, ...]:
+    """The members a ``share`` statement can name on a planetary with ``pinions`` pinions: its
+    sun, ring and carrier, and its pinion (a double-pinion set: the ``inner_pinion`` meshing the
+    sun, the ``outer_pinion`` meshing the ring)."""
+    return ("sun", "ring", "carrier") + (("pinion",) if pinions == 1 else ("inner_pinion", "outer_pinion"))
+
+
+@dataclass(frozen=True)
+class Share:
+    """Two planetary statements that name one physical gear or pinion (``share A.ring B.ring``):
+    a Ravigneaux set's one ring and long pinion. A shared sun or ring is one link with one tooth
+    count, a shared carrier one link, a shared pinion one tooth count on one carrier at one
+    centre distance (:mod:`transgen.synthesis.shares`)."""
+
+    set1: str
+    member1: str
+    set2: str
+    member2: str
+    span: Span = _span()
+
+
+def share_groups(shares) -> tuple[tuple[tuple[str, str], ...], ...]:
+    """The physical gears the ``shares`` make: each a tuple of ``(set, member)`` named by two or
+    more statements (the shares joined transitively), in the order first named."""
+    parent: dict[tuple[str, str], tuple[str, str]] = {}
+
+    def root(x):
+        while parent.setdefault(x, x) != x:
+            x = parent[x]
+        return x
+
+    for s in shares:
+        a, b = root((s.set1, s.member1)), root((s.set2, s.member2))
+        if a != b:
+            parent[b] = a
+    groups: dict[tuple[str, str], list] = {}
+    for x in parent:
+        groups.setdefault(root(x), []).append(x)
+    return tuple(tuple(g) for g in groups.values())
 
 
 STEPPED_MEMBERS = ("sun1", "sun2", "ring1", "ring2")
@@ -183,6 +227,9 @@ class ShiftElement:
     max_slip_rpm: float | None = None
     """Highest admissible slip speed while open [rpm] (``None``: no limit given); see
     :func:`transgen.powerflow.power_flow`."""
+    drag: float | None = None
+    """Viscous drag coefficient of the open pack [N*m*s/rad] (``drag=`` in the file; ``None``: the
+    loss model's default): the drag torque ``drag * slip`` of :mod:`transgen.losses`."""
 
     @property
     def links(self) -> tuple[str, str]:
@@ -257,6 +304,7 @@ class Mechanism:
     modes: tuple[ModeDecl, ...] = ()
     coordinates: tuple[str, ...] = ()
     stepped: tuple[SteppedPlanetary, ...] = ()
+    shares: tuple[Share, ...] = ()
     source: str = field(default="<string>", compare=False)
     text: str = field(default="", compare=False, repr=False)
 

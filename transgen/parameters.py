@@ -24,6 +24,8 @@ _FIELDS = {"J": "inertia", "Ns": "n_sun", "Nr": "n_ring", "pinions": "pinions", 
 POWER_FLOW_ONLY = frozenset({"eta0", "eta", "max_slip_rpm"})
 """Parameters that only ``transgen powerflow`` reads (the simulator has no mesh losses or slip
 limits): not settable here, so that a study cannot vary something without effect."""
+NOT_STUDIED = frozenset({"drag"})
+"""Parameters a study does not vary: an element's ``drag=`` (the loss models', :mod:`transgen.losses`)."""
 
 
 class ParameterError(ValueError):
@@ -47,7 +49,7 @@ def _statements(m: Mechanism):
 def _params(keyword: str, obj) -> dict:
     """The settable parameters of a statement: its keyword's numbers and words (not link names),
     a gear pair's sizes as it gives them (teeth or radii)."""
-    allowed = {k: v for k, v in _PARAMS[keyword].items() if v != "name" and k not in POWER_FLOW_ONLY}
+    allowed = {k: v for k, v in _PARAMS[keyword].items() if v != "name" and k not in POWER_FLOW_ONLY | NOT_STUDIED}
     if isinstance(obj, GearPair):
         drop = ("r1", "r2") if obj.by == "teeth" else ("N1", "N2")
         allowed = {k: v for k, v in allowed.items() if k not in drop}

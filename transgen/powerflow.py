@@ -62,7 +62,9 @@ class SetFlow:
     ones; ``loss`` the power lost in the meshes (``sum(powers)``, >= 0); ``eta`` the standing or
     mesh efficiency applied; ``driving`` the member that drives in the carrier frame (a stepped
     set: every gear that feeds power into the pinion, joined by ``+``; ``None``: no relative
-    motion or no torque, lossless).
+    motion or no torque, lossless); ``rolling`` the rolling power: the carrier-frame power the
+    members feed into the meshes (the sum of the positive ``t * (w - w_carrier)``; a gear pair's
+    is its throughput), what the meshes carry and lose by however little of it leaves the set.
     """
 
     name: str
@@ -76,6 +78,7 @@ class SetFlow:
     driving: str | None = None
     links: dict = field(default_factory=dict, compare=False)
     """The link (or ``housing``) on each port."""
+    rolling: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -112,6 +115,11 @@ class GearFlow:
     def set_power(self) -> dict[str, float]:
         """Throughput of every transformer per unit input power."""
         return {s.name: s.throughput for s in self.sets}
+
+    @property
+    def set_rolling(self) -> dict[str, float]:
+        """Rolling (carrier-frame) power of every transformer per unit input power."""
+        return {s.name: s.rolling for s in self.sets}
 
     @property
     def input_power(self) -> float:
@@ -157,7 +165,7 @@ UNITS = {
     "link_speeds": "1 (per unit input speed)", "element_slips": "1 (per unit input speed)",
     "element_slip_rpm": "rpm", "element_torques": "1 (per unit input torque)",
     "set_power": "1 (per unit input power)", "set_loss": "1 (per unit input power)",
-    "set_member_power": "1 (per unit input power)",
+    "set_member_power": "1 (per unit input power)", "set_rolling": "1 (per unit input power)",
     "eta0": "1", "eta_pair": "1", "eta": "1", "input_rpm": "rpm", "max_slip_rpm": "rpm",
     "design_torque": "N*m", "safety_factor": "1", "dynamic_ratio": "1",
     "max_torque": "1 (per unit input torque)", "torque": "N*m", "static": "N*m", "dynamic": "N*m",
@@ -208,7 +216,7 @@ class PowerFlow:
                  "iterations": g.iterations, "element_torques": dict(g.element_torques),
                  "element_slips": dict(g.element_slips), "element_slip_rpm": g.element_slip_rpm,
                  "overspeed": list(g.overspeed), "link_speeds": dict(g.link_speeds), "set_power": g.set_power,
-                 "set_loss": {s.name: s.loss for s in g.sets},
+                 "set_loss": {s.name: s.loss for s in g.sets}, "set_rolling": g.set_rolling,
                  "set_driving": {s.name: s.driving for s in g.sets},
                  "set_member_power": {s.name: dict(s.powers) for s in g.sets}, "warnings": list(g.warnings)}
                 for g in self.gears
@@ -277,7 +285,7 @@ def _gear_flow(mech: Mechanism, g: Graph, gear_decl, eta: dict, input_rpm, max_s
     known_speeds = {k: (speed[k] if ok else None) for k, ok in zip(gear.links, gear.determined)}
 
     sets = []
-    for k, (t, sl, (rel, _)) in enumerate(zip(gear.transformers, gear.var_slices, gear.relative)):
+    for k, (t, sl, (rel, ok)) in enumerate(zip(gear.transformers, gear.var_slices, gear.relative)):
         values = gear.torques(k, x)
         torques = {port: v for (_, port, _), v in zip(t.ports, values)}
         speeds = {port: (0.0 if link == HOUSING else known_speeds[link]) for link, port, _ in t.ports}
@@ -295,9 +303,12 @@ def _gear_flow(mech: Mechanism, g: Graph, gear_decl, eta: dict, input_rpm, max_s
             # the loss from the carrier-frame power of the driving member (exact 0 when lossless);
             # sum(powers) is the same up to round-off, which the tests check
             loss = 0.0 if d == 0 else (1.0 - eta[t.name]) * abs(values[driver] * rel[driver])
+        # rolling power: what the members feed into the meshes in the carrier frame (none when a
+        # member floats: it carries no torque)
+        rolling = float(sum(max(0.0, v * r) for v, r in zip(values, rel))) if ok else 0.0
         sets.append(SetFlow(t.name, t.kind, eta[t.name], torques, speeds, powers,
                             sum(p for p in powers.values() if p > 0), loss, driving,
-                            {port: link for link, port, _ in t.ports}))
+                            {port: link for link, port, _ in t.ports}, rolling))
     losses = sum(s.loss for s in sets)
 
     element_torques, warnings = {}, []
@@ -484,7 +495,9 @@ def powerflow_text(flow: PowerFlow) -> str:
                        + (f"   OVER-SPEED: {', '.join(g.overspeed)}" if g.overspeed else ""))
         sets = "  ".join(f"{s.name} {s.throughput:.3f}" + (f" (loss {s.loss:.4f}, {_driver(s)} drives)" if s.driving else "")
                          for s in g.sets)
+        rolling = "  ".join(f"{s.name} {s.rolling:.3f}" for s in g.sets)
         out.append(f"    set power        {sets or '(none)'}")
+        out.append(f"    rolling power    {rolling or '(none)'}")
         for w in g.warnings:
             out.append(f"    warning: {w}")
     out.append("")

@@ -11,7 +11,9 @@ For a run with a :class:`~.driver.Driver` (``scenario new --maneuver cycle``):
   ``wheels_positive`` the traction, ``wheels_negative`` what the vehicle gives back to the
   gearbox, engine braking), the wheel brakes (``P_brake``), the road load (``road_torque *
   omega_v``), the shift elements (each ``P_<element>``, their sum ``clutches``) and the torque
-  converter (``T_pump * omega_engine - T_in * w_input``);
+  converter (``T_pump * omega_engine - T_in * w_input``); with ``[losses]`` the transmission's
+  losses by kind (``drag_<element>``, ``loss_spin``, ``loss_pump``, ``loss_mesh``, ``loss_total``:
+  the loss integrals of :func:`~transgen.sim.model.losses.loss_energy`);
 * fuel [kg] where the engine gives a fuel flow (``m_dot_fuel``: the turbodiesel's, or an engine
   torque map's with ``[input] fuel_map``, :mod:`.fuel`), else None; with the fuel's density
   (:func:`.fuel.fuel_of`) its volume [L] and the consumption [L/100 km] over the distance driven,
@@ -26,6 +28,7 @@ import numpy as np
 
 from ..control.cycles import SpeedTrace, Tracking, tracking
 from ..core.result import Result
+from ..model.losses import loss_energy
 
 __all__ = ["CycleReport", "cycle_report", "cycle_text", "CYCLE_UNITS", "SHIFT_KINDS"]
 
@@ -101,6 +104,10 @@ def cycle_report(result: Result, trace: SpeedTrace, input_link: str | None = Non
     link = input_link or (result.meta or {}).get("input_link")
     if {"T_pump", "omega_engine", "T_in"} <= set(sig) and link and f"w_{link}" in sig:
         energy["converter"] = _integral(t, sig["T_pump"] * sig["omega_engine"] - sig["T_in"] * sig[f"w_{link}"])
+    losses = loss_energy(t, sig)
+    if losses is not None:  # the transmission's drag, spin, pump and mesh losses (:mod:`..model.losses`)
+        energy.update({f"drag_{e}": x for e, x in losses["drag"].items()})
+        energy.update({f"loss_{k}": losses[k] for k in ("spin", "pump", "mesh", "total") if k in losses})
     fuel_info = fuel
     fuel = _integral(t, sig["m_dot_fuel"]) if "m_dot_fuel" in sig else None
     counts = shift_counts(result)

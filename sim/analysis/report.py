@@ -39,7 +39,7 @@ ENERGY_TOL = 1e-3  # energy residual tolerance, relative to the input work
 def energy_balance(result: Result, tolerance: float = ENERGY_TOL) -> dict:
     """The run's energy balance (``work_in = stored_change + dissipated + work_to_load +
     residual``) with ``passed``: ``|residual| <= tolerance * |work_in|`` (0.1 % by default)."""
-    out = {k: float(v) for k, v in (result.energy or {}).items()}
+    out = {k: float(v) for k, v in (result.energy or {}).items() if not isinstance(v, dict)}
     if "residual" not in out or "work_in" not in out:
         out.update({"tolerance": None, "passed": False, "note": "no energy balance in the result"})
         return out
@@ -118,6 +118,7 @@ def _shift_text(q: ShiftQuality, downshift: dict | None = None) -> str:
         lines.append(f"  {e + mark:<10}{q.energy[e]:>14.1f}{q.peak_power.get(e, 0.0):>17.1f}"
                      f"{_f(q.temperature_peak.get(e), '.1f'):>15}{_f(q.temperature_rise.get(e), '.1f'):>10}")
     lines.append(f"  {'total':<10}{q.energy_total:>14.1f}")
+    lines += _losses_text(q.losses, "", "  losses ")
     for n in q.notes:
         lines.append(f"  note: {n}")
     return "\n".join(lines)
@@ -186,6 +187,7 @@ def report_text(result: Result, qualities: list[ShiftQuality] | None = None) -> 
         bal.append(f"  {'relative residual':<24}{eb['relative_residual']:>16.3e}")
     bal.append(f"  {'check':<24}{'PASS' if eb.get('passed') else 'FAIL'} "
                f"(|residual| <= {ENERGY_TOL:.1%} of the input work)")
+    bal += _losses_text((result.energy or {}).get("losses"), "Losses over the run [J] (within dissipated)")
     bal += _thermal_text(result)
     stats = _invariants_text((result.stats or {}).get("invariants")) + ["", "Run statistics"]
     units = {"wall_time": "s"}
@@ -197,6 +199,19 @@ def report_text(result: Result, qualities: list[ShiftQuality] | None = None) -> 
     if modes:
         stats.append(f"  {'modes':<24}" + ", ".join(modes))
     return "\n".join(head + body + bal + stats) + "\n"
+
+
+def _losses_text(losses: dict | None, title: str, indent: str = "  ") -> list[str]:
+    """The loss energies by kind (:func:`~transgen.sim.model.losses.loss_energy`) as lines."""
+    if not losses:
+        return []
+    lines = ["", title] if title else []
+    for e, x in losses["drag"].items():
+        lines.append(f"{indent}{'drag ' + e:<24}{x:>16.6g}")
+    for k in ("spin", "pump", "mesh", "total"):
+        if k in losses:
+            lines.append(f"{indent}{k:<24}{losses[k]:>16.6g}")
+    return lines
 
 
 def _clutch_temperatures(result: Result) -> dict | None:

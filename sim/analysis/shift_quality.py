@@ -10,6 +10,7 @@ from dataclasses import asdict, dataclass, field, replace
 import numpy as np
 
 from ..core.result import Result
+from ..model.losses import loss_energy
 from .comfort import check_weighting, filtered_jerk, jerk, settling_time, vdv, weighted
 from .samples import duration_above, integrate, value_at, window
 from .shifts import APPLY_ZERO, Shift, infer_shifts, lock_time, lock_times, shift_name
@@ -132,10 +133,15 @@ class ShiftQuality:
     temperature_start: dict = field(default_factory=dict, hash=False)  # degC at t_start
     temperature_peak: dict = field(default_factory=dict, hash=False)  # degC, t_start..dissipation_end
     temperature_rise: dict = field(default_factory=dict, hash=False)  # K, peak - start
+    # drag, spin, pump and mesh losses from t_start to dissipation_end (transgen.sim.model.losses), J
+    losses: dict = field(default_factory=dict, hash=False)
 
     def to_dict(self) -> dict:
-        """JSON-ready (floats, NaN/inf as None)."""
-        return jsonable(asdict(self))
+        """JSON-ready (floats, NaN/inf as None); ``losses`` only where the run has losses."""
+        out = asdict(self)
+        if not out["losses"]:
+            del out["losses"]
+        return jsonable(out)
 
 
 _S = ("t_start torque_phase_start torque_phase_end torque_phase_duration inertia_phase_start inertia_phase_end "
@@ -184,7 +190,9 @@ def _links(result: Result, input_link: str | None, output_link: str | None) -> t
     meta = result.meta or {}
     coords = list(meta.get("coordinates") or [])
     links = list(meta.get("links") or [k[2:] for k in result.signals if k.startswith("w_")])
-    inp = meta.get("input_link") or input_link
+    # the gearbox's input: the turbine where the mechanism models its own converter (the flare of a
+    # shift is the turbine's, the engine behind the converter keeps its speed)
+    inp = meta.get("gearbox_input") or meta.get("input_link") or input_link
     out = meta.get("output_link") or output_link
     if not inp:
         inp = coords[0] if coords else links[0]
@@ -535,7 +543,7 @@ def _analyse(result: Result, shift: Shift, inp: str, out: str, link_notes: list[
         forced_unlock_element=",".join(e for e, _, _ in forced_elements) or None, window_end=t_win, **comfort,
         lock_counts=lock_counts, unlock_counts=unlock_counts, chatter=bool(chattering),
         energy=energy, peak_power=peak, energy_total=float(sum(energy.values())), notes=tuple(notes),
-        **_torque_request(result, ts, t_win))
+        losses=loss_energy(t, result.signals, ts, t_diss) or {}, **_torque_request(result, ts, t_win))
 
 
 def _torque_request(result: Result, t0: float, t1: float) -> dict:

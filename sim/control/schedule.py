@@ -156,14 +156,17 @@ MAX_SWAP = 2
 
 
 def gear_swap(gears: dict[str, tuple[str, ...]], source: str, target: str,
-              oneway: frozenset[str] = frozenset()) -> tuple[tuple[str, ...], tuple[str, ...]]:
+              oneway: frozenset[str] = frozenset(),
+              lockup: frozenset[str] = frozenset()) -> tuple[tuple[str, ...], tuple[str, ...]]:
     """(oncoming, offgoing) elements a shift from ``source`` to ``target`` commands, each sorted.
 
-    Elements in ``oneway`` (one-way clutches) are left out: they need no command. Raises
+    Elements in ``oneway`` (one-way clutches) are left out: they need no command. A converter
+    lock-up clutch in ``lockup`` (:func:`transgen.own_converter.own_converter`) is no shift element:
+    it is left out of both gears before the swap is counted. Raises
     ``ValueError`` naming the gears when the shift is not schedulable: more than
     :data:`MAX_SWAP` elements change on either side, or nothing is left to command.
     """
-    a, b = set(gears[source]), set(gears[target])
+    a, b = set(gears[source]) - lockup, set(gears[target]) - lockup
     on, off = b - a, a - b
     engaged = f"(engaged {' '.join(sorted(a))} -> {' '.join(sorted(b))})"
     if len(on) > MAX_SWAP or len(off) > MAX_SWAP:
@@ -175,13 +178,15 @@ def gear_swap(gears: dict[str, tuple[str, ...]], source: str, target: str,
     return on, off
 
 
-def gear_elements(gears: dict[str, tuple[str, ...]], source: str, target: str) -> tuple[str, str]:
-    """(oncoming, offgoing) element of a single-swap shift between two gears of the gear table."""
-    a, b = set(gears[source]), set(gears[target])
+def gear_elements(gears: dict[str, tuple[str, ...]], source: str, target: str,
+                  lockup: frozenset[str] = frozenset()) -> tuple[str, str]:
+    """(oncoming, offgoing) element of a single-swap shift between two gears of the gear table
+    (``lockup``: as :func:`gear_swap`)."""
+    a, b = set(gears[source]) - lockup, set(gears[target]) - lockup
     if len(b - a) != 1 or len(a - b) != 1:
         raise ValueError(f"shift {source}-{target} is not a single swap of one element "
                          f"(engaged {' '.join(sorted(a))} -> {' '.join(sorted(b))})")
-    (on,), (off,) = gear_swap(gears, source, target)
+    (on,), (off,) = gear_swap(gears, source, target, lockup=lockup)
     return on, off
 
 
@@ -197,14 +202,15 @@ def _merge(points: list[tuple[float, float]]) -> Table:
 
 
 def shift_trajectories(gears: dict[str, tuple[str, ...]], initial_gear: str, events: list[ShiftEvent],
-                       elements: list[str]) -> dict[str, Table]:
-    """Apply signals of every element for a sequence of shift events starting in ``initial_gear``."""
+                       elements: list[str], lockup: frozenset[str] = frozenset()) -> dict[str, Table]:
+    """Apply signals of every element for a sequence of shift events starting in ``initial_gear``
+    (``lockup``: as :func:`gear_swap`)."""
     points = {e: [(0.0, 1.0 if e in gears[initial_gear] else 0.0)] for e in elements}
     current = initial_gear
     for ev in sorted(events, key=lambda e: e.t):
         if ev.source != current:
             raise ValueError(f"shift at t={ev.t:g} s starts from gear {ev.source} but gear {current} is engaged")
-        on, off = gear_elements(gears, ev.source, ev.target)
+        on, off = gear_elements(gears, ev.source, ev.target, lockup)
         points[on] += ev.template.oncoming(ev.t)
         points[off] += ev.template.offgoing(ev.t)
         current = ev.target
@@ -281,6 +287,7 @@ class AutoShift:
     slips: dict = field(default_factory=dict)  # element -> coefficients of its slip over the link speeds
     speed_first: dict = field(default_factory=dict)  # "SOURCE-TARGET" -> template of a speed-phase-first shift
     pending: dict = field(default_factory=dict)  # a speed-phase-first shift waiting for synchronism
+    lockup: frozenset = frozenset()  # converter lock-up clutches: no shift element (gear_swap)
     easing: dict = field(default_factory=dict)  # a shift whose oncoming element waits for its ease slip
 
     event_kinds = {"ease": "ease"}  # the kind of the Result's event of a fired event function (else "command")
@@ -290,7 +297,7 @@ class AutoShift:
             if np.any(np.asarray(down) >= np.asarray(up)):
                 raise ValueError("every downshift speed must lie below the upshift speed (hysteresis)")
         for source, target in zip(self.order, self.order[1:]):
-            gear_swap(self.gears, source, target)  # refuses a sequence with an unschedulable shift
+            gear_swap(self.gears, source, target, lockup=self.lockup)  # refuses a sequence with an unschedulable shift
         self.gear = self.gear or self.order[0]
 
     def _line(self, table, k, t):
@@ -366,7 +373,7 @@ class AutoShift:
         k = self.order.index(self.gear)
         target = self.order[k + 1] if kind == "up" else self.order[k - 1]
         oneway = frozenset(name for name, e in elements.items() if e.kind == "oneway")
-        on, off = gear_swap(self.gears, self.gear, target, oneway)
+        on, off = gear_swap(self.gears, self.gear, target, oneway, self.lockup)
         template = self.templates.get(f"{self.gear}-{target}", self.template)
         oncoming = template.oncoming(t)
         if self.pending:  # a shift still waiting for synchronism: its oncoming element is applied now

@@ -51,6 +51,7 @@ from transgen.graph import build_graph
 
 from transgen.kinematics import link_speeds
 from transgen.model import Mechanism
+from transgen.own_converter import converter_drive, own_converter
 
 from ..control.schedule import ShiftTemplate
 
@@ -115,8 +116,12 @@ def synchronised_inertia(mech: Mechanism, source: tuple[str, ...], target: tuple
     (engaged elements) speeds up or slows down at a fixed output speed: ``sum J_i (dw_i/dw_in)^2``
     with ``dw_i`` the change of link i's speed per unit output speed between the two gears. A
     member that floats in either gear is counted with the speed of the other (its own inertia
-    moves it freely)."""
+    moves it freely). Where the mechanism models its own converter (:mod:`transgen.own_converter`)
+    the input is the turbine: the pump (engine) link keeps its speed behind the open converter and
+    is not counted."""
     a, b = link_speeds(mech, source, graph), link_speeds(mech, target, graph)
+    own = own_converter(mech)
+    pump = own.pump if own is not None else None
     out = mech.output
     ra, rb = 1.0 / a[out], 1.0 / b[out]  # input/output ratios
     d_in = ra - rb
@@ -125,7 +130,7 @@ def synchronised_inertia(mech: Mechanism, source: tuple[str, ...], target: tuple
     total = 0.0
     for link in mech.links:
         wa, wb = a.get(link.name), b.get(link.name)
-        if wa is None or wb is None:
+        if wa is None or wb is None or link.name == pump:
             continue
         total += link.inertia * ((wa * ra - wb * rb) / d_in) ** 2
     return total
@@ -142,17 +147,23 @@ def handover(mech: Mechanism, source_engaged, oncoming: dict, offgoing, input_to
     static torque ``oncoming[e] * input_torque``; the output torque is the one that keeps the
     output's acceleration. ``lam`` is the smallest value at which an offgoing element's torque
     vanishes (1 at zero acceleration: the statics), ``before`` each offgoing element's torque
-    [N*m] at ``lam = 0`` (before the shift)."""
+    [N*m] at ``lam = 0`` (before the shift). With the mechanism's own converter
+    (:mod:`transgen.own_converter`) the mode is the converter drive's and ``input_torque`` the
+    turbine's: the pump link's inertia is not accelerated with the gearbox."""
     from transgen.graph import link_nodes
     from transgen.modes import Mode, mode_model
 
     g = graph if graph is not None else build_graph(mech)
-    model = mode_model(mech, Mode("torque phase", tuple(source_engaged)), g)
+    # a mechanism with its own converter: the torque phase runs in converter drive (the lock-up
+    # open, the pump link with the engine outside the gearbox), the input torque is the turbine's
+    own = own_converter(mech)
+    engaged = converter_drive(source_engaged, own)
+    model = mode_model(mech, Mode("torque phase", tuple(engaged)), g)
     eq = model.equations
     names = list(eq.u)
     i_out = list(link_nodes(g)).index(mech.output)
     base = np.zeros(len(names))
-    base[names.index("T_in")] = input_torque
+    base[names.index(own.turbine_torque if own is not None else "T_in")] = input_torque
     e_out = np.zeros(len(names))
     e_out[names.index("T_out")] = 1.0
     e_on = np.zeros(len(names))

@@ -22,6 +22,9 @@ vehicle class (:data:`VEHICLES`), the way one starts with a new gearbox:
 * each upshift's own calibration from the statics of its two gears, the inertia it synchronises
   and the expected input torque (:mod:`~transgen.sim.derive.calibration`, ``docs/calibration.md``), and
   the driveline's compliance from the class's parts (:mod:`~transgen.sim.derive.driveline_class`);
+* for a mechanism that models its own converter (:mod:`transgen.own_converter`), the engine map on
+  its pump link (no ``J_engine``: the link's inertia is the engine's), its ``[converter]`` and the
+  lock-up open through the launch (:mod:`.launch_converter`, ``docs/guide/own_converter.md``);
 * the final drive from the class's overall first-gear ratio, an automatic schedule whose upshift
   and downshift lines are the class's engine-speed band divided by the gear ratios, and ``t_end``
   from a quasi-static estimate of the launch (vehicle speed integrated gear by gear with the
@@ -49,6 +52,7 @@ from transgen.graph import build_graph, link_nodes
 from transgen.idle import gear_check
 from transgen.model import Mechanism
 from transgen.modes import Mode, mode_model
+from transgen.own_converter import own_converter
 
 from . import calibration
 from .calibration import ShiftTiming, UpshiftCalibration, upshift_calibration
@@ -299,6 +303,7 @@ def _forward_gears(mech: Mechanism) -> tuple[list[ForwardGear], list[tuple[str, 
     elements in series, a hub only open elements touch) is a gear like any other."""
     g = build_graph(mech)
     out, unusable = [], []
+    own = own_converter(mech)
     for gear in mech.gears:
         if gear.kind != "gear" or gear.alternative:  # a manual low or extra ratio: not in the launch
             continue
@@ -313,6 +318,9 @@ def _forward_gears(mech: Mechanism) -> tuple[list[ForwardGear], list[tuple[str, 
         try:
             factors = static_element_torques(mech, gear.engaged, g)
             inertia = output_inertia(mech, gear.engaged, g)
+            if own is not None:  # converter drive: the lock-up open, the pump (engine) link not in the gearbox
+                factors.pop(own.lockup, None)
+                inertia -= mech.link(own.pump).inertia * float(check.ratio) ** 2
         except ValueError as exc:
             raise ScenarioError(f"{mech.source}:{gear.span.line}:{gear.span.column}: error: gear {gear.name} "
                                 f"cannot be modelled: {exc}") from None
@@ -324,6 +332,8 @@ def _sequence(mech: Mechanism, gears: list[ForwardGear]):
     """Shift sequence: from first gear, each next gear a single or double swap reaches."""
     table = {g.name: g.engaged for g in gears}
     oneway = frozenset(e.name for e in mech.elements if e.kind == "oneway")
+    own = own_converter(mech)
+    lockup = frozenset({own.lockup}) if own else frozenset()
     order, shifts, skipped = [gears[0].name], [], []
     ratios = {g.name: g.ratio for g in gears}
     table_ratio = ratios.__getitem__
@@ -333,7 +343,7 @@ def _sequence(mech: Mechanism, gears: list[ForwardGear]):
             skipped.append((gear.name, f"same ratio as gear {source} ({gear.ratio:.4f})"))
             continue
         try:
-            on, off = gear_swap(table, source, gear.name, oneway)
+            on, off = gear_swap(table, source, gear.name, oneway, lockup)
         except ValueError as exc:
             skipped.append((gear.name, str(exc)))
             continue
@@ -346,8 +356,9 @@ def _sequence(mech: Mechanism, gears: list[ForwardGear]):
 
 def _sizing(mech: Mechanism, gears: list[ForwardGear], t_in: float) -> list[ElementSizing]:
     out = []
+    own = own_converter(mech)
     for e in mech.elements:
-        if e.kind == "oneway":
+        if e.kind == "oneway" or (own is not None and e.name == own.lockup):  # the lock-up: open in the launch
             continue
         holding = [(abs(g.torque_factors[e.name]), g.name) for g in gears if e.name in g.torque_factors]
         if not holding:
@@ -395,6 +406,9 @@ def derive_launch(mech: Mechanism, vehicle: str = "car") -> Launch:
     if vehicle not in VEHICLES:
         raise ValueError(f"unknown vehicle class {vehicle!r} (known: {', '.join(VEHICLES)})")
     vc = VEHICLES[vehicle]
+    own = own_converter(mech)
+    if own is not None:  # the engine's inertia is the .mech's pump link (no J_engine added)
+        vc = dataclasses.replace(vc, J_engine=mech.link(own.pump).inertia)
     where = f"{mech.source}:{mech.gears[0].span.line}:{mech.gears[0].span.column}" if mech.gears else f"{mech.source}:1:1"
     gears, unusable = _forward_gears(mech)
     if len(gears) < 2:
@@ -579,16 +593,25 @@ def launch_scenario(mech: Mechanism, vehicle: str = "car", mechanism_ref: str | 
         "atol = 1e-7",
         "output_dt = 0.01",
         "",
-        "[initial]",
-        f"gear = {_string(first.name)}",
-        f"speeds = {{ {', '.join(f'{x} = 0.0' for x in (mech.output,) + first.idle)} }}      # vehicle at rest, gear "
-        f"{first.name} engaged" + (f" (idle member {', '.join(first.idle)} at rest too)" if first.idle else ""),
-        "",
-        "[input]                 # engine (torque map) driving the gearbox input through a torque converter",
-        'type = "engine_converter"',
-        f"J_engine = {_num(vc.J_engine)}          # kg*m^2: {vc.comments.get('J_engine', '')}",
-        f"engine_speed_rpm = {_num(vc.idle_rpm)}",
-        f"idle_rpm = {_num(vc.idle_rpm)}",
+    ]
+    own = own_converter(mech)
+    if own is not None:  # the .mech models its converter (docs/guide/own_converter.md)
+        from . import launch_converter as lcv
+
+        lines += lcv.initial_lines(mech, vc, first, own, _num) + [""] + lcv.input_head_lines(mech, vc, own, _num)
+    else:
+        lines += [
+            "[initial]",
+            f"gear = {_string(first.name)}",
+            f"speeds = {{ {', '.join(f'{x} = 0.0' for x in (mech.output,) + first.idle)} }}      # vehicle at rest, "
+            f"gear {first.name} engaged" + (f" (idle member {', '.join(first.idle)} at rest too)" if first.idle else ""),
+            "",
+            "[input]                 # engine (torque map) driving the gearbox input through a torque converter",
+            'type = "engine_converter"',
+            f"J_engine = {_num(vc.J_engine)}          # kg*m^2: {vc.comments.get('J_engine', '')}",
+            f"engine_speed_rpm = {_num(vc.idle_rpm)}",
+            f"idle_rpm = {_num(vc.idle_rpm)}"]
+    lines += [
         f"# engine: {vc.comments.get('engine', '')}"
         + (f"; torque limited to {100 * scale:.1f} % (capacities)" if scale < 1 else ""),
         f"speed_rpm = {_list(vc.speed_rpm)}",
@@ -601,7 +624,9 @@ def launch_scenario(mech: Mechanism, vehicle: str = "car", mechanism_ref: str | 
     if vc.fuel_map:
         items = ", ".join(f"{k} = {_string(v) if isinstance(v, str) else _num(v)}" for k, v in vc.fuel_map.items())
         lines.append(f"fuel_map = {{ {items} }}   # {vc.comments.get('fuel_map', 'fuel flow (transgen.sim.engine.fuel)')}")
-    if vc.converter:
+    if own is not None:
+        lines += lcv.converter_lines(vc, own)
+    elif vc.converter:
         lines.append(f"converter = {_string(Path(vc.converter).stem)}   # transgen's bundled {vc.name} converter, by its name")
     else:
         lines.append("# converter: the bundled heavy-truck three-element converter (transgen/sim/data)")

@@ -343,6 +343,8 @@ def maneuver_scenario(mech: Mechanism, vehicle: str = "car", kind: str = "kickdo
                       launch: Launch | None = None, cycle: str | None = None) -> str:
     """A commented scenario (TOML text) of the maneuver ``kind`` for ``mech`` in a ``vehicle``
     (module docstring); ``launch``: the derived launch when the caller has it."""
+    if kind != "launch":
+        refuse_own_converter(mech, kind)
     lc = launch or derive_launch(mech, vehicle)
     if kind == "launch":
         return launch_scenario(mech, vehicle, mechanism_ref, lc)
@@ -385,6 +387,23 @@ def maneuver_scenario(mech: Mechanism, vehicle: str = "car", kind: str = "kickdo
                                "\n# docs/calibration.md); the oncoming one fills and is applied at synchronism\n")
     text = add_templates(text, _coast_templates(lc, mech), "templates")
     return add_templates(text, m.templates)
+
+
+def refuse_own_converter(mech: Mechanism, kind: str) -> None:
+    """A maneuver other than the launch for a mechanism with its own converter is refused
+    (``FILE:LINE:COL: error:`` at its lock-up clutch): it starts in a gear at speed, where the
+    engine (the pump link), the turbine and the lock-up's state need their own derivation."""
+    from transgen.errors import ScenarioError
+    from transgen.own_converter import own_converter
+
+    own = own_converter(mech)
+    if own is None:
+        return
+    span = mech.element(own.lockup).span
+    raise ScenarioError(f"{mech.source}:{span.line}:{span.column}: error: --maneuver {kind} is not supported for a "
+                        f"mechanism that models its own torque converter (pump {own.pump}, turbine {own.turbine}, "
+                        f"lock-up {own.lockup}); use --maneuver launch, or a gearbox without the converter "
+                        f"(scenario new then adds the engine and converter)")
 
 
 def cycle_scenario(mech, launch, text: str, cycle: str | None) -> str:

@@ -202,7 +202,9 @@ class EngineMap:
 
 @dataclass
 class EngineOnLink(Component):
-    """An engine torque map driving the input link directly (the link carries the crank inertia)."""
+    """An engine torque map driving the input link directly (the link carries the crank inertia).
+    ``idle`` [rad/s]: the minimum-speed governor of :class:`EngineWithConverter` (0: none), for
+    an engine that drives a converter the mechanism models itself (:mod:`transgen.own_converter`)."""
 
     engine: EngineMap
     throttle: Signal
@@ -210,9 +212,13 @@ class EngineOnLink(Component):
     name: str = "engine"
     request: Signal | None = None  # torque-request factor [-] of the shifts (EngineMap.requested)
     fuel: object | None = None  # fuel flow of the map (transgen.sim.engine.fuel): the m_dot_fuel signal [kg/s]
+    idle: float = 0.0
+
+    def _throttle(self, t, w):
+        return governed_throttle(self.throttle.value(t), w[self.link], self.idle)
 
     def _torque(self, t, w):
-        torque = self.engine(w[self.link], self.throttle.value(t))
+        torque = self.engine(w[self.link], self._throttle(t, w))
         return torque if self.request is None else self.engine.requested(torque, w[self.link], self.request.value(t))
 
     def torques(self, t, x, w):
@@ -222,7 +228,7 @@ class EngineOnLink(Component):
         return self._torque(t, w) * w[self.link]
 
     def signals(self, t, x, w):
-        out = {"T_in": self._torque(t, w), "throttle": self.throttle.value(t)}
+        out = {"T_in": self._torque(t, w), "throttle": self._throttle(t, w)}
         if self.request is not None:
             out["torque_request"] = self.request.value(t)
         if self.fuel is not None:
@@ -239,7 +245,7 @@ class EngineOnLink(Component):
             return None
         sizes, numbers = self.engine.kernel_numbers()
         signals = (self.throttle,) if self.request is None else (self.throttle, self.request)
-        return "engine_on_link", (self.link, *sizes, len(signals) - 1), numbers, signals, ("T_in",)
+        return "engine_on_link", (self.link, *sizes, len(signals) - 1), numbers + (float(self.idle),), signals, ("T_in",)
 
 
 @dataclass

@@ -37,8 +37,11 @@ takes what exceeds them. Every member's torque stays within its own limit, a one
 only in its locking direction, and the members' torques sum (each counted in the group's
 direction) to the constraint torque.
 
-Size: about 530 lines, over the project's 500: the run-time elements, the locking groups and
-the mode decision are one concept (the decision is the complementarity over the groups' holding
+With mesh losses (:attr:`Transmission.mesh`, a :class:`~.mesh.MeshModel`) a mode's response
+to its inputs is the lossy equations' (:meth:`Transmission.response`), not ``B u`` and ``D u``.
+
+Size: over the project's 500 lines: the run-time elements, the locking groups and the mode
+decision are one concept (the decision is the complementarity over the groups' holding
 ranges), kept together so that the decision and the torque split cannot drift apart.
 """
 from __future__ import annotations
@@ -271,6 +274,7 @@ class Transmission:
         self.input_index = {name: i for i, name in enumerate(self.inputs)}
         self.element_input = np.array([self.input_index[f"t_{e.name}"] for e in self.elements], dtype=int)
         self._modes: dict[frozenset, ModeData] = {}
+        self.mesh = None  # a MeshModel: mesh losses in every mode (:meth:`response`)
         # what the gearing alone decides, shared by the transmissions of one mechanism in a process
         # (a sweep's runs, a benchmark's repeats): the modes computed on demand (or why a lock set
         # is no mode) and :meth:`_without_implied`'s answers
@@ -340,6 +344,14 @@ class Transmission:
                 raise ModeError(data)
             self._modes[key] = data
         return self._modes[key]
+
+    def response(self, data: ModeData, u: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+        """``(dq/dt, locked-row torques, mesh loss [W])`` of the mode ``data`` for the inputs
+        ``u`` at the link speeds ``w``: ``(B u, D u, 0)``, or the lossy equations' (:attr:`mesh`)."""
+        if self.mesh is None:
+            return data.B @ u, data.D @ u, 0.0
+        alpha, torques, loss = self.mesh.solve(tuple(self.elements[i].name for grp in data.groups for i in grp), u, w)
+        return alpha[data.coords], torques, loss
 
     def mode_name(self, locked) -> str:
         """The user name of the mode with the element indices ``locked``: its gear, else its
@@ -608,8 +620,8 @@ class Transmission:
             torques[starting] = self._slipping_torques_memo(t, slips, locked, directions, "static",
                                                             torque_memo)[starting]
         u[self.element_input] += torques
-        slip_acc = self.P @ (data.C @ (data.B @ u))
-        t_locked = data.D @ u
+        qd, t_locked, _ = self.response(data, u, w)
+        slip_acc = self.P @ (data.C @ qd)
         if any(self.holding_margin(data, row, t, t_locked[row]) < 0.0 for row in range(len(data.locked_order))):
             return False
         for (members, _, _, _), c in zip(zero, choice):

@@ -39,6 +39,9 @@ from transgen.limits import LIMITS, limit
 from transgen.model import Mechanism
 
 from ..model.components import Driveline, EngineMap, EngineOnLink, EngineWithConverter, InputTorque, LinkLoad
+from ..model.losses import loss_component
+from ..model.mesh import MeshModel
+from .loss_table import read_losses
 from . import schema as S
 from ..control.schedule import AutoShift, ShiftEvent, ShiftTemplate, shift_trajectories
 from ..core.signals import Constant
@@ -72,6 +75,14 @@ class Scenario:
     periodic: list = field(default_factory=list, repr=False, compare=False)
     locate: object = field(default=None, repr=False, compare=False)
 
+    @property
+    def gearbox_input(self) -> str:
+        """The link the gearbox is driven at: the turbine of a ``[converter]`` between two links of
+        the mechanism (the pump, the mechanism's input, is the engine side), else the input."""
+        turbine = (self.data.get("converter") or {}).get("turbine")
+        return turbine if isinstance(turbine, str) and turbine in {k.name for k in self.mechanism.links} \
+            else self.mechanism.input
+
     def run(self, progress=None, start=None, t_end: float | None = None):
         """Simulate; returns a :class:`~transgen.sim.core.result.Result`. ``start``: a saved state
         (:mod:`.restart`) to run from, at its time; ``t_end``: stop there instead of at the
@@ -85,7 +96,8 @@ class Scenario:
             options = replace(options, t_end=t_end)
         result = simulate(self.powertrain, options, progress, start)
         result.meta.update({"scenario": str(self.path), "title": self.title, "lockup": list(self.lockup),
-                            "input_link": self.mechanism.input, "output_link": self.mechanism.output})
+                            "input_link": self.mechanism.input, "output_link": self.mechanism.output,
+                            "gearbox_input": self.gearbox_input})
         return result
 
 
@@ -245,6 +257,10 @@ def _build(data: dict, source: Source, path: Path, overrides=None, access: FileA
     r.window = (options.t_start, options.t_end)
 
     gears = {g.name: g.engaged for g in mech.gears}
+    from transgen.own_converter import own_converter
+
+    own = own_converter(mech)
+    lockup_set = frozenset({own.lockup}) if own else frozenset()  # no shift element (gear_swap)
     element_names = list(mech.element_names)
     elements_t = r.table(data, ("elements",), set(element_names))
     element_extra: dict[str, dict] = {}
@@ -314,14 +330,14 @@ def _build(data: dict, source: Source, path: Path, overrides=None, access: FileA
             tmpl = _template(r, data, keys + ("template",), closed_loop=False) if "template" in ev else template
             events.append(ShiftEvent(t, source, target, tmpl))
         try:
-            signals = shift_trajectories(gears, init_gear, events, element_names)
+            signals = shift_trajectories(gears, init_gear, events, element_names, lockup_set)
         except ValueError as exc:
             raise r.error(("shifts", "events"), str(exc)) from None
         from ..analysis.report import Shift
         from ..control.schedule import gear_elements
 
         for ev in events:
-            on, off = gear_elements(gears, ev.source, ev.target)
+            on, off = gear_elements(gears, ev.source, ev.target, lockup_set)
             shifts_report.append(Shift(on, off, ev.t, f"{ev.source}-{ev.target}"))
         for name, sig in signals.items():
             if mech.element(name).kind != "oneway" and "apply" not in element_extra.get(name, {}):
@@ -338,8 +354,10 @@ def _build(data: dict, source: Source, path: Path, overrides=None, access: FileA
         element_extra.setdefault(name, {}).setdefault("apply", Constant(1.0))
 
     sim_coords = r.names(sim_t, ("simulation",), "coordinates") if "coordinates" in sim_t else None
+    losses = read_losses(r, data, mech, model)
     try:
-        tr = Transmission(mech, element_extra, sim_coords, r.text(sim_t, ("simulation",), "modes", "auto"))
+        tr = Transmission(losses.mechanism(mech) if losses else mech, element_extra, sim_coords,
+                          r.text(sim_t, ("simulation",), "modes", "auto"))
     except MechError as exc:  # a mode the simulator cannot run (as `transgen check` says)
         raise r.error(("mechanism",), f"mechanism '{mech_ref}' has errors:\n{exc}") from None
     except (ModeError, ValueError) as exc:
@@ -348,6 +366,10 @@ def _build(data: dict, source: Source, path: Path, overrides=None, access: FileA
 
     w0 = _initial_speeds(r, mech, tr, init_t, init_locked)
     components = _components(r, data, mech, tr)
+    if losses:
+        components.append(loss_component(tr, losses.model, losses.kinds, losses.pump_link))
+        if "mesh" in losses.kinds:
+            tr.mesh = MeshModel(tr.mech, tr.graph, losses.eta0, losses.eta_pair)
     controllers = []
     auto_t = r.table(data, ("auto_shift",), S.AUTO_SHIFT_KEYS)
     if auto_t:
@@ -377,7 +399,7 @@ def _build(data: dict, source: Source, path: Path, overrides=None, access: FileA
         try:
             controllers.append(AutoShift(order, thr, up, down, throttle, tr.link_index[mech.output], gears,
                                          template, min_interval, gear=init_gear if "gear" in init_t else order[0],
-                                         templates=templates, speed_first=speed_first,
+                                         templates=templates, speed_first=speed_first, lockup=lockup_set,
                                          slips={e.name: tuple(float(c) for c in tr.P[i]) for i, e in enumerate(tr.elements)}))
         except ValueError as exc:
             raise r.error(keys, str(exc)) from None
@@ -409,8 +431,10 @@ def _build(data: dict, source: Source, path: Path, overrides=None, access: FileA
             raise r.error(("output", "signals", k), f"unknown output signal {shown(name)}"
                                                     + (f"; did you mean '{close[0]}'?" if close else
                                                        f" (signals: {bounded(', '.join(known), 400)})"))
+    from transgen.own_converter import lockup_clutches
+
     conv = data.get("converter", {})
-    lockup = [e.name for e in mech.elements if conv and {e.link1, e.link2} == {conv.get("pump"), conv.get("turbine")}]
+    lockup = list(lockup_clutches(mech, conv.get("pump"), conv.get("turbine"))) if conv else []
     title = data.get("title", path.stem)
     if not isinstance(title, str):
         raise r.error(("title",), f"title must be a string, not {shown(title)}")
@@ -585,7 +609,8 @@ def _components(r: Reader, data: dict, mech: Mechanism, tr: Transmission) -> lis
 
             fuel = read_fuel_map(r, inp["fuel_map"], keys + ("fuel_map",), engine)
         if kind == "engine_map":
-            comps.append(EngineOnLink(engine, thr_signal, li[mech.input], fuel=fuel))
+            comps.append(EngineOnLink(engine, thr_signal, li[mech.input], fuel=fuel,
+                                      idle=r.number(inp, keys, "idle_rpm", 0.0, minimum=0.0) * RPM))
         else:
             from ..model.powertrain import read_converter
 

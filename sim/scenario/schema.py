@@ -12,11 +12,11 @@ from __future__ import annotations
 
 __all__ = ["TOP_KEYS", "SIMULATION_KEYS", "COMPLIANT_KEYS", "ELEMENT_KEYS", "FRICTION_KEYS", "INITIAL_KEYS",
            "SHIFTS_KEYS", "EVENT_KEYS", "AUTO_SHIFT_KEYS", "OUTPUT_KEYS", "INPUT_KEYS",
-           "LOAD_KEYS", "CONVERTER_KEYS", "DRIVELINE_KEYS", "SIGNAL_KEYS", "SIGNAL", "LEAF", "ANY", "key_tree"]
+           "LOAD_KEYS", "LOSSES_KEYS", "CONVERTER_KEYS", "DRIVELINE_KEYS", "SIGNAL_KEYS", "SIGNAL", "LEAF", "ANY", "key_tree"]
 
 TOP_KEYS = frozenset({"mechanism", "include", "title", "description", "simulation", "compliant", "initial", "input",
                       "load", "driveline", "elements", "shifts", "auto_shift", "output", "report", "converter",
-                      "driver"})
+                      "driver", "losses"})
 SIMULATION_KEYS = frozenset({"t_start", "t_end", "model", "method", "rtol", "atol", "max_step", "output_dt", "slip_tol",
                              "energy_tol", "coordinates", "modes"})
 COMPLIANT_KEYS = frozenset({"stiffness", "damping"})
@@ -33,6 +33,7 @@ INPUT_KEYS = frozenset({"type", "torque", "speed_rpm", "throttle", "torque_table
                         "crank_model", "shaft", "ports", "compressor_map", "turbine_map", "air", "exhaust",
                         "turbo_solver", "torque_request", "fuel_map"})
 LOAD_KEYS = frozenset({"torque", "signal", "c0", "c1", "c2"})
+LOSSES_KEYS = frozenset({"file", "kinds", "pump_link", "eta0", "eta_pair", "oil_temperature", "drag", "spin", "pump"})
 CONVERTER_KEYS = frozenset({"pump", "turbine", "pump_torque", "turbine_torque", "file"})
 DRIVELINE_KEYS = frozenset({"output_inertia", "stiffness", "damping", "final_drive", "wheel_radius", "vehicle_mass",
                             "rolling_resistance", "cd_a", "air_density", "grade", "grade_percent", "output_torque",
@@ -89,5 +90,5 @@ def key_tree(elements=None, links=None) -> dict:
                              exhaust=_leaves(GAS_KEYS), turbo_solver=_leaves(SOLVER_KEYS),
                              fuel_map=_leaves(FUEL_KEYS)),
                  load=[table(LOAD_KEYS, torque=LEAF)], converter=_leaves(CONVERTER_KEYS), driveline=table(DRIVELINE_KEYS),
-                 driver=_leaves(DRIVER_KEYS))
+                 driver=_leaves(DRIVER_KEYS), losses=_leaves(LOSSES_KEYS))
     return tree

@@ -20,6 +20,7 @@ import numpy as np
 from transgen.errors import SimulationError, StateOutOfDomain
 
 from ..model.components import Component
+from ..model.losses import loss_energy
 from .dense import dense_values
 from .monitor import InvariantMonitor
 from ..core.result import Event, ModeSpan, Result
@@ -439,6 +440,9 @@ def collect(pt: Powertrain, options: SolverOptions, recorder: Recorder, events: 
         energy = {"work_in": float(e_in[-1]), "stored_change": float(d_stored), "dissipated": float(e_diss[-1]),
                   "work_to_load": float(e_load[-1]), "residual": float(residual),
                   "relative_residual": float(abs(residual) / energy_scale(arrays))}
+        losses = loss_energy(time_arr, arrays)
+        if losses is not None:  # by kind, within "dissipated" (:mod:`..model.losses`)
+            energy["losses"] = losses
     stats = {"wall_time": _time.perf_counter() - wall, "rhs_evaluations": model.calls,
              "input_evaluations": model.input_calls,
              "events": sum(1 for e in events if e.kind != "start"), "segments": len(recorder.segments)}
@@ -487,7 +491,11 @@ def sample_block(pt: Powertrain, seg: Segment, ts: np.ndarray, ys: np.ndarray, n
     slips = tr.P @ W
     te, torques, power, extra = element_state(W, slips, U)
     U[tr.element_input] += te
-    A = seg.mode.C @ (seg.mode.B @ U)  # link accelerations [rad/s^2], for the components that need them
+    if tr.mesh is None:  # link accelerations [rad/s^2], for the components that need them
+        A = seg.mode.C @ (seg.mode.B @ U)
+    else:  # the lossy equations' (:meth:`Transmission.response`)
+        A = seg.mode.C @ np.column_stack([tr.response(seg.mode, U[:, k], W[:, k])[0] for k in range(n)]) if n \
+            else np.zeros((len(tr.links), 0))
     for c, sl in zip(pt.components, layout.slices):
         out.update(c.sample_rates(ts, ys[sl], W, A))
     for k, name in enumerate(tr.links):

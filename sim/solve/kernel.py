@@ -36,7 +36,8 @@ Layout of the powertrain arrays ``P`` (int64) and ``F`` (float64)::
 The integers and numbers of each component kind, as its ``kernel_form()`` gives them::
 
     ``input_torque``      (link), ()
-    ``engine_on_link``    (link, n_speeds, n_throttles, has_request), speeds + throttles + torque rows;
+    ``engine_on_link``    (link, n_speeds, n_throttles, has_request), speeds + throttles + torque rows
+                          + (idle,);
                           signals: the throttle and, where ``has_request``, the shifts' torque request
     ``engine_converter``  (link, n_speeds, n_throttles, n_drive, n_coast, has_request), (J_engine, idle)
                           + the engine map as above + the converter's tables (``kernel_numbers``)
@@ -176,7 +177,9 @@ def _evaluate(t, y, P, F, S, G, ext, u, out):
             speed = w[P[ioff]]
             speeds, throttles = F[foff:foff + ns], F[foff + ns:foff + ns + nt]
             table = F[foff + ns + nt:foff + ns + nt + ns * nt].reshape(nt, ns)
-            torque = interp2(speed, signal_value(t, P[soff], P[soff + 1], P, F, ext), speeds, throttles, table)
+            throttle = governed_throttle(signal_value(t, P[soff], P[soff + 1], P, F, ext), speed,
+                                         F[foff + ns + nt + ns * nt])
+            torque = interp2(speed, throttle, speeds, throttles, table)
             if P[ioff + 3]:  # a torque request of the shifts
                 torque = requested_torque(torque, signal_value(t, P[soff + 2], P[soff + 3], P, F, ext), speed, speeds,
                                           throttles, table)

@@ -79,7 +79,8 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None, st
                                 tr.mode_name(locked), "from a saved state"))
     own_applies = {e.name: e.apply for e in tr.elements}  # what the controllers command differs
     quiet = False
-    compiled = compiled_powertrain(pt)
+    compiled = compiled_powertrain(pt) if tr.mesh is None else None  # mesh losses: the Python path only
+    mesh_slot = _mesh_slot(pt)
 
     def slip_tol(w):
         return max(1e-9, options.slip_tol * max(1.0, float(np.max(np.abs(w)))))
@@ -143,7 +144,8 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None, st
             slips = PC @ q
             if active:
                 diss = _add_slipping(u, tt, slips.tolist(), active, diss)
-            return ww, u, derivs, p_in, diss, p_load, slips
+            qd, _, mesh = tr.response(mode, u, ww)
+            return ww, u, derivs, p_in, diss + mesh, p_load, slips, qd, mesh
 
         evaluate = memo_last(model, point, t_stop, t_sig)
 
@@ -155,13 +157,16 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None, st
             u = model.inputs(tt, y, C @ q, layout)
             if active:
                 _add_slipping(u, tt, (PC @ q).tolist(), active)
-            return (D @ u).tolist()
+            return (D @ u if tr.mesh is None else tr.response(mode, u, C @ q)[1]).tolist()
 
         event_torques = memo_last(model, locked_torques, t_stop, t_sig, "input_calls")
 
         def rhs(tt, y, mode=mode, layout=layout):
-            ww, u, derivs, p_in, diss, p_load, _ = evaluate(tt, y)
-            return layout.derivative(mode.B @ u, derivs, p_in, diss, p_load)
+            ww, u, derivs, p_in, diss, p_load, _, qd, mesh = evaluate(tt, y)
+            out = layout.derivative(qd, derivs, p_in, diss, p_load)
+            if mesh_slot is not None:
+                out[mode.dof + mesh_slot] += mesh  # the mesh energy by kind (:mod:`..model.losses`)
+            return out
 
         def margin(tt, y, row, mode=mode):
             return tr.holding_margin(mode, row, tt, event_torques(tt, y)[row])
@@ -245,7 +250,8 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None, st
                         events.append(Event(t_end, kind_of, (), tr.mode_name(locked), tr.mode_name(locked), description))
                 if len(te) and kind == "torque":
                     row = mode.locked_order.index(i)
-                    forced.update(tr.unlock_directions(mode, row, t_end, mode.D[row] @ u_end))
+                    torque = mode.D[row] @ u_end if tr.mesh is None else tr.response(mode, u_end, w)[1][row]
+                    forced.update(tr.unlock_directions(mode, row, t_end, torque))
             if n_events > options.max_events:
                 success, message = False, f"t={t_end:.6g} s: more than {options.max_events} events"
                 break
@@ -321,15 +327,39 @@ def _sample(pt: Powertrain, seg: Segment, ts: np.ndarray, ys: np.ndarray) -> dic
     tr = pt.transmission
     mode = seg.mode
     slipping = np.array([i not in seg.locked for i in range(len(tr.elements))])
+    mesh = np.zeros(len(ts))
 
     def element_state(W, slips, U):
         te = tr.slipping_torques_at(ts, W, seg.locked, seg.directions)
         torques = te.copy()
-        if mode.locked_order:
+        if mode.locked_order or tr.mesh is not None:
             full = U.copy()
             full[tr.element_input] += te
-            torques += tr.split_locked_torques(mode, ts, mode.D @ full)  # per element, by the split rule
+            if tr.mesh is None:
+                rows = mode.D @ full
+            else:  # the lossy equations at each time (:meth:`Transmission.response`)
+                rows = np.zeros((len(mode.locked_order), len(ts)))
+                for k in range(len(ts)):
+                    _, rows[:, k], mesh[k] = tr.response(mode, full[:, k], W[:, k])
+            if mode.locked_order:
+                torques += tr.split_locked_torques(mode, ts, rows)  # per element, by the split rule
         power = np.where(slipping[:, None], np.abs(torques * slips), 0.0)
         return te, torques, power, 0.0
 
-    return sample_block(pt, seg, ts, ys, 0, element_state)
+    out = sample_block(pt, seg, ts, ys, 0, element_state)
+    if tr.mesh is not None:
+        out["P_mesh"] = mesh
+    return out
+
+
+def _mesh_slot(pt: Powertrain):
+    """Where the loss component's ``E_mesh`` state is among the component states (None: no mesh
+    losses)."""
+    from ..model.losses import LossComponent
+
+    pos = 0
+    for c in pt.components:
+        if isinstance(c, LossComponent) and "E_mesh" in c.state_names:
+            return pos + c.state_names.index("E_mesh")
+        pos += len(c.state_names)
+    return None

@@ -132,8 +132,8 @@ def model_data_h(d: FmuData, guid: str) -> str:
                 f"#define TG_DL_X {d.driveline_state}\n"]
     out += [f"#define TG_VR_{k} {v}\n" for k, v in vr.items()]
     par = parameters(d)
-    if eng and eng["kind"] != "converter":  # the engine on a link has no idle governor of its own
-        out += ["#define TG_ENG_IDLE 0.0\n"]
+    if eng and eng["kind"] != "converter":  # the idle governor of an engine on a link: a constant
+        out += [f"#define TG_ENG_IDLE {float(eng['idle'])!r}\n"]
     out += [f"#define TG_NPAR {len(par)}\n", _array("double", "TG_PAR0", [p[1] for p in par]),
             _array("int", "TG_PAR_BOUND", [("positive", "nonnegative", "grade").index(p[4]) for p in par])]
     out += [f"#define {p[2]} (m->par[{k}])\n" for k, p in enumerate(par)]

@@ -301,7 +301,7 @@ def _engine(engine, tr) -> dict:
     m = engine.engine
     out = {"kind": "converter" if isinstance(engine, EngineWithConverter) else "link", "link": int(engine.link),
            "column": int(tr.input_index["T_in"]), "speeds": list(m.speeds), "throttles": list(m.throttles),
-           "table": [x for row in m.torque for x in row], "idle": 0.0, "J": 0.0}
+           "table": [x for row in m.torque for x in row], "idle": float(engine.idle), "J": 0.0}
     if out["kind"] == "converter":
         if not hasattr(engine.converter, "tables"):
             raise FmuError(f"the converter model {type(engine.converter).__name__} cannot be exported")
@@ -330,7 +330,7 @@ def _schedule(auto, tr, engine, inputs) -> dict:
         numbers = [float(getattr(template, f)) for f in fields]
         if numbers not in templates:
             templates.append(numbers)
-        on, off = gear_swap(auto.gears, source, target, oneway)
+        on, off = gear_swap(auto.gears, source, target, oneway, auto.lockup)
         shifts.append((sum(1 << tr.element_index[n] for n in on), sum(1 << tr.element_index[n] for n in off),
                        templates.index(numbers)))
     throttle_in = -1

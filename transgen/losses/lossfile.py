@@ -51,7 +51,7 @@ from .drag import TableDrag, ViscousDrag, couette_coefficient
 from .pump import Pump
 from .spin import PolynomialSpin, TableSpin
 
-__all__ = ["LossModel", "LossFileError", "DEFAULT_DRAG", "DEFAULT_PUMP", "DEFAULT_SPIN", "NO_DRAG",
+__all__ = ["LossModel", "LossFileError", "LossDataError", "LOSS_KEYS", "loss_model", "DEFAULT_DRAG", "DEFAULT_PUMP", "DEFAULT_SPIN", "NO_DRAG",
            "load_losses", "parse_losses"]
 
 DEFAULT_DRAG = ViscousDrag(couette_coefficient(8, 0.015, 0.15e-3, 0.064, 0.085))
@@ -84,9 +84,12 @@ class LossModel:
     source: str = "defaults"
 
     def drag_model(self, element):
-        """The drag model of a :class:`~transgen.model.ShiftElement`."""
+        """The drag model of a :class:`~transgen.model.ShiftElement`: the file's model of it, else
+        its ``drag=`` in the ``.mech`` (``c * slip``), else the default of its kind."""
         if element.name in self.drag:
             return self.drag[element.name]
+        if getattr(element, "drag", None) is not None:
+            return ViscousDrag(element.drag)
         return self.default_drag if element.kind in DRAGGING_KINDS else NO_DRAG
 
     def spin_model(self, link: str):
@@ -101,10 +104,16 @@ class LossModel:
 
 # ---------------------------------------------------------------------------------------------
 
-class _Bad(Exception):
+class LossDataError(ValueError):
+    """A bad value in loss data (:func:`loss_model`): ``path``, the key path in the data, and
+    ``message`` (without a location: the caller locates it in its file)."""
+
     def __init__(self, path: tuple, message: str):
         super().__init__(message)
         self.path, self.message = path, message
+
+
+_Bad = LossDataError
 
 
 def _locate(text: str, path: tuple) -> tuple[int, int]:
@@ -258,17 +267,29 @@ def parse_losses(text: str, filename: str = "<losses>", mech=None) -> LossModel:
         msg = re.sub(r"\s*\(at line \d+, column \d+\)", "", str(exc))
         raise LossFileError(str(_diagnostic(text, filename, line, col, f"not valid TOML: {msg}"))) from None
     try:
-        _unknown_keys(data, {"oil_temperature", "drag", "spin", "pump"}, ())
-        oil = _number(data, "oil_temperature", (), -60.0, 300.0, default=90.0)
-        default_drag, drag = _models(data, "drag", "elements", _drag, DEFAULT_DRAG)
-        default_spin, spin = _models(data, "spin", "links", _spin, DEFAULT_SPIN)
-        pump = _pump(data["pump"], ("pump",)) if "pump" in data else DEFAULT_PUMP
-        model = LossModel(default_drag, drag, default_spin, spin, pump, oil, filename)
-        if mech is not None:
-            _check_names(model, mech)
+        model = loss_model(data, filename, mech)
     except _Bad as bad:
         line, col = _locate(text, bad.path)
         raise LossFileError(str(_diagnostic(text, filename, line, col, bad.message))) from None
+    return model
+
+
+LOSS_KEYS = frozenset({"oil_temperature", "drag", "spin", "pump"})
+"""The top-level keys of loss data."""
+
+
+def loss_model(data: dict, source: str = "defaults", mech=None) -> LossModel:
+    """The :class:`LossModel` of loss data (a loss file's parsed TOML, or a scenario's
+    ``[losses]`` table: the keys :data:`LOSS_KEYS`); with ``mech`` the names are checked.
+    Raises :class:`LossDataError` with the key path of the bad value."""
+    _unknown_keys(data, set(LOSS_KEYS), ())
+    oil = _number(data, "oil_temperature", (), -60.0, 300.0, default=90.0)
+    default_drag, drag = _models(data, "drag", "elements", _drag, DEFAULT_DRAG)
+    default_spin, spin = _models(data, "spin", "links", _spin, DEFAULT_SPIN)
+    pump = _pump(data["pump"], ("pump",)) if "pump" in data else DEFAULT_PUMP
+    model = LossModel(default_drag, drag, default_spin, spin, pump, oil, source)
+    if mech is not None:
+        _check_names(model, mech)
     return model
 
 

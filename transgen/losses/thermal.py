@@ -215,12 +215,18 @@ class ThermalResult:
                              for e in self.temperatures}}
 
 
+_LOSS_SIGNALS = frozenset({"P_spin", "P_pump", "P_mesh", "P_losses"})
+"""The simulation's loss powers of :mod:`transgen.sim.model.losses` (no shift elements)."""
+
+
 def clutch_temperatures(result, packs: dict | None = None,
                         oil_temperature: float = DEFAULT_OIL_TEMPERATURE) -> ThermalResult:
     """:class:`ThermalResult` of a simulation ``result`` (its ``P_<element>`` signals). ``packs``:
     element -> :class:`ClutchPack` (default :func:`default_packs` of the result's static
-    capacities, ``meta["static_capacity"]``)."""
-    elements = [k[2:] for k in result.signals if k.startswith("P_")]
+    capacities, ``meta["static_capacity"]``). A run with drag losses heats a pack with its drag
+    power ``P_drag_<element>`` too (the loss signals themselves are no elements)."""
+    elements = [k[2:] for k in result.signals if k.startswith("P_") and not k.startswith("P_drag_")
+                and k not in _LOSS_SIGNALS]
     if packs is None:
         caps = dict((result.meta or {}).get("static_capacity") or {})
         packs = default_packs({e: caps.get(e) for e in elements})
@@ -228,8 +234,10 @@ def clutch_temperatures(result, packs: dict | None = None,
     for e in elements:
         if e not in packs:
             continue
-        temps[e], peaks[e], times[e] = temperature_response(result.time, result.signals[f"P_{e}"], packs[e],
-                                                            oil_temperature)
+        power = result.signals[f"P_{e}"]
+        if f"P_drag_{e}" in result.signals:
+            power = power + result.signals[f"P_drag_{e}"]
+        temps[e], peaks[e], times[e] = temperature_response(result.time, power, packs[e], oil_temperature)
     return ThermalResult(np.asarray(result.time), temps, peaks, times, {e: packs[e] for e in temps}, oil_temperature)
 
 

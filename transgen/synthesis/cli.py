@@ -62,6 +62,8 @@ def cmd_teeth(args) -> int:
               f"{'all' if not args.top or args.top >= result.count else f'best {len(result.solutions)}'} shown:")
     else:
         print("no solution meets every target within its tolerance under these rules; the closest candidates:")
+    if not shown:
+        print("  (none near the continuous solutions: none of them obeys the shares)")
     for i, s in enumerate(shown, start=1):
         teeth = "  ".join(f"{t.name} Ns={t.n_sun} Nr={t.n_ring} n={t.planets}" for t in s.teeth)
         print(f"  {i:>3}. {teeth}   max error {s.max_error:.2e}")

@@ -28,6 +28,8 @@ Assembly rules (:class:`AssemblyRules`, for each set, checked on every solution)
   for a simple set the neighbouring planets must clear each other, ``(Ns + Np) sin(pi/n) > Np + 2``
   (tip diameters at a standard addendum of one module; KHK gear handbook, eqs. 13-5, 13-7, 13-9).
   The planet count reported is the largest admissible one.
+* the sets named by ``share`` statements are chosen together: equal teeth on a shared sun or ring,
+  a shared pinion at one centre distance with one planet count (:mod:`transgen.synthesis.shares`).
 
 Solutions are ranked by their largest absolute ratio error, then by size ``sum(Ns + Nr)``.
 """
@@ -45,6 +47,7 @@ from ..errors import TransgenError
 from ..kinematics import _half_unit
 from ..model import Mechanism
 from .kinematic import GearKinematics, gear_kinematics
+from .shares import share_rules, shared_choices
 
 __all__ = [
     "AssemblyRules",
@@ -55,6 +58,7 @@ __all__ = [
     "parse_ratio_targets",
     "ratio_targets",
     "planet_count",
+    "planet_counts",
     "synthesize_teeth",
     "completed_text",
 ]
@@ -94,21 +98,25 @@ class AssemblyRules:
 def planet_count(n_sun: int, n_ring: int, pinions: int, rules: AssemblyRules) -> int | None:
     """The largest admissible number of equally spaced planets, ``None`` when the set cannot be
     assembled under ``rules``."""
+    fits = planet_counts(n_sun, n_ring, pinions, rules)
+    return max(fits) if fits else None
+
+
+def planet_counts(n_sun: int, n_ring: int, pinions: int, rules: AssemblyRules) -> tuple[int, ...]:
+    """Every admissible number of equally spaced planets (none: the set cannot be assembled)."""
     if n_sun < rules.min_teeth or n_ring <= n_sun:
-        return None
+        return ()
     if not rules.k_min <= n_ring / n_sun <= rules.k_max:
-        return None
+        return ()
     if pinions == 2:
-        fits = [n for n in rules.planets if (n_ring - n_sun) % n == 0]
-        return max(fits) if fits else None
+        return tuple(n for n in rules.planets if (n_ring - n_sun) % n == 0)
     if (n_ring - n_sun) % 2 and not rules.profile_shift:
-        return None
+        return ()
     n_planet = (n_ring - n_sun) // 2
     if n_planet < rules.min_teeth:
-        return None
-    fits = [n for n in rules.planets
-            if (n_sun + n_ring) % n == 0 and (n_sun + n_planet) * math.sin(math.pi / n) > n_planet + 2]
-    return max(fits) if fits else None
+        return ()
+    return tuple(n for n in rules.planets
+                 if (n_sun + n_ring) % n == 0 and (n_sun + n_planet) * math.sin(math.pi / n) > n_planet + 2)
 
 
 @dataclass(frozen=True)
@@ -454,26 +462,42 @@ def _search(pb: _Problem, candidates: list[list[Fraction]], progress) -> list[tu
 
 def _expand(pb: _Problem, combos: list[tuple[tuple[Fraction, ...], dict, dict]],
             pairs: list[dict], top: int) -> tuple[list[TeethSolution], int]:
-    """The tooth counts of each exact solution in ``k``: ``top`` best (0: all) and the count."""
+    """The tooth counts of each exact solution in ``k``: ``top`` best (0: all) and the count.
+    The sets named by a ``share`` are chosen jointly (:func:`~transgen.synthesis.shares.shared_choices`),
+    the others independently."""
     count = 0
     out: list[TeethSolution] = []
-    known = [SetTeeth(p.name, p.n_sun, p.n_ring, planet_count(p.n_sun, p.n_ring, p.pinions, pb.rules) or 0,
-                      p.pinions) for p in pb.mech.planetaries if p.teeth_known]
+    shares = share_rules(pb.mech)
+    known_sets = [p for p in pb.mech.planetaries if p.teeth_known]
+    joint = [i for i, name in enumerate(pb.unknown) if shares is not None and name in shares.sets]
+    free = [i for i in range(len(pb.unknown)) if i not in joint]
     for ks, ratios, errors in combos:
         lists = [pairs[p][kp] for p, kp in enumerate(ks)]
-        count += math.prod(len(v) for v in lists)
+        together = [({}, ())] if shares is None else _shared(pb, shares, joint, [lists[i] for i in joint])
+        count += len(together) * math.prod(len(lists[i]) for i in free)
         if top:
             lists = [v[:top] for v in lists]
+            together = together[:top]
         max_error = max((abs(e) for e in errors.values()), default=0.0)
-        for choice in itertools.product(*lists):
-            teeth = tuple(SetTeeth(name, ns, nr, n, pin) for name, (ns, nr, n), pin
-                          in zip(pb.unknown, choice, pb.pinions))
-            out.append(TeethSolution(_in_file_order(pb.mech, teeth + tuple(known)), ratios, errors, max_error))
+        for (planets, shared), *rest in itertools.product(together, *(lists[i] for i in free)):
+            choice = dict(zip(joint, shared)) | dict(zip(free, rest))
+            teeth = tuple(SetTeeth(pb.unknown[i], *choice[i], pb.pinions[i]) for i in range(len(pb.unknown)))
+            known = tuple(SetTeeth(p.name, p.n_sun, p.n_ring, planets.get(p.name) or
+                                   planet_count(p.n_sun, p.n_ring, p.pinions, pb.rules) or 0, p.pinions)
+                          for p in known_sets)
+            out.append(TeethSolution(_in_file_order(pb.mech, teeth + known), ratios, errors, max_error))
         if top:
             out.sort(key=lambda s: (s.max_error, s.size))
             del out[top:]
     out.sort(key=lambda s: (s.max_error, s.size))
     return out, count
+
+
+def _shared(pb: _Problem, shares, joint: list[int], lists: list) -> list[tuple[dict, tuple]]:
+    """:func:`~transgen.synthesis.shares.shared_choices` for the unknown sets ``joint``."""
+    known = {p.name: (p.n_sun, p.n_ring) for p in pb.mech.planetaries if p.teeth_known}
+    return shared_choices(shares, [pb.unknown[i] for i in joint], lists, known, pb.rules,
+                          lambda ns, nr, pinions: planet_counts(ns, nr, pinions, pb.rules))
 
 
 def _in_file_order(mech: Mechanism, teeth: tuple[SetTeeth, ...]) -> tuple[SetTeeth, ...]:
@@ -501,8 +525,16 @@ def _closest(pb: _Problem, minima, top: int) -> list[TeethSolution]:
             if exact is not None:
                 combos.append((ks, exact[0], exact[1], {p: lst for p, (_, lst) in enumerate(choice)}))
     out = []
+    shares = share_rules(pb.mech)
     for ks, ratios, errors, lists in combos:
-        teeth = tuple(SetTeeth(name, *lists[p][0], pin) for p, (name, pin) in enumerate(zip(pb.unknown, pb.pinions)))
+        first = {p: lst[0] for p, lst in lists.items()}
+        if shares is not None:  # the smallest choice that obeys the shares, if any
+            joint = [p for p, name in enumerate(pb.unknown) if name in shares.sets]
+            found = _shared(pb, shares, joint, [lists[p] for p in joint])
+            if not found:
+                continue
+            first.update(zip(joint, found[0][1]))
+        teeth = tuple(SetTeeth(name, *first[p], pin) for p, (name, pin) in enumerate(zip(pb.unknown, pb.pinions)))
         out.append(TeethSolution(_in_file_order(pb.mech, teeth), ratios, errors,
                                  max(abs(e) for e in errors.values()), feasible=False))
     out.sort(key=lambda s: (s.max_error, s.size))
@@ -575,6 +607,10 @@ def synthesize_teeth(mech: Mechanism, targets: tuple[RatioTarget, ...], rules: A
     _check_search_size(pb, force)
     notes = []
     free = {p for p in range(len(pb.unknown)) if not any(p in gk.depends for gk in pb.gears)}
+    if mech.shares:
+        notes.append("shared gears (" + ", ".join(f"{s.set1}.{s.member1} = {s.set2}.{s.member2}" for s in mech.shares)
+                     + "): equal teeth on a shared sun or ring; a shared pinion has one tooth count at one centre "
+                       "distance, a double-pinion set on it a partner pinion that fits, and one planet count")
     for p, name in enumerate(pb.unknown):
         if p in free:
             notes.append(f"no target ratio depends on set {name}: any admissible teeth fit, the smallest are listed")
