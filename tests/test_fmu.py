@@ -12,6 +12,7 @@ import json
 import zipfile
 
 import numpy as np
+
 import pytest
 
 fmpy = pytest.importorskip("fmpy")
@@ -106,6 +107,13 @@ def _check_run(sc, res, r, label):
         span = max(float(np.ptp(ref)), 1e-9)
         err = np.max(np.abs(r[f"w_{link}"][common] - np.interp(r["time"][common], res.time, ref)))
         assert err <= SPEED_TOL * span, f"{label}: w_{link} off by {err / span:.2e} of its range"
+
+
+def test_the_launch_compared_eases_its_upshifts(reference):
+    """The launch's upshifts ease (the ease event, ported to the C schedule): its comparison with
+    ``transgen simulate`` below covers the ease events' times and the eased applies."""
+    _, res = reference(LAUNCH)
+    assert len([e for e in res.events if e.kind == "ease"]) == 7
 
 
 @pytest.mark.parametrize("name, fmi", SCENARIOS)

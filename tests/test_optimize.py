@@ -17,7 +17,7 @@ from transgen.sim import load_scenario
 from transgen.sim.analysis.report import shift_report
 from transgen.sim.control.schedule import ShiftTemplate
 from transgen.sim.core.signals import Table
-from transgen.sim.study.optimize import (TORQUE_PARAMETERS, Constraints, Objective, fit_template, optimize,
+from transgen.sim.study.optimize import (EASE_PARAMETERS, TORQUE_PARAMETERS, Constraints, Objective, fit_template, optimize,
                                          parse_objective, plan_calibration, score, trade_off)
 
 SMALL = {"max_evaluations": 10, "population": 9}  # the start and one generation of nine candidates
@@ -269,7 +269,8 @@ def test_events_and_automatic_schedules_carry_their_templates(tmp_path):
         _refresh(replace(plans[0], number=len(plans) + 1), result)
     tmpl = ShiftTemplate(fill_time=0.05)
     overrides = calibration.overrides(plans, {1: tmpl})
-    clutch = {k: v for k, v in ShiftTemplate().__dict__.items() if k not in TORQUE_PARAMETERS}  # no intervention
+    clutch = {k: v for k, v in ShiftTemplate().__dict__.items()  # no intervention, no easing
+              if k not in TORQUE_PARAMETERS + EASE_PARAMETERS}
     assert overrides == {"auto_shift.templates.1-2": {**clutch, "fill_time": 0.05}}
     tuned = load_scenario(path, overrides)
     assert tuned.powertrain.controllers[0].templates["1-2"] == tmpl

@@ -15,7 +15,7 @@ from ..core.signals import Signal, Spliced, Table
 
 __all__ = ["ShiftTemplate", "ShiftEvent", "shift_trajectories", "gear_elements", "gear_swap", "AutoShift",
            "TORQUE_FIELDS", "torque_request_signal", "request_table", "ControllerRequest", "POWER_ON_THROTTLE",
-           "SYNC_FRACTION", "SYNC_MIN", "speed_phase_first"]
+           "SYNC_FRACTION", "SYNC_MIN", "speed_phase_first", "EASE_FIELDS", "EASE_BOUNDS"]
 
 POWER_ON_THROTTLE = 0.1
 """Throttle [0-1] at and above which a shift is power-on (module docstring)."""
@@ -36,6 +36,12 @@ def speed_phase_first(direction: str, throttle: float) -> bool:
 #: leave the engine alone
 TORQUE_FIELDS = ("torque_boost", "boost_delay", "boost_time", "torque_cut", "cut_delay", "cut_time", "torque_ramp")
 
+#: the template's easing of the inertia phase's end (``ease_slip`` 0: off; module docstring of the
+#: automatic schedule, :meth:`AutoShift.fire`)
+EASE_FIELDS = ("ease_slip", "ease_time", "ease_level")
+EASE_BOUNDS = {"ease_slip": (0.0, 0.99), "ease_time": (0.0, 10.0), "ease_level": (0.0, 1.0)}
+"""Inclusive bounds of the easing fields: a fraction of the initial slip [-], a time [s], an apply level [-]."""
+
 
 @dataclass(frozen=True)
 class ShiftTemplate:
@@ -55,22 +61,45 @@ class ShiftTemplate:
     cut_delay: float = 0.0
     cut_time: float = 0.0
     torque_ramp: float = 0.05
+    ease_slip: float = 0.0
+    ease_time: float = 0.0
+    ease_level: float = 0.0
 
     def __post_init__(self):
         for name in self.__dataclass_fields__:
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise ValueError(f"shift template: {name} must be a finite number >= 0, not {v!r}")
+            lo, hi = EASE_BOUNDS.get(name, (0.0, math.inf))
+            if not lo <= v <= hi:
+                raise ValueError(f"shift template: {name} must lie in [{lo:g}, {hi:g}], not {v!r}")
 
     def as_data(self) -> dict:
         """The template as plain data for a scenario file or a JSON document: every field, but the
         engine torque intervention's only where it intervenes (a clutch-only template writes its
-        nine apply fields)."""
+        nine apply fields), the easing's only where it eases."""
         data = {k: getattr(self, k) for k in self.__dataclass_fields__}
-        if not self.torque_intervention:
-            for k in TORQUE_FIELDS:
-                del data[k]
+        for fields, used in ((TORQUE_FIELDS, self.torque_intervention), (EASE_FIELDS, self.eases)):
+            if not used:
+                for k in fields:
+                    del data[k]
         return data
+
+    @property
+    def eases(self) -> bool:
+        """Whether an automatic schedule eases the oncoming element near the lock (``ease_slip`` > 0)."""
+        return self.ease_slip > 0.0
+
+    def eased(self, t0: float, t: float, now: float) -> list[tuple[float, float]]:
+        """The oncoming apply of a shift commanded at ``t0`` [s] from its ease event at ``t`` on,
+        from its value ``now``: a ramp to ``ease_level`` over ``ease_time``, that level held until
+        the template's hold ends (at least as long again as the ramp: the lock is expected by the
+        ramp's end, the hold covers an error of that estimate), then full apply over
+        ``final_time`` (a slip that did not close is closed then)."""
+        ramp = max(self.ease_time, 1e-6)
+        t_hold = max(t0 + self.fill_time + self.ramp_time + self.hold_time, t + 2.0 * ramp)
+        return [(t, now), (t + ramp, self.ease_level), (t_hold, self.ease_level),
+                (t_hold + max(self.final_time, 1e-6), 1.0)]
 
     @property
     def torque_intervention(self) -> bool:
@@ -235,7 +264,10 @@ class AutoShift:
     (must lie below the upshift line: hysteresis). ``min_interval``: no new shift within this time
     after one starts [s]. Commands shifts with :class:`ShiftTemplate` trajectories by replacing the
     apply signals of the elements concerned from the command time on: ``templates["1-2"]`` for the
-    shift from gear 1 to 2 where given (a calibration per shift), else ``template``.
+    shift from gear 1 to 2 where given (a calibration per shift), else ``template``. A
+    torque-phase-first shift whose template eases (``ease_slip`` > 0) raises an ``ease`` event when
+    its oncoming slip falls to ``ease_slip`` times the slip at the command (a root-found event, as
+    the shift lines) and from then on follows :meth:`ShiftTemplate.eased`.
     """
 
     order: list[str]
@@ -256,6 +288,9 @@ class AutoShift:
     speed_first: dict = field(default_factory=dict)  # "SOURCE-TARGET" -> template of a speed-phase-first shift
     pending: dict = field(default_factory=dict)  # a speed-phase-first shift waiting for synchronism
     lockup: frozenset = frozenset()  # converter lock-up clutches: no shift element (gear_swap)
+    easing: dict = field(default_factory=dict)  # a shift whose oncoming element waits for its ease slip
+
+    event_kinds = {"ease": "ease"}  # the kind of the Result's event of a fired event function (else "command")
 
     def __post_init__(self):
         for up, down in zip(self.upshift, self.downshift):
@@ -285,7 +320,23 @@ class AutoShift:
                           "down"))
         if self.pending:
             funcs.append((self._sync_margin, "sync"))
+        if self.easing:
+            funcs.append((self._ease_margin, "ease"))
         return funcs
+
+    def _ease_margin(self, t: float, w) -> float:
+        """Falls through zero when the easing shift's oncoming slip is down to its ease slip."""
+        return max(abs(self._slip(n, w)) for n in self.easing["elements"]) - self.easing["band"]
+
+    def _ease(self, t: float, elements: dict) -> str:
+        """Ease the oncoming element(s) of the shift waiting for it (:meth:`ShiftTemplate.eased`)."""
+        p, self.easing = self.easing, {}
+        template = p["template"]
+        for name in p["elements"]:
+            e = elements[name]
+            e.apply = Spliced(t, e.apply, _merge(template.eased(p["t0"], t, e.apply.value(t))))
+        return (f"ease: {' '.join(p['elements'])} to {template.ease_level:g} over {template.ease_time:g} s "
+                f"at {template.ease_slip:g} of the slip ({p['shift']})")
 
     def _slip(self, name: str, w) -> float:
         return float(sum(c * x for c, x in zip(self.slips[name], w)))
@@ -311,9 +362,12 @@ class AutoShift:
         """Command the shift ``kind`` ('up'/'down') at ``t``, or ('sync') apply a waiting oncoming
         element; returns a description or None when blocked by ``min_interval``. ``elements``:
         name -> ElementConfig (apply replaced); ``w``: the link speeds [rad/s] at ``t`` (a
-        speed-phase-first shift needs them, module docstring)."""
+        speed-phase-first shift and easing need them, module docstring); ('ease') ease a shift's
+        oncoming element at its ease slip."""
         if kind == "sync":
             return self._synchronise(t, elements) if self.pending else None
+        if kind == "ease":
+            return self._ease(t, elements) if self.easing else None
         if self._wait(t) > 1e-9 * max(1.0, abs(t)):
             return None
         k = self.order.index(self.gear)
@@ -324,6 +378,7 @@ class AutoShift:
         oncoming = template.oncoming(t)
         if self.pending:  # a shift still waiting for synchronism: its oncoming element is applied now
             self._synchronise(t, elements)
+        self.easing = {}  # a shift still waiting for its ease slip is not eased (this one's trajectories follow)
         power = "on" if float(self.throttle.value(t)) >= POWER_ON_THROTTLE else "off"
         if (on and w is not None and all(n in self.slips for n in on)
                 and speed_phase_first(kind, float(self.throttle.value(t)))):
@@ -334,6 +389,11 @@ class AutoShift:
                             "ramp": template.final_time,
                             "deadline": t + template.fill_time + template.ramp_time + template.hold_time,
                             "shift": f"{self.gear}-{target}"}
+        elif on and w is not None and template.eases and all(n in self.slips for n in on):
+            slip = max(abs(self._slip(n, w)) for n in on)
+            if slip > 0.0:  # the ease event on the measured slip, a fraction of this one
+                self.easing = {"elements": on, "band": template.ease_slip * slip, "template": template, "t0": t,
+                               "shift": f"{self.gear}-{target}"}
         for names, pts in ((on, oncoming), (off, template.offgoing(t))):
             for name in names:
                 e = elements[name]

@@ -27,8 +27,10 @@ class ModeSpan:
 
 @dataclass(frozen=True)
 class Event:
-    """A mode change at time ``t``: ``kind`` is ``lock``, ``unlock``, ``reverse`` (a slipping
-    element's slip changed sign) or ``start``; ``elements`` those that changed."""
+    """A mode change at time ``t``: ``kind`` is ``lock``, ``unlock``, ``switch``, ``reverse`` (a
+    slipping element's slip changed sign) or ``start``; ``elements`` those that changed. A
+    controller's events: ``command`` (a shift commanded, a speed-phase-first shift applied at
+    synchronism) and ``ease`` (an oncoming element eased near its lock); ``detail`` describes them."""
 
     t: float
     kind: str

@@ -56,7 +56,7 @@ from transgen.own_converter import converter_drive, own_converter
 from ..control.schedule import ShiftTemplate
 
 __all__ = ["ShiftTiming", "UpshiftCalibration", "upshift_calibration", "synchronised_inertia",
-           "OFFGOING_MARGIN", "RELEASE_LEAD", "MAX_LEVEL", "coast_downshift_calibration", "kickdown_calibration",
+           "OFFGOING_MARGIN", "RELEASE_LEAD", "MAX_LEVEL", "EASE_SLIP", "EASE_RESIDUAL", "ease", "coast_downshift_calibration", "kickdown_calibration",
            "KickdownCalibration", "SYNC_FILL", "FLARE_RAMP"]
 
 OFFGOING_MARGIN = 2.0
@@ -67,6 +67,11 @@ MAX_LEVEL = 0.95
 """Highest inertia-phase apply level (a reserve to full apply)."""
 MIN_LEVEL = 1e-4
 """Lowest handover level (a floor for an oncoming element with no static torque share)."""
+EASE_SLIP = 0.5
+"""Fraction of the oncoming slip at the command at which an upshift's inertia phase eases."""
+EASE_RESIDUAL = 0.1
+"""Share of the inertia-phase torque above the static share that the eased oncoming level keeps
+(the slip deceleration at the lock, relative to the inertia phase's: docs/calibration.md)."""
 
 
 @dataclass(frozen=True)
@@ -191,7 +196,8 @@ def _capacity(mech: Mechanism, name: str, kind: str) -> float:
 def upshift_calibration(mech: Mechanism, source, target, oncoming: tuple[str, ...], offgoing: tuple[str, ...],
                         input_torque: float, input_speed: float, timing: ShiftTiming = ShiftTiming(),
                         graph=None, output_accel: float = 0.0, torque_after: float | None = None,
-                        extra_inertia: float = 0.0) -> UpshiftCalibration:
+                        extra_inertia: float = 0.0, torque_end: float | None = None,
+                        eases: bool = True) -> UpshiftCalibration:
     """The calibration of the upshift from ``source`` to ``target`` (:class:`~transgen.sim.derive.launch.ForwardGear`:
     ratio, engaged elements, static torque factors) with the commanded ``oncoming`` and
     ``offgoing`` elements, at the expected input torque ``input_torque`` [N*m] and input speed
@@ -199,7 +205,9 @@ def upshift_calibration(mech: Mechanism, source, target, oncoming: tuple[str, ..
     ``output_accel`` [rad/s^2] (the handover, :func:`handover`) and the input torque expected at
     the end of the inertia phase ``torque_after`` [N*m] (None: ``input_torque``) and an inertia
     ``extra_inertia`` [kg*m^2] outside the gearbox that the input's speed change moves too (0 for
-    an upshift: the converter leaves the engine at its speed); see the module docstring."""
+    an upshift: the converter leaves the engine at its speed) and the input torque expected when the
+    slip closes ``torque_end`` [N*m] (None: the inertia phase's mean), the static share the
+    easing keeps (:func:`ease`; ``eases`` False: no easing); see the module docstring."""
     t_in = max(float(input_torque), 1e-6)
     # the input's speed change at a fixed output speed (an upshift slows it, a downshift raises it)
     dw = max(float(input_speed), 0.0) * abs(1.0 - target.ratio / source.ratio)
@@ -224,12 +232,36 @@ def upshift_calibration(mech: Mechanism, source, target, oncoming: tuple[str, ..
     off = max((abs(t) / _capacity(mech, n, "static") for n, t in before.items()), default=0.0)
     off_level = min(1.0, OFFGOING_MARGIN * off) if off > 0 else 1.0  # a dog holds at any apply
     ramp_time = timing.torque_phase * a_ip / a_h
+    # the end of the inertia phase eased: the static share at the torque expected there
+    a_end = level(oncoming, target.torque_factors, t_ip_in if torque_end is None else max(float(torque_end), 0.0),
+                  "dynamic")
+    ease_level, ease_time, longer = ease(a_ip, a_static, a_end, t_ip) if eases else (0.0, 0.0, 0.0)
     template = ShiftTemplate(
         fill_time=timing.fill, fill_level=0.0, ramp_time=_round(ramp_time), ramp_end=_round(a_ip),
-        hold_time=_round(max(1.5 * t_ip, 0.1)), final_time=timing.final, offgoing_delay=0.0,
-        offgoing_level=_round(off_level), offgoing_ramp=_round(timing.torque_phase * (1.0 - RELEASE_LEAD)))
+        hold_time=_round(max(1.5 * t_ip, 0.1) + longer), final_time=timing.final, offgoing_delay=0.0,
+        offgoing_level=_round(off_level), offgoing_ramp=_round(timing.torque_phase * (1.0 - RELEASE_LEAD)),
+        **({"ease_slip": EASE_SLIP, "ease_time": _round(ease_time), "ease_level": _round(ease_level)}
+           if ease_time > 0 else {}))
     return UpshiftCalibration(source.name, target.name, t_in, float(input_speed), dw, j_eff, a_h, a_ip, off_level,
                               t_ip, template)
+
+
+def ease(inertia_level: float, static_level: float, end_level: float, inertia_phase: float) -> tuple[float, float, float]:
+    """``(ease_level, ease_time [s], longer [s])``: how an upshift eases the end of its inertia
+    phase (:data:`EASE_SLIP`, :data:`EASE_RESIDUAL`; docs/calibration.md). The oncoming element
+    at ``inertia_level`` carries the static share ``static_level`` plus the inertia torque that
+    closes the slip in ``inertia_phase``; eased, it carries the static share at the phase's end
+    ``end_level`` plus :data:`EASE_RESIDUAL` of that inertia torque, so the slip deceleration
+    at the lock is about that share of the phase's. The ramp to it lasts until the slip is
+    expected to close: the slip falls linearly in rate from ``a`` to ``EASE_RESIDUAL a``, so
+    ``EASE_SLIP s0 = (1 + EASE_RESIDUAL) a T / 2`` with ``a = s0 / t_ip``; ``longer`` is what
+    that adds to the inertia phase. No easing (``ease_time`` 0) without an inertia torque."""
+    inertia = inertia_level - static_level
+    if inertia <= 0 or inertia_phase <= 0:
+        return 0.0, 0.0, 0.0
+    level = min(end_level + EASE_RESIDUAL * inertia, inertia_level)
+    ease_time = 2.0 * EASE_SLIP * inertia_phase / (1.0 + EASE_RESIDUAL)
+    return level, ease_time, ease_time - EASE_SLIP * inertia_phase
 
 
 SYNC_FILL = 0.02
@@ -254,12 +286,14 @@ def coast_downshift_calibration(mech: Mechanism, source, target, oncoming, offgo
     low speeds of the throttle-0 downshift lines the converter's torque is near zero (the engine
     idles), the handover level tiny and the ramp through it would take seconds: the oncoming ramp
     reaches its inertia-phase level by ``t_tp`` at the latest (there is hardly a torque to hand
-    over; the offgoing element, carrying almost nothing, is let go at once: no bindup to speak
-    of; a ramp to ``t_tp + t_ip`` synchronised the truck's 4-3 in 1.25 s)."""
+    of; a ramp to ``t_tp + t_ip`` synchronised the truck's 4-3 in 1.25 s). It does not ease
+    (:func:`ease`): the drag's share is too uncertain to ease to (eased to it plus 0.1 of the
+    inertia torque, the 8HP70 car's 4-3 and 2-1 stalled until the hold's end: 1.0 s to
+    synchronism, 26-30 m/s^3)."""
     from dataclasses import replace
 
     cal = upshift_calibration(mech, source, target, oncoming, offgoing, abs(float(drag_torque)), input_speed,
-                              timing, graph, extra_inertia=engine_inertia)
+                              timing, graph, extra_inertia=engine_inertia, eases=False)
     ramp = min(cal.template.ramp_time, _round(timing.torque_phase))
     return replace(cal, template=replace(cal.template, ramp_time=ramp))
 

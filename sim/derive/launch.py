@@ -58,7 +58,7 @@ from . import calibration
 from .calibration import ShiftTiming, UpshiftCalibration, upshift_calibration
 from ..model.components import EngineMap
 from .driveline_class import DrivelineParts, EquivalentDriveline
-from .launch_estimate import (MAX_LAUNCH_TIME, RPM, _engine_match, _engine_torque_max,
+from .launch_estimate import (MAX_LAUNCH_TIME, RPM, _engine_match, phase_end_torque, _engine_torque_max,
                               _estimate_launch, _input_torque_max, _road_force)
 from ..engine.map_file import DATA_DIR
 from ..control.schedule import ShiftTemplate, gear_swap
@@ -79,6 +79,7 @@ LAUNCH_UNITS = {"ratio": "1", "torque_factors": "1", "output_inertia": "kg*m^2",
                 "factor": "1", "required_static": "N*m", "engine_torque_scale": "1", "input_torque_max": "N*m",
                 "final_drive": "1", "fill_time": "s", "fill_level": "1", "ramp_time": "s", "ramp_end": "1",
                 "hold_time": "s", "final_time": "s", "offgoing_delay": "s", "offgoing_level": "1", "offgoing_ramp": "s",
+                "ease_slip": "1", "ease_time": "s", "ease_level": "1",
                 "upshift_rpm": "rpm", "downshift_rpm": "rpm", "min_interval": "s", "estimated_shift_times": "s",
                 "t_end": "s", "speed": "m/s", "throttle": "1", "throttle_after": "1", "brake": "N*m",
                 "input_torque": "N*m", "input_speed": "rad/s", "speed_change": "rad/s",
@@ -499,9 +500,12 @@ def _calibrate(mech, vc: VehicleClass, scale: float, gears: dict, shifts, up, fi
         speed = w_t / a.ratio / final_drive * vc.wheel_radius
         mass = 1.03 * vc.mass + (a.inertia + vc.output_inertia) * (final_drive / vc.wheel_radius) ** 2
         accel = (torque * a.ratio * final_drive / vc.wheel_radius - _road_force(vc, speed)) / mass
+        w_t_end = w_t * b.ratio / a.ratio
         out.append(upshift_calibration(mech, a, b, s.oncoming, s.offgoing, torque, w_t, vc.shift_timing, graph,
                                        accel * final_drive / vc.wheel_radius,
-                                       tc.torques(w_e, w_t * b.ratio / a.ratio)[1]))  # the engine keeps its speed
+                                       tc.torques(w_e, w_t_end)[1],  # the engine keeps its speed
+                                       torque_end=phase_end_torque(engine, tc, idle, throttle, vc.J_engine, w_e, w_t,
+                                                                   w_t_end, vc.shift_timing.inertia_phase)))
     return out
 
 
@@ -671,7 +675,8 @@ def _calibration_lines(lc: Launch) -> list[str]:
              "# synchronises (docs/calibration.md): the oncoming ramps to the handover level (its gear-B torque",
              f"# share of the expected input torque) in the torque phase ({t.torque_phase:g} s), the offgoing falls from",
              f"# {100 * calibration.OFFGOING_MARGIN:.0f} % of the level holding its gear-A torque to zero just before it; the inertia-phase level",
-             f"# adds the torque that synchronises the inertia in {t.inertia_phase:g} s (at most {calibration.MAX_LEVEL:g} of full apply).", ""]
+             f"# adds the torque that synchronises the inertia in {t.inertia_phase:g} s (at most {calibration.MAX_LEVEL:g} of full apply);",
+             f"# at {calibration.EASE_SLIP:g} of its slip the oncoming eases to its static share plus {calibration.EASE_RESIDUAL:g} of that torque.", ""]
     for c in lc.calibrations:
         lines += [f'[auto_shift.templates."{c.source}-{c.target}"]   # input torque {c.input_torque:.0f} N*m at '
                   f'{c.input_speed / RPM:.0f} rpm; input slows by {c.speed_change / RPM:.0f} rpm; J = {c.inertia:.4g} kg*m^2;'

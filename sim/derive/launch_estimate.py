@@ -12,7 +12,7 @@ import numpy as np
 
 from ..model.components import GRAVITY, EngineMap
 
-__all__ = ["MAX_LAUNCH_TIME", "RPM"]
+__all__ = ["MAX_LAUNCH_TIME", "RPM", "phase_end_torque"]
 
 RPM = 2 * math.pi / 60
 MAX_LAUNCH_TIME = 300.0
@@ -70,6 +70,21 @@ def _engine_match(engine, tc, idle, throttle, w_t) -> tuple[float, float]:
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if excess(mid) > 0 else (lo, mid)
     return lo, tc.torques(lo, w_t)[1]
+
+
+def phase_end_torque(engine, tc, idle: float, throttle: float, J_engine: float, w_e: float, w_t: float,
+                     w_t_end: float, duration: float, steps: int = 50) -> float:
+    """The turbine torque [N*m] at the end of an inertia phase in which the turbine speed falls (or
+    rises) linearly from ``w_t`` to ``w_t_end`` [rad/s] in ``duration`` [s], the engine from
+    ``w_e`` [rad/s] pulled by the pump torque against its inertia ``J_engine`` [kg*m^2] (explicit
+    Euler, as :func:`_estimate_launch`): the converter's torque rises as the turbine slows and
+    falls as the engine follows it."""
+    dt = max(float(duration), 0.0) / steps
+    for k in range(steps):
+        w = w_t + (w_t_end - w_t) * k / steps
+        t_pump = tc.torques(w_e, w)[0]
+        w_e = max(w_e + (_engine_torque(engine, idle, throttle, w_e) - t_pump) / J_engine * dt, 1e-3)
+    return float(tc.torques(w_e, w_t_end)[1])
 
 
 def _estimate_launch(vehicle, scale, gears, order, final_drive, up_rpm, template, min_interval):

@@ -309,7 +309,7 @@ def _build(data: dict, source: Source, path: Path, overrides=None, access: FileA
     if shifts_t:
         if "gear" not in init_t:
             raise r.error(("shifts",), "shift events need [initial] gear = ... (the gear they start from)")
-        template = _template(r, data, ("shifts", "template"))
+        template = _template(r, data, ("shifts", "template"), closed_loop=False)
         events = []
         event_list = shifts_t.get("events", [])
         if not event_list and "template" in shifts_t:
@@ -327,7 +327,7 @@ def _build(data: dict, source: Source, path: Path, overrides=None, access: FileA
             if not options.t_start <= t < options.t_end:
                 raise r.error(keys + ("t",), f"shift event {k + 1} at t = {t:g} s is outside the simulated interval "
                                              f"[{options.t_start:g}, {options.t_end:g}) s")
-            tmpl = _template(r, data, keys + ("template",)) if "template" in ev else template
+            tmpl = _template(r, data, keys + ("template",), closed_loop=False) if "template" in ev else template
             events.append(ShiftEvent(t, source, target, tmpl))
         try:
             signals = shift_trajectories(gears, init_gear, events, element_names, lockup_set)
@@ -394,8 +394,7 @@ def _build(data: dict, source: Source, path: Path, overrides=None, access: FileA
                     raise r.error(keys + (table_key, name), f"{table_key}: {shown(name)} is no shift of the order "
                                   f"(\"SOURCE-TARGET\" of neighbouring gears" + (f"; did you mean '{close[0]}'?)" if close else ")"))
                 where = keys + (table_key, name)
-                given = r.table(data, where, set(ShiftTemplate.__dataclass_fields__))  # over the schedule's template
-                out[name] = replace(template, **{k: r.number(given, where, k, minimum=0.0) for k in given})
+                out[name] = _template(r, data, where, template)  # over the schedule's template
         min_interval = r.number(auto_t, keys, "min_interval", 2.0, minimum=0.0)
         try:
             controllers.append(AutoShift(order, thr, up, down, throttle, tr.link_index[mech.output], gears,
@@ -541,10 +540,22 @@ def _grid(r: Reader, table: dict, keys, name: str, rows: int, columns: int, what
     return out
 
 
-def _template(r: Reader, data: dict, keys) -> ShiftTemplate:
+def _template(r: Reader, data: dict, keys, base: ShiftTemplate | None = None, closed_loop: bool = True) -> ShiftTemplate:
+    """The shift template at ``keys`` (its keys over ``base``, default the ShiftTemplate defaults);
+    ``closed_loop`` False: an open-loop shift (``[shifts]`` events) that cannot ease."""
+    from ..control.schedule import EASE_BOUNDS
+
     fields = ShiftTemplate.__dataclass_fields__
     spec = r.table(data, keys, set(fields))
-    return ShiftTemplate(**{k: r.number(spec, keys, k, minimum=0.0) for k in spec})
+    values = {}
+    for k in spec:
+        values[k] = v = r.number(spec, keys, k, minimum=0.0)
+        if k in EASE_BOUNDS and v > EASE_BOUNDS[k][1]:
+            raise r.error(keys + (k,), f"'{k}' must be <= {EASE_BOUNDS[k][1]:g}, not {v:g}")
+    if not closed_loop and values.get("ease_slip", 0.0) > 0:
+        raise r.error(keys + ("ease_slip",), "easing acts on the measured oncoming slip: only an [auto_shift] "
+                                             "template eases, not a [shifts] event's (set ease_slip = 0)")
+    return replace(base, **values) if base is not None else ShiftTemplate(**values)
 
 
 def _initial_speeds(r: Reader, mech: Mechanism, tr: Transmission, init_t: dict, locked: list[str]) -> np.ndarray:

@@ -246,7 +246,8 @@ def simulate_switching(pt: Powertrain, options: SolverOptions, progress=None, st
                     controller, what = i
                     description = controller.fire(what, t_end, {e.name: e for e in tr.elements}, w)
                     if description:
-                        events.append(Event(t_end, "command", (), tr.mode_name(locked), tr.mode_name(locked), description))
+                        kind_of = getattr(controller, "event_kinds", {}).get(what, "command")  # e.g. "ease"
+                        events.append(Event(t_end, kind_of, (), tr.mode_name(locked), tr.mode_name(locked), description))
                 if len(te) and kind == "torque":
                     row = mode.locked_order.index(i)
                     torque = mode.D[row] @ u_end if tr.mesh is None else tr.response(mode, u_end, w)[1][row]

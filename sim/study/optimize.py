@@ -16,12 +16,12 @@ from transgen.errors import ScenarioError
 # the optimizer's parts (re-exported: the module's API is unchanged)
 from .scoring import (DEFAULT_OBJECTIVE, INFEASIBLE, OBJECTIVE_TERMS, Constraints, Objective,  # noqa: F401
                       parse_objective, score, shift_metrics)
-from .templates import (BOUNDS, PARAMETERS, TORQUE_PARAMETERS, _points, _span, _template, _vector,  # noqa: F401
+from .templates import (BOUNDS, EASE_PARAMETERS, PARAMETERS, TORQUE_PARAMETERS, _points, _span, _template, _vector,  # noqa: F401
                         fit_template, has_engine, intervention_text)
 from .tuned import COMPARED, comparison_rows, trade_off, tuned_scenario_text  # noqa: F401
 
 __all__ = ["Constraints", "Objective", "ShiftPlan", "Calibration", "ShiftOutcome", "OptimizeResult", "PARAMETERS",
-           "TORQUE_PARAMETERS", "BOUNDS", "has_engine", "intervention_text", "fit_template", "plan_calibration", "evaluate_candidate", "shift_metrics", "score", "optimize",
+           "TORQUE_PARAMETERS", "EASE_PARAMETERS", "BOUNDS", "has_engine", "intervention_text", "fit_template", "plan_calibration", "evaluate_candidate", "shift_metrics", "score", "optimize",
            "tuned_scenario_text", "parse_objective", "OBJECTIVE_TERMS", "PRE_MARGIN", "SETTLE", "INFEASIBLE"]
 
 PRE_MARGIN = 0.05
@@ -435,7 +435,8 @@ def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluati
     engine_torque = engine if engine_torque is None else engine_torque
     if not engine_torque:  # the scenario's own torque request stays as it is
         calibration = replace(calibration, request=None)
-    names = PARAMETERS + (TORQUE_PARAMETERS if engine_torque else ())
+    clutch = PARAMETERS + (EASE_PARAMETERS if calibration.kind == "auto" else ())  # easing needs the schedule
+    names = clutch + (TORQUE_PARAMETERS if engine_torque else ())
     selected = _select(plans, shifts, path)
     _check_time(len(selected), max_evaluations, executor, *timing)
     limits = reference_limits(constraints.no_worse_than, base, selected) if constraints.no_worse_than else {}
@@ -467,7 +468,7 @@ def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluati
         shared = {"path": key, "files": files, "state": window_state,
                   "shift": (plan.oncoming, plan.offgoing, plan.t_start, plan.name), "limit": limit}
 
-        stage = {"names": PARAMETERS, "base": plan.template}  # the parameters searched now, the others from base
+        stage = {"names": clutch, "base": plan.template}  # the parameters searched now, the others from base
 
         def task_of(index, x, p=plan):
             tmpl = _template(x, stage["names"], stage["base"])
@@ -476,7 +477,7 @@ def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluati
 
         # the starting calibration, evaluated first: the reference of the objective's terms
         [(_, start_metrics)] = list(executor.run(evaluate_candidate, shared,
-                                                 [task_of(0, _vector(plan.template, PARAMETERS))]))
+                                                 [task_of(0, _vector(plan.template, clutch))]))
         reference = start_metrics if start_metrics.get("success") else {}
         start_score, start_terms, start_viol = score(start_metrics, reference, objective, own)
         best = {"score": start_score, "template": plan.template, "metrics": start_metrics, "violations": start_viol}
@@ -511,10 +512,10 @@ def _optimize(path, shifts, objective, constraints, executor, seed, max_evaluati
                                           best["score"], not best["violations"], (counter["evaluations"] - 1) / elapsed))
             return scores
 
-        # the clutches: the nine apply parameters from the scenario's calibration
+        # the clutches: the nine apply parameters (and the easing) from the scenario's calibration
         gap = limit - plan.t_start - SETTLE
-        best["x"] = _vector(plan.template, PARAMETERS)
-        _search(batch_map, best, counter, _bounds(plan.template, gap, PARAMETERS), budget, population, seed)
+        best["x"] = _vector(plan.template, clutch)
+        _search(batch_map, best, counter, _bounds(plan.template, gap, clutch), budget, population, seed)
         if engine_torque:  # then the engine torque with them, from the best clutch calibration
             stage.update(names=names, base=best["template"])
             best["x"] = _vector(best["template"], names)

@@ -287,7 +287,7 @@ def optimize_units() -> dict[str, str]:
             "max_flare_rpm": "rpm", "max_hole_pct": "%", "max_duration": "s", "max_energy": "J", "max_temperature": "degC", "max_jerk": "m/s^3", "temperature": "degC", "fill_time": "s", "fill_level": "1",
             "ramp_time": "s", "ramp_end": "1", "hold_time": "s", "final_time": "s", "offgoing_delay": "s",
             "offgoing_level": "1", "offgoing_ramp": "s", "torque_boost": "1", "boost_delay": "s", "boost_time": "s",
-            "torque_cut": "1", "cut_delay": "s", "cut_time": "s", "torque_ramp": "s", "torque_request_min": "1",
+            "torque_cut": "1", "cut_delay": "s", "cut_time": "s", "torque_ramp": "s", "ease_slip": "1", "ease_time": "s", "ease_level": "1", "torque_request_min": "1",
             "torque_request_max": "1", "torque_increase_duration": "s", "torque_reduction_duration": "s"}
 
 

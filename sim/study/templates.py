@@ -12,7 +12,7 @@ import numpy as np
 
 from transgen.errors import ScenarioError
 
-__all__ = ["PARAMETERS", "TORQUE_PARAMETERS", "BOUNDS", "fit_template", "has_engine", "intervention_text"]
+__all__ = ["PARAMETERS", "TORQUE_PARAMETERS", "EASE_PARAMETERS", "BOUNDS", "fit_template", "has_engine", "intervention_text"]
 
 
 #: the tuned parameters, in the order of the optimizer's vector (the fields of ShiftTemplate)
@@ -23,6 +23,10 @@ PARAMETERS = ("fill_time", "fill_level", "ramp_time", "ramp_end", "hold_time", "
 #: PARAMETERS where the input is an engine
 TORQUE_PARAMETERS = ("torque_boost", "boost_delay", "boost_time", "torque_cut", "cut_delay", "cut_time", "torque_ramp")
 
+#: the easing of the inertia phase's end (ShiftTemplate; a slip fraction [-], a time [s], a level [-]),
+#: tuned with PARAMETERS where an automatic schedule commands the shift (easing needs its measured slip)
+EASE_PARAMETERS = ("ease_slip", "ease_time", "ease_level")
+
 #: the search box of each parameter [s, apply fraction or torque factor]; widened to hold the starting
 #: calibration. The increase goes up to 1.6 times the engine's torque (the engine gives no more than
 #: its full-load torque at the current speed anyway), the reduction down to 0.3 times.
@@ -30,7 +34,8 @@ BOUNDS = {"fill_time": (0.0, 0.3), "fill_level": (0.0, 0.5), "ramp_time": (0.05,
           "hold_time": (0.0, 1.5), "final_time": (0.02, 0.5), "offgoing_delay": (0.0, 1.5),
           "offgoing_level": (0.0, 1.0), "offgoing_ramp": (0.01, 1.0),
           "torque_boost": (1.0, 1.6), "boost_delay": (0.0, 0.5), "boost_time": (0.0, 1.0), "torque_cut": (0.3, 1.0),
-          "cut_delay": (0.0, 0.5), "cut_time": (0.0, 1.0), "torque_ramp": (0.02, 0.2)}
+          "cut_delay": (0.0, 0.5), "cut_time": (0.0, 1.0), "torque_ramp": (0.02, 0.2),
+          "ease_slip": (0.0, 0.9), "ease_time": (0.0, 1.0), "ease_level": (0.0, 1.0)}
 
 
 # --------------------------------------------------------------------------------- templates
@@ -52,6 +57,8 @@ def _span(template) -> float:
     """How long after the shift command the template's trajectories end [s] (the apply
     trajectories and the engine torque request)."""
     on = template.fill_time + template.ramp_time + template.hold_time + template.final_time
+    if template.eases:  # the eased apply ends 2 ease_time + final_time after its event at the latest
+        on += 2.0 * template.ease_time
     off = template.fill_time + template.offgoing_delay + template.offgoing_ramp
     request = template.torque_request(0.0)
     return max(on, off, request[-1][0] if request else 0.0)

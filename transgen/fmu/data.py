@@ -81,8 +81,8 @@ class FmuData:
 
     @property
     def n_indicators(self) -> int:
-        """Two event indicators per element, and an upshift and a downshift one with a schedule."""
-        return 2 * len(self.elements) + (2 if self.schedule else 0)
+        """Two event indicators per element, and an upshift, a downshift and an ease one with a schedule."""
+        return 2 * len(self.elements) + (3 if self.schedule else 0)
 
     @property
     def engine_state(self) -> bool:
@@ -319,7 +319,7 @@ def _schedule(auto, tr, engine, inputs) -> dict:
 
     oneway = frozenset(e.name for e in tr.elements if e.kind == "oneway")
     fields = ("fill_time", "fill_level", "ramp_time", "ramp_end", "hold_time", "final_time", "offgoing_delay",
-              "offgoing_level", "offgoing_ramp")
+              "offgoing_level", "offgoing_ramp", "ease_slip", "ease_time", "ease_level")
     templates, shifts = [], []
     pairs = list(zip(auto.order, auto.order[1:])) + [(b, a) for a, b in zip(auto.order, auto.order[1:])]
     for source, target in pairs:

@@ -136,6 +136,10 @@ def variables(d: FmuData) -> list[Variable]:
                                 "continuous", "calculated", None, None,
                                 f"event indicator {2 * len(d.elements) + k}: the automatic schedule's {kind} line "
                                 f"crossed (and min_interval passed)"))
+        out.append(Variable("indicator_ease", vr["Z"] + 2 * len(d.elements) + 2, "Real", "local", "continuous",
+                            "calculated", None, None,
+                            f"event indicator {2 * len(d.elements) + 2}: the oncoming slip of an easing shift down "
+                            f"to its ease slip (the template's ease_slip of its slip at the command)"))
     return out
 
 

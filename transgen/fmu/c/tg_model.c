@@ -30,7 +30,7 @@
 #ifndef TG_SCHEDULE
 #define TG_SCHEDULE 0
 #endif
-#define TG_NZ (2 * TG_NE + 2 * TG_SCHEDULE) /* event indicators */
+#define TG_NZ (2 * TG_NE + 3 * TG_SCHEDULE) /* event indicators */
 
 typedef struct {
     double t;
@@ -57,6 +57,9 @@ typedef struct {
     long n_events;
     int gear_k;                 /* the schedule's gear (position in its order) */
     double last_shift;          /* when it commanded the last shift [s] */
+    unsigned ease_mask;         /* the oncoming elements of a shift waiting for its ease slip (0: none) */
+    int ease_template;          /* that shift's template */
+    double ease_band, ease_t0;  /* its ease slip [rad/s] and command time [s] */
     double J[TG_NL + 1];        /* link inertias [kg*m^2] (tunable) */
     double par[TG_NPAR + 1];    /* driveline and engine parameters (tunable, see model_data.h) */
     double B[TG_NB];            /* every mode's dq/dt = B u, from the inertias (tg_matrices) */
