@@ -43,7 +43,7 @@ what the flare does not need to raise ``J_eff`` by ``dw`` in ``t_ip``).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -72,6 +72,15 @@ EASE_SLIP = 0.5
 EASE_RESIDUAL = 0.1
 """Share of the inertia-phase torque above the static share that the eased oncoming level keeps
 (the slip deceleration at the lock, relative to the inertia phase's: docs/calibration.md)."""
+
+
+def _calibration_data(calibration) -> dict:
+    """A shift calibration record as plain data, its fields in declared order: ``source`` and
+    ``target`` named ``from`` and ``to``, the template as its own data."""
+    rename = {"source": "from", "target": "to"}
+    data = {rename.get(f.name, f.name): getattr(calibration, f.name) for f in fields(calibration)}
+    data["template"] = calibration.template.as_data()
+    return data
 
 
 @dataclass(frozen=True)
@@ -104,11 +113,7 @@ class UpshiftCalibration:
     template: ShiftTemplate
 
     def as_data(self) -> dict:
-        return {"from": self.source, "to": self.target, "input_torque": self.input_torque,
-                "input_speed": self.input_speed, "speed_change": self.speed_change, "inertia": self.inertia,
-                "handover_level": self.handover_level, "inertia_level": self.inertia_level,
-                "offgoing_level": self.offgoing_level, "inertia_phase": self.inertia_phase,
-                "template": self.template.as_data()}
+        return _calibration_data(self)
 
 
 def synchronised_inertia(mech: Mechanism, source: tuple[str, ...], target: tuple[str, ...], graph=None) -> float:
@@ -316,10 +321,7 @@ class KickdownCalibration:
     template: ShiftTemplate
 
     def as_data(self) -> dict:
-        return {"from": self.source, "to": self.target, "input_torque": self.input_torque,
-                "input_speed": self.input_speed, "speed_change": self.speed_change, "inertia": self.inertia,
-                "offgoing_level": self.offgoing_level, "inertia_phase": self.inertia_phase,
-                "template": self.template.as_data()}
+        return _calibration_data(self)
 
 
 def kickdown_calibration(mech: Mechanism, source, target, oncoming, offgoing, input_torque: float,
