@@ -317,7 +317,7 @@ def _figures(mech_text: str, gears: dict, spec: SearchSpec) -> dict:
 
 def synthesize_topology(spec: SearchSpec, top: int = 20, executor=None, progress=None, rules=None,
                         teeth_candidates: int | None = None, max_seconds: float = MAX_SECONDS,
-                        train_list=None) -> TopologySynthesis:
+                        train_list=None, checkpoint=None) -> TopologySynthesis:
     """Search every concept of ``spec`` (see the module docstring) and return the ``top`` best.
 
     ``executor``: anything with ``run(fn, shared, tasks)`` (default: in this process);
@@ -339,11 +339,21 @@ def synthesize_topology(spec: SearchSpec, top: int = 20, executor=None, progress
         from types import SimpleNamespace
 
         executor = SimpleNamespace(run=lambda fn, shared, tasks: (fn(shared, t) for t in tasks))
-    tasks = list(enumerate(all_trains))
-    for done, (index, result) in enumerate(executor.run(_indexed_task, spec, tasks), start=1):
+    saved = None
+    if checkpoint is not None:
+        from .checkpoint import Checkpoint
+
+        saved = Checkpoint(checkpoint, spec, all_trains)
+        results.update(saved.done)
+    tasks = [(i, t) for i, t in enumerate(all_trains) if i not in results]
+    for done, (index, result) in enumerate(executor.run(_indexed_task, spec, tasks), start=len(results) + 1):
         results[index] = result
+        if saved is not None:
+            saved.add(index, result)
         if progress:
-            progress(f"gear trains {done}/{len(tasks)}")
+            progress(f"gear trains {done}/{len(all_trains)}")
+    if saved is not None:
+        saved.save()
     for index in sorted(results):
         total.merge(results[index])
     fitted = sorted(total.concepts, key=lambda f: (f.fit.max_error, f.concept.key()))

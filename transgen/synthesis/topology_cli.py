@@ -62,11 +62,12 @@ def cmd_topology(args) -> int:
 
         executor = make_executor(args.workers, args.scheduler)
     progress = progress_line if sys.stderr.isatty() and not args.json else None
+    checkpoint = args.output  # the finished trains are kept there: a second run resumes
     if executor is not None:
         with executor:
-            result = synthesize_topology(spec, args.top, executor, progress, max_seconds=limit)
+            result = synthesize_topology(spec, args.top, executor, progress, max_seconds=limit, checkpoint=checkpoint)
     else:
-        result = synthesize_topology(spec, args.top, None, progress, max_seconds=limit)
+        result = synthesize_topology(spec, args.top, None, progress, max_seconds=limit, checkpoint=checkpoint)
     if progress:
         print(file=sys.stderr)
     if args.output:
