@@ -36,7 +36,12 @@ def _labelled_trains(n_sets: int, n_links: int):
             links = [tuple(m for m in range(n) if norm[m] == b) for b in range(blocks)]
             if any(len({m // 3 for m in link}) < len(link) for link in links):
                 continue
-            yield Train(n_sets, tuple(links) + (((),) if bare else ()))
+            train = Train(n_sets, tuple(links) + (((),) if bare else ()))
+            link_sets = [frozenset(l for l, link in enumerate(links) if m // 3 == p for m in link)
+                         for p in range(n_sets)]
+            if len(set(link_sets)) < n_sets:  # two sets on the same three links: locked
+                continue
+            yield train
 
 
 def _simple_feasible(c: Concept, gears: int, engaged: int, k: np.ndarray) -> bool:

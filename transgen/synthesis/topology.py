@@ -16,6 +16,8 @@ The search space (what :func:`enumerate_concepts` walks) and why each rule loses
   the clutch open: it is the same mechanism with the clutch's other link as output in every gear
   that uses it); the input is a member link or the bare shaft;
 * no brake on the input or the output (a gear with it engaged holds the input or the output);
+* no two sets on the same three links (they lock each other, or one is redundant:
+  :func:`locked_pair`);
 * no member is fixed to the housing (``grounded``: a fixed member makes a simple set a fixed
   reduction; allowed on request with ``max_grounded``).
 
@@ -46,7 +48,7 @@ import numpy as np
 
 __all__ = [
     "MEMBERS", "Train", "Concept", "trains", "train_automorphisms", "canonical_key", "link_count",
-    "placements", "count_orbits", "TrainKinematics", "train_kinematics", "sample_speeds", "feasible_mask", "rank_mask", "row_masks",
+    "placements", "count_orbits", "locked_pair", "TrainKinematics", "train_kinematics", "sample_speeds", "feasible_mask", "rank_mask", "row_masks",
 ]
 
 MEMBERS = ("S", "R", "C")
@@ -119,7 +121,9 @@ def trains(n_sets: int, n_links: int, bare_input: bool = True, max_grounded: int
                 for row in sorted(first, key=lambda r: codes[r]):
                     blocks = [tuple(m for m, lab in zip(rest, labels[row]) if lab == b) for b in range(target)]
                     links = tuple(sorted(blocks)) + (((),) if bare else ())
-                    out.append(Train(n_sets, links, tuple(grounded)))
+                    train = Train(n_sets, links, tuple(grounded))
+                    if not locked_pair(train):
+                        out.append(train)
     # one representative per class across the grounded choices too (a set permutation may map
     # one grounded choice onto another)
     seen, unique = set(), []
@@ -131,6 +135,15 @@ def trains(n_sets: int, n_links: int, bare_input: bool = True, max_grounded: int
             seen.add(code)
         unique.append(t)
     return unique
+
+
+def locked_pair(train: Train) -> bool:
+    """Whether two sets have their three members on the same three links (in any order): two
+    independent constraints on three speeds leave only the block rotation, so the pair is locked
+    (in the same order with equal ``k``, one set is redundant): a concept of fewer sets."""
+    link_of = train.link_of()
+    on = [frozenset(link_of.get(3 * p + j, -1 - 3 * p - j) for j in range(3)) for p in range(train.sets)]
+    return len(set(on)) < len(on)
 
 
 def _canonical_codes(labels: np.ndarray, members: list[int], grounded, perms) -> np.ndarray:
