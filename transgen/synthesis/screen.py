@@ -25,7 +25,7 @@ import numpy as np
 
 from .topology import TrainKinematics, sample_speeds
 
-__all__ = ["distinct_cover", "cover_runs", "cell_screen", "vertex_starts", "SLACK"]
+__all__ = ["distinct_cover", "cover_runs", "cell_screen", "vertex_starts", "VertexSpeeds", "SLACK"]
 
 SLACK = 1e-9
 """Relative widening of the target intervals: rounding in the corner values never drops a cell."""
@@ -39,7 +39,7 @@ def distinct_cover(a: np.ndarray, b: np.ndarray, n_targets: int) -> np.ndarray:
     rows = np.arange(m)
     used = np.zeros(a.shape, dtype=bool)
     ok = np.ones(m, dtype=bool)
-    big = n_targets + 1
+    big = int(b.max(initial=0)) + 1
     for g in range(n_targets):
         avail = ~used & (a <= g) & (b >= g)
         j = np.where(avail, b, big).argmin(axis=1)
@@ -78,12 +78,29 @@ def _ranges(s_in: np.ndarray, s_out: np.ndarray, norm: np.ndarray, corners: np.n
     return lo, hi
 
 
+class VertexSpeeds:
+    """Gear speeds of a train's combinations at the vertices of its fixed grid, computed once
+    per train and shared by the screen's first level and the start points (``combos`` sorted
+    rows of ``kin.combos``; ``speeds`` combos x V x L)."""
+
+    def __init__(self, kin: TrainKinematics, combos: np.ndarray, vertices: np.ndarray):
+        self.combos = combos
+        self.vertices = vertices
+        self.speeds = sample_speeds(kin, combos, vertices)
+
+    def of(self, combos: np.ndarray) -> np.ndarray:
+        """Speeds (len(combos) x V x L) of the rows ``combos`` (each among ``self.combos``)."""
+        return self.speeds[np.searchsorted(self.combos, combos)]
+
+
 def cell_screen(kin: TrainKinematics, i: int, o: int, ids: np.ndarray, valid: np.ndarray, targets: np.ndarray,
-                tolerance: float, k_low: float, k_high: float, cells: int, levels: int) -> np.ndarray:
+                tolerance: float, k_low: float, k_high: float, cells: int, levels: int,
+                first: VertexSpeeds | None = None) -> np.ndarray:
     """Which placements (rows: ``ids`` their combinations, ``valid`` which of them are gears with
     input ``i`` and output ``o`` turning at the generic point) keep a cell with a distinct
     assignment after ``levels`` subdivisions of a grid of ``cells`` per axis. Exact (see the
-    module docstring): no placement that meets the targets anywhere in the box is dropped."""
+    module docstring): no placement that meets the targets anywhere in the box is dropped.
+    ``first``: the speeds at the grid's vertices (the first level's corners), when computed."""
     n = kin.train.sets
     g = len(targets)
     offsets = np.array(list(itertools.product((0, 1), repeat=n)), dtype=np.int64)
@@ -109,7 +126,10 @@ def cell_screen(kin: TrainKinematics, i: int, o: int, ids: np.ndarray, valid: np
         k = k_low + np.stack(np.unravel_index(upoints, (base,) * n), axis=1) * ((k_high - k_low) / per_axis)
         active_rows = np.unique(pair_row)
         ucombos, combo_inv = np.unique(ids[active_rows], return_inverse=True)
-        s = sample_speeds(kin, ucombos, k)  # U x P x L
+        if level == 0 and first is not None and len(upoints) == len(first.vertices):
+            s = first.of(ucombos)  # every vertex is a corner: the lattice is the fixed grid
+        else:
+            s = sample_speeds(kin, ucombos, k)  # U x P x L
         lo, hi = _ranges(s[..., i], s[..., o], np.linalg.norm(s, axis=2), corner_inv)
         a, b = cover_runs(lo, hi, targets, tolerance)  # U x B
         row_pos = np.searchsorted(active_rows, pair_row)
@@ -126,13 +146,14 @@ def cell_screen(kin: TrainKinematics, i: int, o: int, ids: np.ndarray, valid: np
 
 
 def vertex_starts(kin: TrainKinematics, i: int, o: int, ids: np.ndarray, targets: np.ndarray,
-                  vertices: np.ndarray) -> np.ndarray:
-    """The start of each placement's refinement: the vertex of the fixed grid ``vertices`` (V x N)
+                  first: VertexSpeeds) -> np.ndarray:
+    """The start of each placement's refinement: the vertex of the fixed grid (``first``)
     with the smallest relaxed error (every target to its nearest gear ratio of the right sign).
     Independent of the screen, so the fit of a placement does not depend on what was pruned."""
     ucombos, inv = np.unique(ids, return_inverse=True)
     inv = inv.reshape(ids.shape)
-    s = sample_speeds(kin, ucombos, vertices)
+    s = first.of(ucombos)
+    vertices = first.vertices
     with np.errstate(all="ignore"):
         r = s[..., i] / s[..., o]  # U x V
         worst = np.zeros((len(ids), len(vertices)))

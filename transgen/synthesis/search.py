@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .fit import Fit, fit_concept, grid, refine, sample_points
-from .screen import cell_screen, vertex_starts
+from .screen import VertexSpeeds, cell_screen, vertex_starts
 from .topology import (Concept, Train, count_orbits, feasible_mask, rank_mask, row_masks, train_automorphisms,
                        train_kinematics)
 
@@ -176,16 +176,18 @@ def train_task(train: Train, spec: SearchSpec) -> TrainResult:
     targets = np.array(spec.targets)
     n = len(train.links)
     found = []
-    for i, o, rows in feasible:
-        ids = kin.combo_ids(rows)
+    groups = [(i, o, rows, kin.combo_ids(rows)) for i, o, rows in feasible]
+    first = VertexSpeeds(kin, np.unique(np.concatenate([ids.ravel() for *_, ids in groups])), vertices) \
+        if groups else None
+    for i, o, rows, ids in groups:
         if spec.prune:
             valid = (kin.rank_ok & kin.moves[:, i] & kin.moves[:, o])[ids]
             ok = cell_screen(kin, i, o, ids, valid, targets, spec.tolerance, spec.k_low, spec.k_high, cells,
-                             (2 if train.sets <= 3 else 0) if spec.levels is None else spec.levels)
+                             (2 if train.sets <= 3 else 0) if spec.levels is None else spec.levels, first)
             rows, ids = rows[ok], ids[ok]
         if not len(rows):
             continue
-        starts = vertex_starts(kin, i, o, ids, targets, vertices)
+        starts = vertex_starts(kin, i, o, ids, targets, first)
         found += [(i, o, r, k0) for r, k0 in zip(rows, starts)]
     out.screened = len(found)
     if not found:
