@@ -128,12 +128,16 @@ def feasible_placements(train: Train, spec: SearchSpec):
     braked = np.zeros((len(elements), n), dtype=bool)
     for j in range(spec.brakes):
         braked[np.arange(len(elements)), brake_link[elements[:, j]]] = True
-    gear, turns, touched = row_masks(kin, elements, ids)
     # links that can be the input or output of a row: not braked, and (a necessary condition)
-    # turning in at least one gear per target
+    # turning in at least one gear per target; rows without an input and an output are dropped
     usable = ~braked
     if necessary:
-        usable &= np.bitwise_count(gear[:, None] & turns) >= gears
+        usable &= (kin.rank_ok[:, None] & kin.moves)[ids].sum(axis=1) >= gears
+        enough = usable.sum(axis=1) >= 2  # an input and an output
+        if bare is not None:
+            enough &= usable[:, bare]
+        elements, ids, usable = elements[enough], ids[enough], usable[enough]
+    gear, turns, touched = row_masks(kin, elements, ids)
     for i in ([bare] if bare is not None else range(n)):
         with_i = np.flatnonzero(usable[:, i])
         for o in range(n):
