@@ -4,9 +4,10 @@ time for N = 2, 3 (whole search) and N = 4 (every ``--step``-th gear train, extr
 Cases, from published ratios only: ZF 3HP22 Simpson (2 sets, 2 brakes, 2 clutches), Ford AXOD
 (2 sets, 2 brakes, 3 clutches), Allison HT 740 (3 sets, 3 brakes, 2 clutches, the thesis
 layout), ZF 8HP (4 sets, 2 brakes, 3 clutches, 3 engaged). Process time (CPU seconds of this
-process) is printed: wall time is meaningless on a loaded machine.
+process) is printed: wall time is meaningless on a loaded machine. ``--levels`` sets the cell
+screen's subdivisions (default: the search's, 2 up to three sets, 0 for four).
 
-    python benchmarks/bench_topology.py [--case simpson|axod|ht740|zf8hp] [--step 93]
+    python benchmarks/bench_topology.py [--case simpson|axod|ht740|zf8hp] [--step 290] [--levels L]
 """
 from __future__ import annotations
 
@@ -25,18 +26,19 @@ CASES = {
 }
 
 
-def spec_of(case: str) -> SearchSpec:
+def spec_of(case: str, levels: int | None = None) -> SearchSpec:
     sets, brakes, clutches, engaged, text = CASES[case]
     gears, targets = zip(*[(g, float(r)) for g, r in (item.split("=") for item in text.split(","))])
-    return SearchSpec(sets, brakes, clutches, engaged, gears, targets)
+    return SearchSpec(sets, brakes, clutches, engaged, gears, targets, levels=levels)
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--case", choices=sorted(CASES), default="simpson")
     parser.add_argument("--step", type=int, default=0, help="search only every STEP-th gear train (0: all)")
+    parser.add_argument("--levels", type=int, help="subdivisions of the screen's cells (default: the search's)")
     args = parser.parse_args()
-    spec = spec_of(args.case)
+    spec = spec_of(args.case, args.levels)
     start = time.process_time()
     if not args.step:
         result = synthesize_topology(spec, top=20)

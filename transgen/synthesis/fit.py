@@ -6,15 +6,7 @@ output speed), rational functions of the sets' basic ratios. Fitting assigns eac
 ``g`` (ratio ``t_g``) to a distinct combination ``a(g)`` and chooses ``k`` within the ring/sun
 bounds to minimise the log errors ``ln(r_a(g)(k) / t_g)``:
 
-1. **Screen** (:func:`screen`, vectorised over many concepts), exact over the whole box: a
-   gear's ratio is ``P(k)/Q(k)`` with ``P`` and ``Q`` cofactors of the constraint matrix, in which
-   each ``k_p`` appears in one row only, so both are *multi-affine* (affine in each ``k_p``).
-   On a sub-box of a regular grid, ``Q`` keeps one sign iff it has that sign at all corners (a
-   multi-affine function takes its extremes at the corners); then the ratio is linear-fractional,
-   hence monotone, in each ``k_p`` and its range over the sub-box is the range of its corner
-   values (else the range is unbounded). A concept goes on when some sub-box has, for every
-   target, a gear whose range comes within the tolerance: the relaxation (no distinct gears, no
-   common ``k``) keeps every concept that meets the targets somewhere in the bounds.
+1. **Screen**: :mod:`transgen.synthesis.screen` (exact, per grid cell, distinct gears).
 2. **Fit** (:func:`fit_concept`): from the best sample points, the assignment by the Hungarian
    method on the squared log errors (scipy ``linear_sum_assignment``), then bounded least
    squares (scipy ``least_squares``) in ``k``, re-assigned at the optimum and refitted once.

@@ -7,7 +7,8 @@ Stages (counts reported for each, see :class:`TopologySynthesis`):
 2. **distinct** - one per isomorphism class (set permutations, links, element order, clutch ends);
 3. **feasible** - the distinct concepts that pass the early pruning (enough one-DOF gears with
    different ratios, no superfluous element, no dead link), before any ratio is fitted;
-4. **screened** / **refined** / **fitted** - the sampled screen, the batched refinement and the
+4. **screened** / **refined** / **fitted** - the exact cell screen with distinct gears
+   (:mod:`transgen.synthesis.screen`), the batched refinement and the
    exact fit of the basic ratios and the gear table (:mod:`transgen.synthesis.fit`): *fitted*
    concepts meet every target within ``tolerance`` (relative) with ``k`` in the ring/sun bounds;
 5. **ranked** - the best fitted concepts by ratio error get tooth counts near their fitted
@@ -35,7 +36,7 @@ __all__ = ["TopologyInputError", "Candidate", "TopologySynthesis", "synthesize_t
            "estimate_seconds", "RANKING", "MAX_SETS", "MAX_ELEMENTS"]
 
 MAX_SETS = 4
-"""Most simple sets searched (4 sets: 9297 gear trains of 8 links)."""
+"""Most simple sets searched (4 sets: 8721 gear trains of 8 links)."""
 
 MAX_ELEMENTS = 7
 """Most shift elements (brakes + clutches)."""
@@ -133,7 +134,7 @@ def estimate_seconds(spec: SearchSpec, n_trains: int | None = None) -> float:
 
 def _train_estimate(sets: int, links: int) -> int:
     """Gear trains up to set permutations (counted by :func:`transgen.synthesis.topology.trains`)."""
-    known = {(2, 4): 17, (2, 5): 18, (3, 6): 386, (3, 7): 209, (4, 8): 9297}
+    known = {(2, 4): 12, (2, 5): 18, (3, 6): 345, (3, 7): 204, (4, 8): 8721}
     return known.get((sets, links), int(10 ** (sets + 0.5)))
 
 

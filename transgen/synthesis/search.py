@@ -3,7 +3,7 @@
 One task is one gear train (:func:`train_task`): its placements (input, output, brakes,
 clutches; :func:`transgen.synthesis.topology.placements` in the same order, vectorised here),
 the early pruning (:func:`transgen.synthesis.topology.feasible_mask`), one representative per
-class of the train's automorphisms, the sampled screen and the fit
+class of the train's automorphisms, the exact cell screen and the fit
 (:mod:`transgen.synthesis.fit`). Tasks are independent and deterministic, so they run on the
 sweep executors (``sim.study.executors``) in any order and the merged result is the same.
 """
