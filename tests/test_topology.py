@@ -37,7 +37,7 @@ def _labelled_trains(n_sets: int, n_links: int):
             if any(len({m // 3 for m in link}) < len(link) for link in links):
                 continue
             train = Train(n_sets, tuple(links) + (((),) if bare else ()))
-            link_sets = [frozenset(l for l, link in enumerate(links) if m // 3 == p for m in link)
+            link_sets = [frozenset(l for l, link in enumerate(links) for m in link if m // 3 == p)
                          for p in range(n_sets)]
             if len(set(link_sets)) < n_sets:  # two sets on the same three links: locked
                 continue
@@ -323,8 +323,8 @@ def test_a_resumed_search_gives_the_same_result(tmp_path):
 
     gears, targets = zip(*[(g, float(r)) for g, r in (item.split("=") for item in SIMPSON.split(","))])
     spec = SearchSpec(2, 2, 2, 2, gears, targets)
-    plain = synthesize_topology(spec, top=5)
-    first = synthesize_topology(spec, top=5, checkpoint=tmp_path)
+    plain = synthesize_topology(spec, top=3, teeth_candidates=3)
+    first = synthesize_topology(spec, top=3, teeth_candidates=3, checkpoint=tmp_path)
     path = tmp_path / CHECKPOINT
     doc = json_.loads(path.read_text())
     assert len(doc["done"]) == plain.trains
@@ -339,7 +339,7 @@ def test_a_resumed_search_gives_the_same_result(tmp_path):
                 ran.append(t[0])
                 yield fn(shared, t)
 
-    resumed = synthesize_topology(spec, top=5, checkpoint=tmp_path, executor=Counting())
+    resumed = synthesize_topology(spec, top=3, teeth_candidates=3, checkpoint=tmp_path, executor=Counting())
     assert sorted(ran) == [i for i in range(plain.trains) if i % 2 == 0]
     for other in (first, resumed):
         assert other.counts == plain.counts

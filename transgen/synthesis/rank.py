@@ -44,12 +44,12 @@ MAX_ELEMENTS = 7
 MAX_SECONDS = 6 * 3600
 """Estimated single-core run time above which a search is refused (say ``--max-hours``)."""
 
-SECONDS_PER_PLACEMENT = 4.5e-7
+SECONDS_PER_PLACEMENT = 6e-8
 """Measured single-core cost per placement of a train (early pruning, screen and refinement of the
-survivors; N = 4 with 2 brakes and 3 clutches: 1.28 s per train on average over every 310th of
-the 9297 trains, whose largest have 2.75 million placements)."""
+survivors; N = 4 with 2 brakes and 3 clutches: 0.177 s per train on average over every 290th of
+the 8721 trains, whose largest have 2.75 million placements; docs/topology.md)."""
 
-SECONDS_PER_TRAIN = 0.1
+SECONDS_PER_TRAIN = 0.01
 """Measured single-core overhead per gear train (its kinematics)."""
 
 RANKING = ("candidates with tooth counts first; then the largest relative ratio error in bins of a fifth of "
