@@ -8,6 +8,7 @@ process) is printed: wall time is meaningless on a loaded machine. ``--levels`` 
 screen's subdivisions (default: the search's, 2 up to three sets, 0 for four).
 
     python benchmarks/bench_topology.py [--case simpson|axod|ht740|zf8hp] [--step 290] [--levels L]
+    python benchmarks/bench_topology.py --case zf8hp --partial DIR   # rank what a checkpoint holds so far
 """
 from __future__ import annotations
 
@@ -37,9 +38,12 @@ def main() -> None:
     parser.add_argument("--case", choices=sorted(CASES), default="simpson")
     parser.add_argument("--step", type=int, default=0, help="search only every STEP-th gear train (0: all)")
     parser.add_argument("--levels", type=int, help="subdivisions of the screen's cells (default: the search's)")
+    parser.add_argument("--partial", metavar="DIR", help="rank the trains finished so far in DIR's checkpoint")
     args = parser.parse_args()
     spec = spec_of(args.case, args.levels)
     start = time.process_time()
+    if args.partial:
+        return partial(spec, args.partial)
     if not args.step:
         result = synthesize_topology(spec, top=20)
         print(f"{args.case}: trains {result.trains}, counts {result.counts}, "
@@ -64,6 +68,26 @@ def main() -> None:
           f"whole search about {per * len(all_trains) / 3600:.1f} h on one core; the whole space about "
           f"{total.enumerated * scale:.3g} enumerated, {total.distinct * scale:.3g} distinct, "
           f"{total.feasible * scale:.3g} feasible")
+
+
+def partial(spec: SearchSpec, folder: str) -> None:
+    """Counts and the ranking of the trains a (running or stopped) search has finished."""
+    from transgen.synthesis.checkpoint import Checkpoint
+    from transgen.synthesis.rank import rank_fitted
+
+    all_trains = trains(spec.sets, link_count(spec.sets, spec.engaged))
+    saved = Checkpoint(folder, spec, all_trains)
+    total = TrainResult()
+    for index in sorted(saved.done):
+        total.merge(saved.done[index])
+    result = rank_fitted(spec, total, len(all_trains), top=20)
+    print(f"{len(saved.done)} of {len(all_trains)} trains done (last {max(saved.done, default=-1)}); counts "
+          f"{result.counts}")
+    for c in result.candidates:
+        d = c.to_dict()
+        print(f"  {c.rank}. error {c.max_ratio_error:.3%} in {d['input']} out {d['output']} {d['elements']} "
+              f"table {' '.join(g + ':' + ''.join(e) for g, e in c.gears.items())} k "
+              f"{' '.join(f'{v:.3f}' for v in c.k)} teeth {c.teeth}")
 
 
 if __name__ == "__main__":

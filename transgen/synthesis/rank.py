@@ -33,7 +33,7 @@ from .search import FittedConcept, SearchSpec, TrainResult, train_task
 from .topology import Concept, link_count, trains
 
 __all__ = ["TopologyInputError", "Candidate", "TopologySynthesis", "synthesize_topology", "concept_text",
-           "estimate_seconds", "RANKING", "MAX_SETS", "MAX_ELEMENTS"]
+           "estimate_seconds", "rank_fitted", "RANKING", "MAX_SETS", "MAX_ELEMENTS"]
 
 MAX_SETS = 4
 """Most simple sets searched (4 sets: 8721 gear trains of 8 links)."""
@@ -324,7 +324,8 @@ def synthesize_topology(spec: SearchSpec, top: int = 20, executor=None, progress
     ``executor``: anything with ``run(fn, shared, tasks)`` (default: in this process);
     ``teeth_candidates``: how many of the best fitted concepts get a tooth-count search (default
     ``3 * top``); ``train_list``: the gear trains to search (default: all of the search space;
-    for measurements and tests).
+    for measurements and tests); ``checkpoint``: a folder to keep the finished trains in and
+    resume from (:mod:`transgen.synthesis.checkpoint`; the result is the same with or without).
     """
     from .teeth import AssemblyRules
 
@@ -357,6 +358,19 @@ def synthesize_topology(spec: SearchSpec, top: int = 20, executor=None, progress
         saved.save()
     for index in sorted(results):
         total.merge(results[index])
+    return rank_fitted(spec, total, len(all_trains), top, rules, teeth_candidates, progress,
+                       time.perf_counter() - start)
+
+
+def rank_fitted(spec: SearchSpec, total: TrainResult, n_trains: int, top: int = 20, rules=None,
+                teeth_candidates: int | None = None, progress=None, seconds: float = 0.0) -> TopologySynthesis:
+    """Tooth counts, figures and ranking of the fitted concepts of ``total`` (the merged train
+    results, in the trains' order): the last stage of :func:`synthesize_topology`, also for the
+    trains finished so far (a checkpoint)."""
+    from .teeth import AssemblyRules
+
+    rules = rules or AssemblyRules(k_min=spec.k_low, k_max=spec.k_high)
+    start = time.perf_counter()
     fitted = sorted(total.concepts, key=lambda f: (f.fit.max_error, f.concept.key()))
     chosen = fitted[: (teeth_candidates if teeth_candidates is not None else 3 * top)]
     candidates = []
@@ -388,7 +402,9 @@ def synthesize_topology(spec: SearchSpec, top: int = 20, executor=None, progress
     notes = []
     if not fitted:
         notes.append("no concept meets every target within the tolerance")
-    return TopologySynthesis(spec, len(all_trains), counts, time.perf_counter() - start, ranked, tuple(notes))
+    return TopologySynthesis(spec, n_trains, counts, seconds + time.perf_counter() - start, ranked, tuple(notes))
+
+
 
 
 def _indexed_task(spec: SearchSpec, task):
