@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .topology import Train, TrainKinematics, _null_vectors, sample_speeds, speed_basis
+from .topology import Train, _null_vectors, speed_basis
 
 __all__ = ["Fit", "grid", "concept_ratios", "batch_ratios", "refine", "fit_concept", "sample_points"]
 
