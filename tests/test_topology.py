@@ -346,3 +346,23 @@ def test_a_resumed_search_gives_the_same_result(tmp_path):
         assert [c.mech for c in other.candidates] == [c.mech for c in plain.candidates]
     with pytest.raises(CheckpointError, match=f"{CHECKPOINT}:1:1: error: written for another search"):
         synthesize_topology(SearchSpec(2, 2, 2, 2, gears, targets, tolerance=0.02), checkpoint=tmp_path)
+
+
+def test_a_stopped_search_keeps_the_trains_it_finished(tmp_path):
+    import json as json_
+
+    from transgen.synthesis.checkpoint import CHECKPOINT
+
+    gears, targets = zip(*[(g, float(r)) for g, r in (item.split("=") for item in SIMPSON.split(","))])
+    spec = SearchSpec(2, 2, 2, 2, gears, targets)
+
+    class Stopping:
+        def run(self, fn, shared, tasks):
+            for n, t in enumerate(tasks):
+                if n == 3:
+                    raise KeyboardInterrupt
+                yield fn(shared, t)
+
+    with pytest.raises(KeyboardInterrupt):
+        synthesize_topology(spec, checkpoint=tmp_path, executor=Stopping())
+    assert sorted(json_.loads((tmp_path / CHECKPOINT).read_text())["done"], key=int) == ["0", "1", "2"]

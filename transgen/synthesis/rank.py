@@ -348,14 +348,16 @@ def synthesize_topology(spec: SearchSpec, top: int = 20, executor=None, progress
         saved = Checkpoint(checkpoint, spec, all_trains)
         results.update(saved.done)
     tasks = [(i, t) for i, t in enumerate(all_trains) if i not in results]
-    for done, (index, result) in enumerate(executor.run(_indexed_task, spec, tasks), start=len(results) + 1):
-        results[index] = result
+    try:
+        for done, (index, result) in enumerate(executor.run(_indexed_task, spec, tasks), start=len(results) + 1):
+            results[index] = result
+            if saved is not None:
+                saved.add(index, result)
+            if progress:
+                progress(f"gear trains {done}/{len(all_trains)}")
+    finally:  # also when stopped (Ctrl-C, SIGTERM): the trains finished so far are kept
         if saved is not None:
-            saved.add(index, result)
-        if progress:
-            progress(f"gear trains {done}/{len(all_trains)}")
-    if saved is not None:
-        saved.save()
+            saved.save()
     for index in sorted(results):
         total.merge(results[index])
     return rank_fitted(spec, total, len(all_trains), top, rules, teeth_candidates, progress,
