@@ -87,6 +87,7 @@ class VertexSpeeds:
         self.combos = combos
         self.vertices = vertices
         self.speeds = sample_speeds(kin, combos, vertices)
+        self.norms = np.linalg.norm(self.speeds, axis=2)
 
     def of(self, combos: np.ndarray) -> np.ndarray:
         """Speeds (len(combos) x V x L) of the rows ``combos`` (each among ``self.combos``)."""
@@ -127,10 +128,13 @@ def cell_screen(kin: TrainKinematics, i: int, o: int, ids: np.ndarray, valid: np
         active_rows = np.unique(pair_row)
         ucombos, combo_inv = np.unique(ids[active_rows], return_inverse=True)
         if level == 0 and first is not None and len(upoints) == len(first.vertices):
-            s = first.of(ucombos)  # every vertex is a corner: the lattice is the fixed grid
+            # every vertex is a corner: the lattice is the fixed grid
+            rows = np.searchsorted(first.combos, ucombos)
+            s_in, s_out, norm = first.speeds[rows, :, i], first.speeds[rows, :, o], first.norms[rows]
         else:
             s = sample_speeds(kin, ucombos, k)  # U x P x L
-        lo, hi = _ranges(s[..., i], s[..., o], np.linalg.norm(s, axis=2), corner_inv)
+            s_in, s_out, norm = s[..., i], s[..., o], np.linalg.norm(s, axis=2)
+        lo, hi = _ranges(s_in, s_out, norm, corner_inv)
         a, b = cover_runs(lo, hi, targets, tolerance)  # U x B
         row_pos = np.searchsorted(active_rows, pair_row)
         cinv = combo_inv.reshape(len(active_rows), -1)[row_pos]  # pairs x S
