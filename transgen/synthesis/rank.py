@@ -44,10 +44,10 @@ MAX_ELEMENTS = 7
 MAX_SECONDS = 6 * 3600
 """Estimated single-core run time above which a search is refused (say ``--max-hours``)."""
 
-SECONDS_PER_PLACEMENT = 6e-8
+SECONDS_PER_PLACEMENT = 7.5e-8
 """Measured single-core cost per placement of a train (early pruning, screen and refinement of the
-survivors; N = 4 with 2 brakes and 3 clutches: 0.177 s per train on average over every 290th of
-the 8721 trains, whose largest have 2.75 million placements; docs/topology.md)."""
+survivors; N = 4 with 2 brakes and 3 clutches, whose largest trains have 2.75 million
+placements: the whole search of the 8721 trains took about 1870 s, docs/topology.md)."""
 
 SECONDS_PER_TRAIN = 0.01
 """Measured single-core overhead per gear train (its kinematics)."""
