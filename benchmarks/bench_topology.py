@@ -4,9 +4,11 @@ time for N = 2, 3 (whole search) and N = 4 (every ``--step``-th gear train, extr
 Cases, from published ratios only: ZF 3HP22 Simpson (2 sets, 2 brakes, 2 clutches), Ford AXOD
 (2 sets, 2 brakes, 3 clutches), Allison HT 740 (3 sets, 3 brakes, 2 clutches, the thesis
 layout), ZF 8HP (4 sets, 2 brakes, 3 clutches, 3 engaged). Process time (CPU seconds of this
-process) is printed: wall time is meaningless on a loaded machine.
+process) is printed: wall time is meaningless on a loaded machine. ``--levels`` sets the cell
+screen's subdivisions (default: the search's, 2 up to three sets, 0 for four).
 
-    python benchmarks/bench_topology.py [--case simpson|axod|ht740|zf8hp] [--step 93]
+    python benchmarks/bench_topology.py [--case simpson|axod|ht740|zf8hp] [--step 290] [--levels L]
+    python benchmarks/bench_topology.py --case zf8hp --partial DIR   # rank what a checkpoint holds so far
 """
 from __future__ import annotations
 
@@ -25,19 +27,23 @@ CASES = {
 }
 
 
-def spec_of(case: str) -> SearchSpec:
+def spec_of(case: str, levels: int | None = None) -> SearchSpec:
     sets, brakes, clutches, engaged, text = CASES[case]
     gears, targets = zip(*[(g, float(r)) for g, r in (item.split("=") for item in text.split(","))])
-    return SearchSpec(sets, brakes, clutches, engaged, gears, targets)
+    return SearchSpec(sets, brakes, clutches, engaged, gears, targets, levels=levels)
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--case", choices=sorted(CASES), default="simpson")
     parser.add_argument("--step", type=int, default=0, help="search only every STEP-th gear train (0: all)")
+    parser.add_argument("--levels", type=int, help="subdivisions of the screen's cells (default: the search's)")
+    parser.add_argument("--partial", metavar="DIR", help="rank the trains finished so far in DIR's checkpoint")
     args = parser.parse_args()
-    spec = spec_of(args.case)
+    spec = spec_of(args.case, args.levels)
     start = time.process_time()
+    if args.partial:
+        return partial(spec, args.partial)
     if not args.step:
         result = synthesize_topology(spec, top=20)
         print(f"{args.case}: trains {result.trains}, counts {result.counts}, "
@@ -62,6 +68,26 @@ def main() -> None:
           f"whole search about {per * len(all_trains) / 3600:.1f} h on one core; the whole space about "
           f"{total.enumerated * scale:.3g} enumerated, {total.distinct * scale:.3g} distinct, "
           f"{total.feasible * scale:.3g} feasible")
+
+
+def partial(spec: SearchSpec, folder: str) -> None:
+    """Counts and the ranking of the trains a (running or stopped) search has finished."""
+    from transgen.synthesis.checkpoint import Checkpoint
+    from transgen.synthesis.rank import rank_fitted
+
+    all_trains = trains(spec.sets, link_count(spec.sets, spec.engaged))
+    saved = Checkpoint(folder, spec, all_trains)
+    total = TrainResult()
+    for index in sorted(saved.done):
+        total.merge(saved.done[index])
+    result = rank_fitted(spec, total, len(all_trains), top=20)
+    print(f"{len(saved.done)} of {len(all_trains)} trains done (last {max(saved.done, default=-1)}); counts "
+          f"{result.counts}")
+    for c in result.candidates:
+        d = c.to_dict()
+        print(f"  {c.rank}. error {c.max_ratio_error:.3%} in {d['input']} out {d['output']} {d['elements']} "
+              f"table {' '.join(g + ':' + ''.join(e) for g, e in c.gears.items())} k "
+              f"{' '.join(f'{v:.3f}' for v in c.k)} teeth {c.teeth}")
 
 
 if __name__ == "__main__":

@@ -36,7 +36,12 @@ def _labelled_trains(n_sets: int, n_links: int):
             links = [tuple(m for m in range(n) if norm[m] == b) for b in range(blocks)]
             if any(len({m // 3 for m in link}) < len(link) for link in links):
                 continue
-            yield Train(n_sets, tuple(links) + (((),) if bare else ()))
+            train = Train(n_sets, tuple(links) + (((),) if bare else ()))
+            link_sets = [frozenset(l for l, link in enumerate(links) for m in link if m // 3 == p)
+                         for p in range(n_sets)]
+            if len(set(link_sets)) < n_sets:  # two sets on the same three links: locked
+                continue
+            yield train
 
 
 def _simple_feasible(c: Concept, gears: int, engaged: int, k: np.ndarray) -> bool:
@@ -240,3 +245,124 @@ def test_the_result_does_not_depend_on_the_executor_or_task_order():
         assert other.counts == runs[0].counts
         assert [c.mech for c in other.candidates] == [c.mech for c in runs[0].candidates]
     assert runs[0].candidates
+
+
+# ------------------------------------------------------------------ pruning against no pruning
+
+
+def test_glovers_greedy_finds_a_distinct_assignment_iff_one_exists():
+    from transgen.synthesis.screen import distinct_cover
+
+    rng = np.random.default_rng(3)
+    n_targets, n_gears = 5, 6
+    a = rng.integers(0, n_targets + 1, size=(400, n_gears))
+    b = a + rng.integers(-1, 3, size=(400, n_gears))
+    got = distinct_cover(a, b, n_targets)
+    for row in range(len(a)):
+        covers = [[a[row, s] <= g <= b[row, s] for s in range(n_gears)] for g in range(n_targets)]
+        brute = any(all(covers[g][p[g]] for g in range(n_targets))
+                    for p in itertools.permutations(range(n_gears), n_targets))
+        assert got[row] == brute
+    assert 0 < got.sum() < len(got)
+
+
+def test_the_cell_screen_contains_every_ratio_it_may_meet():
+    """Corner hulls of a cell contain the ratio at points inside it (the monotonicity the screen
+    relies on), checked at random points of random cells of a three-set train."""
+    from transgen.synthesis.fit import concept_ratios
+    from transgen.synthesis.screen import _ranges
+    from transgen.synthesis.topology import sample_speeds, train_kinematics
+
+    train = trains(3, 6)[40]
+    kin = train_kinematics(train, 2, sample_points(3, 1.5, 4.5, 0, 0)[0])
+    i, o = 0, len(train.links) - 1
+    rows = np.flatnonzero(kin.rank_ok & kin.moves[:, i] & kin.moves[:, o])[:30]
+    rng = np.random.default_rng(1)
+    for _ in range(5):
+        low = 1.5 + 2.5 * rng.random(3)
+        corners = low + 0.5 * np.array(list(itertools.product((0, 1), repeat=3)))
+        s = sample_speeds(kin, rows, corners)
+        lo, hi = _ranges(s[..., i], s[..., o], np.linalg.norm(s, axis=2), np.arange(8)[None])
+        inside = low + 0.5 * rng.random((20, 3))
+        r = concept_ratios(train, i, o, kin.candidates, kin.combos[rows], inside).T  # rows x points
+        ok = np.isnan(r) | ((r >= lo - 1e-9 * np.abs(lo)) & (r <= hi + 1e-9 * np.abs(hi)))
+        assert ok.all()
+
+
+def _fitted(spec):
+    from transgen.synthesis.search import TrainResult, train_task
+
+    total = TrainResult()
+    for train in trains(spec.sets, link_count(spec.sets, spec.engaged)):
+        total.merge(train_task(train, spec))
+    return total, {(f.concept.key(), f.fit.k, f.fit.assignment) for f in total.concepts}
+
+
+def test_the_pruning_drops_no_concept_the_fit_finds():
+    """Every distinct concept fitted without the necessary conditions (gear count, distinct
+    ratios, cell screen) against the pruned search: the same concepts, the same fits."""
+    from dataclasses import replace
+
+    gears, targets = zip(*[(g, float(r)) for g, r in (item.split("=") for item in SIMPSON.split(","))])
+    spec = SearchSpec(2, 2, 2, 2, gears, targets, tolerance=0.01)
+    pruned, with_pruning = _fitted(spec)
+    brute, without = _fitted(replace(spec, prune=False))
+    assert with_pruning == without
+    assert len(with_pruning) == pruned.fitted > 10
+    assert pruned.screened < pruned.feasible < brute.feasible
+    assert brute.screened == brute.feasible
+
+
+# ------------------------------------------------------------------ the checkpoint
+
+
+def test_a_resumed_search_gives_the_same_result(tmp_path):
+    import json as json_
+
+    from transgen.synthesis.checkpoint import CHECKPOINT, CheckpointError
+
+    gears, targets = zip(*[(g, float(r)) for g, r in (item.split("=") for item in SIMPSON.split(","))])
+    spec = SearchSpec(2, 2, 2, 2, gears, targets)
+    plain = synthesize_topology(spec, top=3, teeth_candidates=3)
+    first = synthesize_topology(spec, top=3, teeth_candidates=3, checkpoint=tmp_path)
+    path = tmp_path / CHECKPOINT
+    doc = json_.loads(path.read_text())
+    assert len(doc["done"]) == plain.trains
+    # an interrupted run: half the trains done
+    doc["done"] = {i: r for i, r in doc["done"].items() if int(i) % 2}
+    path.write_text(json_.dumps(doc))
+    ran = []
+
+    class Counting:
+        def run(self, fn, shared, tasks):
+            for t in tasks:
+                ran.append(t[0])
+                yield fn(shared, t)
+
+    resumed = synthesize_topology(spec, top=3, teeth_candidates=3, checkpoint=tmp_path, executor=Counting())
+    assert sorted(ran) == [i for i in range(plain.trains) if i % 2 == 0]
+    for other in (first, resumed):
+        assert other.counts == plain.counts
+        assert [c.mech for c in other.candidates] == [c.mech for c in plain.candidates]
+    with pytest.raises(CheckpointError, match=f"{CHECKPOINT}:1:1: error: written for another search"):
+        synthesize_topology(SearchSpec(2, 2, 2, 2, gears, targets, tolerance=0.02), checkpoint=tmp_path)
+
+
+def test_a_stopped_search_keeps_the_trains_it_finished(tmp_path):
+    import json as json_
+
+    from transgen.synthesis.checkpoint import CHECKPOINT
+
+    gears, targets = zip(*[(g, float(r)) for g, r in (item.split("=") for item in SIMPSON.split(","))])
+    spec = SearchSpec(2, 2, 2, 2, gears, targets)
+
+    class Stopping:
+        def run(self, fn, shared, tasks):
+            for n, t in enumerate(tasks):
+                if n == 3:
+                    raise KeyboardInterrupt
+                yield fn(shared, t)
+
+    with pytest.raises(KeyboardInterrupt):
+        synthesize_topology(spec, checkpoint=tmp_path, executor=Stopping())
+    assert sorted(json_.loads((tmp_path / CHECKPOINT).read_text())["done"], key=int) == ["0", "1", "2"]

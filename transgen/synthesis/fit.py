@@ -6,15 +6,7 @@ output speed), rational functions of the sets' basic ratios. Fitting assigns eac
 ``g`` (ratio ``t_g``) to a distinct combination ``a(g)`` and chooses ``k`` within the ring/sun
 bounds to minimise the log errors ``ln(r_a(g)(k) / t_g)``:
 
-1. **Screen** (:func:`screen`, vectorised over many concepts), exact over the whole box: a
-   gear's ratio is ``P(k)/Q(k)`` with ``P`` and ``Q`` cofactors of the constraint matrix, in which
-   each ``k_p`` appears in one row only, so both are *multi-affine* (affine in each ``k_p``).
-   On a sub-box of a regular grid, ``Q`` keeps one sign iff it has that sign at all corners (a
-   multi-affine function takes its extremes at the corners); then the ratio is linear-fractional,
-   hence monotone, in each ``k_p`` and its range over the sub-box is the range of its corner
-   values (else the range is unbounded). A concept goes on when some sub-box has, for every
-   target, a gear whose range comes within the tolerance: the relaxation (no distinct gears, no
-   common ``k``) keeps every concept that meets the targets somewhere in the bounds.
+1. **Screen**: :mod:`transgen.synthesis.screen` (exact, per grid cell, distinct gears).
 2. **Fit** (:func:`fit_concept`): from the best sample points, the assignment by the Hungarian
    method on the squared log errors (scipy ``linear_sum_assignment``), then bounded least
    squares (scipy ``least_squares``) in ``k``, re-assigned at the optimum and refitted once.
@@ -27,9 +19,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .topology import Train, TrainKinematics, _null_vectors, sample_speeds, speed_basis
+from .topology import Train, _null_vectors, speed_basis
 
-__all__ = ["Fit", "grid", "screen", "concept_ratios", "batch_ratios", "refine", "fit_concept", "sample_points"]
+__all__ = ["Fit", "grid", "concept_ratios", "batch_ratios", "refine", "fit_concept", "sample_points"]
 
 BIG = 1e6
 
@@ -66,53 +58,6 @@ def grid(n_sets: int, k_low: float, k_high: float, points: int = 256) -> tuple[n
     return vertices, boxes
 
 
-def screen(kin: TrainKinematics, i: int, o: int, elements: np.ndarray, targets: np.ndarray,
-           tolerance: float, vertices: np.ndarray, boxes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(keep, start)`` for the placements ``elements`` (rows): whether some sub-box of the grid
-    holds, for every target, a gear whose ratio range over the sub-box comes within
-    ``tolerance`` (relative) of it, and the best vertex of such a sub-box (the refinement's
-    start). Exact, not sampled (see the module docstring): no concept that meets the targets
-    anywhere in the bounds is dropped."""
-    ids = kin.combo_ids(elements)
-    used, inverse = np.unique(ids, return_inverse=True)
-    inverse = inverse.reshape(ids.shape)
-    s = sample_speeds(kin, used, vertices)  # U x V x L, signs of polynomials in k
-    p_in, q_out = s[:, :, i], s[:, :, o]
-    scale = np.linalg.norm(s, axis=2)
-    qs = np.where(np.abs(q_out) > 1e-12 * np.maximum(scale, 1e-300), np.sign(q_out), 0.0)
-    qc = qs[:, boxes]  # U x B x 2^n
-    pole = ~((qc > 0).all(axis=2) | (qc < 0).all(axis=2))
-    with np.errstate(all="ignore"):
-        r = np.where(qs != 0, p_in / np.where(qs != 0, q_out, 1.0), np.nan)
-    rc = r[:, boxes]
-    lo = np.where(pole, -np.inf, np.nanmin(np.where(pole[..., None], 0.0, rc), axis=2))
-    hi = np.where(pole, np.inf, np.nanmax(np.where(pole[..., None], 0.0, rc), axis=2))
-    low_t = np.minimum(targets * (1 - tolerance), targets * (1 + tolerance))
-    high_t = np.maximum(targets * (1 - tolerance), targets * (1 + tolerance))
-    keep = np.zeros(len(elements), dtype=bool)
-    start = np.zeros(len(elements), dtype=np.int64)
-    # relaxed log error at the vertices, for the start points
-    chunk = max(1, 2_000_000 // max(1, ids.shape[1] * boxes.shape[0]))
-    for a in range(0, len(elements), chunk):
-        inv = inverse[a:a + chunk]
-        ok = np.ones((len(inv), boxes.shape[0]), dtype=bool)
-        for t0, t1 in zip(low_t, high_t):
-            cover = (lo[inv] <= t1) & (hi[inv] >= t0)  # rows x S x B
-            ok &= cover.any(axis=1)
-        keep[a:a + chunk] = ok.any(axis=1)
-        rr = r[inv]  # rows x S x V
-        worst = np.zeros((len(inv), rr.shape[2]))
-        for t in targets:
-            e = _log_errors(rr, t)
-            worst = np.maximum(worst, np.where(np.isnan(e), np.inf, e).min(axis=1))
-        # only vertices of admissible sub-boxes
-        admissible = np.zeros_like(worst, dtype=bool)
-        for row in np.flatnonzero(ok.any(axis=1)):
-            admissible[row, np.unique(boxes[ok[row]])] = True
-        start[a:a + chunk] = np.argmin(np.where(admissible, worst, np.inf), axis=1)
-    return keep, start
-
-
 def concept_ratios(train: Train, i: int, o: int, candidates, combos: np.ndarray, k: np.ndarray) -> np.ndarray:
     """Ratios (P x S) of the combinations ``combos`` (S x K indices into ``candidates``, each
     ``(link,)`` or ``(l1, l2)``) at the points ``k`` (P x N); NaN where not a gear."""
@@ -124,12 +69,20 @@ def concept_ratios(train: Train, i: int, o: int, candidates, combos: np.ndarray,
         if len(c) == 2:
             vec[e, c[1]] = -1.0
     ev = np.einsum("el,pld->ped", vec, basis)
-    q = _null_vectors(ev[:, combos, :])  # P x S x D
+    rows = ev[:, combos, :]
+    q = _null_vectors(rows)  # P x S x D
     s = np.einsum("pld,psd->psl", basis, q)
+    return _ratio(rows, q, s[..., i], s[..., o])
+
+
+def _ratio(rows: np.ndarray, q: np.ndarray, s_in: np.ndarray, s_out: np.ndarray) -> np.ndarray:
+    """``s_in / s_out``, NaN where the element rows are dependent (the same threshold as the
+    pruning: the minors against Hadamard's bound) or the output stands."""
     with np.errstate(all="ignore"):
         norm = np.linalg.norm(q, axis=-1)
-        good = (np.abs(s[..., o]) > 1e-12 * norm) & (norm > 1e-300)
-        return np.where(good, s[..., i] / np.where(good, s[..., o], 1.0), np.nan)
+        scale = np.prod(np.linalg.norm(rows, axis=-1), axis=-1)
+        good = (np.abs(s_out) > 1e-12 * norm) & (norm > 1e-9 * np.maximum(scale, 1e-300))
+        return np.where(good, s_in / np.where(good, s_out, 1.0), np.nan)
 
 
 @dataclass(frozen=True)
@@ -209,14 +162,11 @@ def batch_ratios(train: Train, io: np.ndarray, vectors: np.ndarray, combos: np.n
     joins) and is evaluated at ``k[r]``; ``combos`` (S x K) the element subsets (positions)."""
     basis = speed_basis(train, k)  # R x L x D
     ev = np.einsum("rel,rld->red", vectors, basis)  # R x E x D
-    q = _null_vectors(ev[:, combos, :])  # R x S x D
+    rows = ev[:, combos, :]
+    q = _null_vectors(rows)  # R x S x D
     s = np.einsum("rld,rsd->rsl", basis, q)
-    rows = np.arange(len(k))
-    s_in, s_out = s[rows, :, io[:, 0]], s[rows, :, io[:, 1]]
-    with np.errstate(all="ignore"):
-        norm = np.linalg.norm(q, axis=-1)
-        good = (np.abs(s_out) > 1e-12 * norm) & (norm > 1e-300)
-        return np.where(good, s_in / np.where(good, s_out, 1.0), np.nan)
+    r = np.arange(len(k))
+    return _ratio(rows, q, s[r, :, io[:, 0]], s[r, :, io[:, 1]])
 
 
 def _relaxed(r: np.ndarray, targets: np.ndarray, pick: np.ndarray | None = None):

@@ -7,7 +7,8 @@ Stages (counts reported for each, see :class:`TopologySynthesis`):
 2. **distinct** - one per isomorphism class (set permutations, links, element order, clutch ends);
 3. **feasible** - the distinct concepts that pass the early pruning (enough one-DOF gears with
    different ratios, no superfluous element, no dead link), before any ratio is fitted;
-4. **screened** / **refined** / **fitted** - the sampled screen, the batched refinement and the
+4. **screened** / **refined** / **fitted** - the exact cell screen with distinct gears
+   (:mod:`transgen.synthesis.screen`), the batched refinement and the
    exact fit of the basic ratios and the gear table (:mod:`transgen.synthesis.fit`): *fitted*
    concepts meet every target within ``tolerance`` (relative) with ``k`` in the ring/sun bounds;
 5. **ranked** - the best fitted concepts by ratio error get tooth counts near their fitted
@@ -32,10 +33,10 @@ from .search import FittedConcept, SearchSpec, TrainResult, train_task
 from .topology import Concept, link_count, trains
 
 __all__ = ["TopologyInputError", "Candidate", "TopologySynthesis", "synthesize_topology", "concept_text",
-           "estimate_seconds", "RANKING", "MAX_SETS", "MAX_ELEMENTS"]
+           "estimate_seconds", "rank_fitted", "RANKING", "MAX_SETS", "MAX_ELEMENTS"]
 
 MAX_SETS = 4
-"""Most simple sets searched (4 sets: 9297 gear trains of 8 links)."""
+"""Most simple sets searched (4 sets: 8721 gear trains of 8 links)."""
 
 MAX_ELEMENTS = 7
 """Most shift elements (brakes + clutches)."""
@@ -43,12 +44,12 @@ MAX_ELEMENTS = 7
 MAX_SECONDS = 6 * 3600
 """Estimated single-core run time above which a search is refused (say ``--max-hours``)."""
 
-SECONDS_PER_PLACEMENT = 4.5e-7
+SECONDS_PER_PLACEMENT = 7.5e-8
 """Measured single-core cost per placement of a train (early pruning, screen and refinement of the
-survivors; N = 4 with 2 brakes and 3 clutches: 1.28 s per train on average over every 310th of
-the 9297 trains, whose largest have 2.75 million placements)."""
+survivors; N = 4 with 2 brakes and 3 clutches, whose largest trains have 2.75 million
+placements: the whole search of the 8721 trains took about 1870 s, docs/topology.md)."""
 
-SECONDS_PER_TRAIN = 0.1
+SECONDS_PER_TRAIN = 0.01
 """Measured single-core overhead per gear train (its kinematics)."""
 
 RANKING = ("candidates with tooth counts first; then the largest relative ratio error in bins of a fifth of "
@@ -133,7 +134,7 @@ def estimate_seconds(spec: SearchSpec, n_trains: int | None = None) -> float:
 
 def _train_estimate(sets: int, links: int) -> int:
     """Gear trains up to set permutations (counted by :func:`transgen.synthesis.topology.trains`)."""
-    known = {(2, 4): 17, (2, 5): 18, (3, 6): 386, (3, 7): 209, (4, 8): 9297}
+    known = {(2, 4): 12, (2, 5): 18, (3, 6): 345, (3, 7): 204, (4, 8): 8721}
     return known.get((sets, links), int(10 ** (sets + 0.5)))
 
 
@@ -317,13 +318,14 @@ def _figures(mech_text: str, gears: dict, spec: SearchSpec) -> dict:
 
 def synthesize_topology(spec: SearchSpec, top: int = 20, executor=None, progress=None, rules=None,
                         teeth_candidates: int | None = None, max_seconds: float = MAX_SECONDS,
-                        train_list=None) -> TopologySynthesis:
+                        train_list=None, checkpoint=None) -> TopologySynthesis:
     """Search every concept of ``spec`` (see the module docstring) and return the ``top`` best.
 
     ``executor``: anything with ``run(fn, shared, tasks)`` (default: in this process);
     ``teeth_candidates``: how many of the best fitted concepts get a tooth-count search (default
     ``3 * top``); ``train_list``: the gear trains to search (default: all of the search space;
-    for measurements and tests).
+    for measurements and tests); ``checkpoint``: a folder to keep the finished trains in and
+    resume from (:mod:`transgen.synthesis.checkpoint`; the result is the same with or without).
     """
     from .teeth import AssemblyRules
 
@@ -339,13 +341,38 @@ def synthesize_topology(spec: SearchSpec, top: int = 20, executor=None, progress
         from types import SimpleNamespace
 
         executor = SimpleNamespace(run=lambda fn, shared, tasks: (fn(shared, t) for t in tasks))
-    tasks = list(enumerate(all_trains))
-    for done, (index, result) in enumerate(executor.run(_indexed_task, spec, tasks), start=1):
-        results[index] = result
-        if progress:
-            progress(f"gear trains {done}/{len(tasks)}")
+    saved = None
+    if checkpoint is not None:
+        from .checkpoint import Checkpoint
+
+        saved = Checkpoint(checkpoint, spec, all_trains)
+        results.update(saved.done)
+    tasks = [(i, t) for i, t in enumerate(all_trains) if i not in results]
+    try:
+        for done, (index, result) in enumerate(executor.run(_indexed_task, spec, tasks), start=len(results) + 1):
+            results[index] = result
+            if saved is not None:
+                saved.add(index, result)
+            if progress:
+                progress(f"gear trains {done}/{len(all_trains)}")
+    finally:  # also when stopped (Ctrl-C, SIGTERM): the trains finished so far are kept
+        if saved is not None:
+            saved.save()
     for index in sorted(results):
         total.merge(results[index])
+    return rank_fitted(spec, total, len(all_trains), top, rules, teeth_candidates, progress,
+                       time.perf_counter() - start)
+
+
+def rank_fitted(spec: SearchSpec, total: TrainResult, n_trains: int, top: int = 20, rules=None,
+                teeth_candidates: int | None = None, progress=None, seconds: float = 0.0) -> TopologySynthesis:
+    """Tooth counts, figures and ranking of the fitted concepts of ``total`` (the merged train
+    results, in the trains' order): the last stage of :func:`synthesize_topology`, also for the
+    trains finished so far (a checkpoint)."""
+    from .teeth import AssemblyRules
+
+    rules = rules or AssemblyRules(k_min=spec.k_low, k_max=spec.k_high)
+    start = time.perf_counter()
     fitted = sorted(total.concepts, key=lambda f: (f.fit.max_error, f.concept.key()))
     chosen = fitted[: (teeth_candidates if teeth_candidates is not None else 3 * top)]
     candidates = []
@@ -377,7 +404,9 @@ def synthesize_topology(spec: SearchSpec, top: int = 20, executor=None, progress
     notes = []
     if not fitted:
         notes.append("no concept meets every target within the tolerance")
-    return TopologySynthesis(spec, len(all_trains), counts, time.perf_counter() - start, ranked, tuple(notes))
+    return TopologySynthesis(spec, n_trains, counts, seconds + time.perf_counter() - start, ranked, tuple(notes))
+
+
 
 
 def _indexed_task(spec: SearchSpec, task):

@@ -3,7 +3,7 @@
 One task is one gear train (:func:`train_task`): its placements (input, output, brakes,
 clutches; :func:`transgen.synthesis.topology.placements` in the same order, vectorised here),
 the early pruning (:func:`transgen.synthesis.topology.feasible_mask`), one representative per
-class of the train's automorphisms, the sampled screen and the fit
+class of the train's automorphisms, the exact cell screen and the fit
 (:mod:`transgen.synthesis.fit`). Tasks are independent and deterministic, so they run on the
 sweep executors (``sim.study.executors``) in any order and the merged result is the same.
 """
@@ -15,8 +15,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .fit import Fit, fit_concept, grid, refine, sample_points, screen
-from .topology import (Concept, Train, count_orbits, feasible_mask, rank_mask, train_automorphisms,
+from .fit import Fit, fit_concept, grid, refine, sample_points
+from .screen import VertexSpeeds, cell_screen, vertex_starts
+from .topology import (Concept, Train, count_orbits, feasible_mask, rank_mask, row_masks, train_automorphisms,
                        train_kinematics)
 
 __all__ = ["SearchSpec", "TrainResult", "FittedConcept", "train_task", "feasible_placements", "placement_concept"]
@@ -37,6 +38,13 @@ class SearchSpec:
     k_high: float = 4.5
     samples: int = 256
     seed: int = 0
+    levels: int | None = None
+    """Subdivisions of the screen's grid cells (each halves the cells' edges); default 2 up to
+    three sets, 0 for four (measured: at N = 4 the refinement of the few survivors costs less
+    than subdividing, docs/topology.md)."""
+    prune: bool = True
+    """Apply the necessary conditions (gear count, distinct ratios, cell screen); ``False`` only
+    for the brute-force comparison in the tests."""
 
 
 @dataclass(frozen=True)
@@ -109,20 +117,38 @@ def feasible_placements(train: Train, spec: SearchSpec):
     # placements up to the input and output; the rank condition does not depend on them
     elements = np.hstack([np.repeat(brake_sets, len(clutch_sets), axis=0),
                           np.tile(clutch_sets, (len(brake_sets), 1))])
-    keep, ids = rank_mask(kin, elements, gears)
-    elements, ids = elements[keep], ids[keep]
+    necessary = spec.prune
+    distinct = _separated(spec)
+    if necessary:  # the rank condition does not depend on the input and output
+        keep, ids = rank_mask(kin, elements, gears)
+        elements, ids = elements[keep], ids[keep]
+    else:
+        ids = kin.combo_ids(elements)
+    brake_link = np.array([c[0] for c in kin.candidates])
     braked = np.zeros((len(elements), n), dtype=bool)
     for j in range(spec.brakes):
-        braked[np.arange(len(elements)), [kin.candidates[e][0] for e in elements[:, j]]] = True
+        braked[np.arange(len(elements)), brake_link[elements[:, j]]] = True
+    # links that can be the input or output of a row: not braked, and (a necessary condition)
+    # turning in at least one gear per target; rows without an input and an output are dropped
+    usable = ~braked
+    if necessary:
+        usable &= (kin.rank_ok[:, None] & kin.moves)[ids].sum(axis=1) >= gears
+        enough = usable.sum(axis=1) >= 2  # an input and an output
+        if bare is not None:
+            enough &= usable[:, bare]
+        elements, ids, usable = elements[enough], ids[enough], usable[enough]
+    gear, turns, touched = row_masks(kin, elements, ids)
     for i in ([bare] if bare is not None else range(n)):
+        with_i = np.flatnonzero(usable[:, i])
         for o in range(n):
             if o == i or o == bare:
                 continue
-            here = ~braked[:, i] & ~braked[:, o]
-            rows_here, ids_here = elements[here], ids[here]
-            if not len(rows_here):
+            here = with_i[usable[with_i, o]]
+            if not len(here):
                 continue
-            rows = rows_here[feasible_mask(kin, i, o, rows_here, gears, ids_here)]
+            sub = (gear[here], turns[here], touched[here])
+            rows_here, ids_here = elements[here], ids[here]
+            rows = rows_here[feasible_mask(kin, i, o, rows_here, gears, ids_here, necessary, distinct, sub)]
             if len(autos) > 1 and len(rows):
                 reps = [r for r in range(len(rows)) if _is_representative(
                     i, o, [kin.candidates[e][0] for e in rows[r, :spec.brakes]],
@@ -134,6 +160,12 @@ def feasible_placements(train: Train, spec: SearchSpec):
     return out, kin, feasible
 
 
+def _separated(spec: SearchSpec) -> bool:
+    """Whether no two targets can be met by one ratio (then the gears must differ)."""
+    t = np.sort(np.array(spec.targets))
+    return bool(np.all(t[1:] * (1 - spec.tolerance) > t[:-1] * (1 + spec.tolerance) + 1e-12 * np.abs(t[1:])))
+
+
 def placement_concept(kin, spec: SearchSpec, i: int, o: int, row) -> Concept:
     """The :class:`Concept` of one row of :func:`feasible_placements`."""
     cands = [kin.candidates[e] for e in row]
@@ -143,14 +175,24 @@ def placement_concept(kin, spec: SearchSpec, i: int, o: int, row) -> Concept:
 def train_task(train: Train, spec: SearchSpec) -> TrainResult:
     """Every fitted concept on ``train`` and the counts of each stage (see the module docstring)."""
     out, kin, feasible = feasible_placements(train, spec)
-    points, boxes = grid(train.sets, spec.k_low, spec.k_high, spec.samples)
+    vertices, _ = grid(train.sets, spec.k_low, spec.k_high, spec.samples)
+    cells = max(1, round(len(vertices) ** (1 / train.sets)) - 1)
     targets = np.array(spec.targets)
     n = len(train.links)
     found = []
-    for i, o, rows in feasible:
-        ok, best = screen(kin, i, o, rows, targets, spec.tolerance, points, boxes)
-        for r, b in zip(rows[ok], best[ok]):
-            found.append((i, o, r, b))
+    groups = [(i, o, rows, kin.combo_ids(rows)) for i, o, rows in feasible]
+    first = VertexSpeeds(kin, np.unique(np.concatenate([ids.ravel() for *_, ids in groups])), vertices) \
+        if groups else None
+    for i, o, rows, ids in groups:
+        if spec.prune:
+            valid = (kin.rank_ok & kin.moves[:, i] & kin.moves[:, o])[ids]
+            ok = cell_screen(kin, i, o, ids, valid, targets, spec.tolerance, spec.k_low, spec.k_high, cells,
+                             (2 if train.sets <= 3 else 0) if spec.levels is None else spec.levels, first)
+            rows, ids = rows[ok], ids[ok]
+        if not len(rows):
+            continue
+        starts = vertex_starts(kin, i, o, ids, targets, first)
+        found += [(i, o, r, k0) for r, k0 in zip(rows, starts)]
     out.screened = len(found)
     if not found:
         return out
@@ -164,7 +206,8 @@ def train_task(train: Train, spec: SearchSpec) -> TrainResult:
             vectors[r, j, c[0]] = 1.0
             if len(c) == 2:
                 vectors[r, j, c[1]] = -1.0
-    k, worst = refine(train, io, vectors, combos, targets, points[[b for *_, b in found]], spec.k_low, spec.k_high)
+    k, worst = refine(train, io, vectors, combos, targets, np.array([k0 for *_, k0 in found]), spec.k_low,
+                      spec.k_high)
     out.refined = int(np.sum(worst <= 2 * spec.tolerance))
     for r in np.flatnonzero(worst <= 2 * spec.tolerance):
         i, o, els, _ = found[r]

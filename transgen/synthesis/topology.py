@@ -16,6 +16,8 @@ The search space (what :func:`enumerate_concepts` walks) and why each rule loses
   the clutch open: it is the same mechanism with the clutch's other link as output in every gear
   that uses it); the input is a member link or the bare shaft;
 * no brake on the input or the output (a gear with it engaged holds the input or the output);
+* no two sets on the same three links (they lock each other, or one is redundant:
+  :func:`locked_pair`);
 * no member is fixed to the housing (``grounded``: a fixed member makes a simple set a fixed
   reduction; allowed on request with ``max_grounded``).
 
@@ -46,7 +48,7 @@ import numpy as np
 
 __all__ = [
     "MEMBERS", "Train", "Concept", "trains", "train_automorphisms", "canonical_key", "link_count",
-    "placements", "count_orbits", "TrainKinematics", "train_kinematics", "sample_speeds", "feasible_mask", "rank_mask",
+    "placements", "count_orbits", "locked_pair", "TrainKinematics", "train_kinematics", "sample_speeds", "feasible_mask", "rank_mask", "row_masks",
 ]
 
 MEMBERS = ("S", "R", "C")
@@ -119,7 +121,9 @@ def trains(n_sets: int, n_links: int, bare_input: bool = True, max_grounded: int
                 for row in sorted(first, key=lambda r: codes[r]):
                     blocks = [tuple(m for m, lab in zip(rest, labels[row]) if lab == b) for b in range(target)]
                     links = tuple(sorted(blocks)) + (((),) if bare else ())
-                    out.append(Train(n_sets, links, tuple(grounded)))
+                    train = Train(n_sets, links, tuple(grounded))
+                    if not locked_pair(train):
+                        out.append(train)
     # one representative per class across the grounded choices too (a set permutation may map
     # one grounded choice onto another)
     seen, unique = set(), []
@@ -131,6 +135,15 @@ def trains(n_sets: int, n_links: int, bare_input: bool = True, max_grounded: int
             seen.add(code)
         unique.append(t)
     return unique
+
+
+def locked_pair(train: Train) -> bool:
+    """Whether two sets have their three members on the same three links (in any order): two
+    independent constraints on three speeds leave only the block rotation, so the pair is locked
+    (in the same order with equal ``k``, one set is redundant): a concept of fewer sets."""
+    link_of = train.link_of()
+    on = [frozenset(link_of.get(3 * p + j, -1 - 3 * p - j) for j in range(3)) for p in range(train.sets)]
+    return len(set(on)) < len(on)
 
 
 def _canonical_codes(labels: np.ndarray, members: list[int], grounded, perms) -> np.ndarray:
@@ -443,41 +456,65 @@ def rank_mask(kin: TrainKinematics, elements: np.ndarray, gears: int) -> tuple[n
     return kin.rank_ok[ids].sum(axis=1) >= gears, ids
 
 
-def feasible_mask(kin: TrainKinematics, i: int, o: int, elements: np.ndarray, gears: int,
-                  ids: np.ndarray | None = None) -> np.ndarray:
-    """Which placements (rows of ``elements``: sorted candidate indices, input ``i``, output
-    ``o``) pass the early pruning of the module docstring for ``gears`` target gears."""
-    ids = kin.combo_ids(elements) if ids is None else ids
-    valid_combo = kin.rank_ok & kin.moves[:, i] & kin.moves[:, o]
-    keep = valid_combo[ids].sum(axis=1) >= gears
-    if not keep.any():
-        return keep
-    rows = np.flatnonzero(keep)
-    elements, ids = elements[rows], ids[rows]
-    v = valid_combo[ids]
-    sub = np.ones(len(rows), dtype=bool)
-    # distinct ratios among the gears at the generic point
-    s = kin.speeds[:, 0, :]
-    with np.errstate(all="ignore"):
-        ratio = np.where(valid_combo, s[:, i] / np.where(valid_combo, s[:, o], 1.0), np.nan)
-    r = np.sort(ratio[ids], axis=1)  # NaN last
-    gaps = np.abs(np.diff(r, axis=1)) > 1e-7 * (1 + np.abs(r[:, 1:]))
-    distinct = np.isfinite(r[:, 0]) + np.sum(gaps & np.isfinite(r[:, 1:]), axis=1)
-    sub &= distinct >= gears
-    # every element in some gear
-    member = np.zeros((ids.shape[1], elements.shape[1]), dtype=np.int64)
-    for s_, subset in enumerate(itertools.combinations(range(elements.shape[1]), kin.engaged)):
-        member[s_, list(subset)] = 1
-    sub &= ((v.astype(np.int64) @ member) > 0).all(axis=1)
-    # no dead link: a single member with nothing on it (not input/output)
+def pack_bits(flags: np.ndarray) -> np.ndarray:
+    """Boolean flags along the last axis (at most 64) as one unsigned integer each (bit ``s`` =
+    ``flags[..., s]``), of the narrowest width that holds them."""
+    n = flags.shape[-1]
+    width = next(w for w in (1, 2, 4, 8) if 8 * w >= n)
+    packed = np.packbits(flags, axis=-1, bitorder="little")
+    pad = width - packed.shape[-1]
+    if pad:
+        packed = np.concatenate([packed, np.zeros(packed.shape[:-1] + (pad,), dtype=np.uint8)], axis=-1)
+    return np.ascontiguousarray(packed).view(f"<u{width}")[..., 0]
+
+
+def row_masks(kin: TrainKinematics, elements: np.ndarray, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Bit masks of placements (rows of ``elements``, ``ids`` their combinations), computed once
+    per train for :func:`feasible_mask`: ``(gear, turns, touched)``: which combinations (bit
+    ``s``) have one degree of freedom at the generic point, which of those turn link ``l``
+    (rows x L), which links (bit ``l``) carry an element."""
+    gear = pack_bits(kin.rank_ok[ids])
+    turns = pack_bits(np.transpose(kin.moves[ids], (0, 2, 1)))
     n_links = len(kin.train.links)
     touch = np.zeros((len(kin.candidates), n_links), dtype=bool)
     for e, c in enumerate(kin.candidates):
         touch[e, list(c)] = True
-    touched = touch[elements].any(axis=1)  # rows x L
-    single = np.array([len(m) == 1 for m in kin.train.links])
-    single[[i, o]] = False
-    sub &= touched[:, single].all(axis=1)
-    keep[rows] = sub
-    return keep
+    touched = pack_bits(touch[elements].any(axis=1))
+    return gear, turns, touched
 
+
+def feasible_mask(kin: TrainKinematics, i: int, o: int, elements: np.ndarray, gears: int,
+                  ids: np.ndarray | None = None, necessary: bool = True, distinct: bool = True,
+                  masks=None) -> np.ndarray:
+    """Which placements (rows of ``elements``: sorted candidate indices, input ``i``, output
+    ``o``) pass the early pruning of the module docstring for ``gears`` target gears.
+
+    The rules of the search space (every element in some gear, no dead link) always apply; the
+    necessary conditions of meeting ``gears`` targets (that many gears, ``distinct`` ones: pass
+    ``False`` when two targets are within twice the tolerance) only with ``necessary``.
+    ``masks``: :func:`row_masks` of the rows (computed here when not given)."""
+    ids = kin.combo_ids(elements) if ids is None else ids
+    gear, turns, touched = row_masks(kin, elements, ids) if masks is None else masks
+    valid = gear & turns[:, i] & turns[:, o]  # bit s: a gear with input and output turning
+    keep = np.bitwise_count(valid) >= (gears if necessary else 1)
+    # no dead link: a single member with nothing on it (not input/output)
+    single = touched.dtype.type(sum(1 << l for l, m in enumerate(kin.train.links) if len(m) == 1 and l not in (i, o)))
+    keep &= (touched & single) == single
+    # every element in some gear
+    for j in range(elements.shape[1]):
+        having = sum(1 << s_ for s_, subset in enumerate(itertools.combinations(range(elements.shape[1]),
+                                                                               kin.engaged)) if j in subset)
+        keep &= (valid & valid.dtype.type(having)) != 0
+    if not (necessary and distinct and keep.any()):
+        return keep
+    # distinct ratios among the gears at the generic point
+    rows = np.flatnonzero(keep)
+    valid_combo = kin.rank_ok & kin.moves[:, i] & kin.moves[:, o]
+    s = kin.speeds[:, 0, :]
+    with np.errstate(all="ignore"):
+        ratio = np.where(valid_combo, s[:, i] / np.where(valid_combo, s[:, o], 1.0), np.nan)
+    r = np.sort(ratio[ids[rows]], axis=1)  # NaN last
+    gaps = np.abs(np.diff(r, axis=1)) > 1e-7 * (1 + np.abs(r[:, 1:]))
+    count = np.isfinite(r[:, 0]) + np.sum(gaps & np.isfinite(r[:, 1:]), axis=1)
+    keep[rows] = count >= gears
+    return keep

@@ -62,11 +62,12 @@ def cmd_topology(args) -> int:
 
         executor = make_executor(args.workers, args.scheduler)
     progress = progress_line if sys.stderr.isatty() and not args.json else None
+    checkpoint = args.output  # the finished trains are kept there: a second run resumes
     if executor is not None:
         with executor:
-            result = synthesize_topology(spec, args.top, executor, progress, max_seconds=limit)
+            result = synthesize_topology(spec, args.top, executor, progress, max_seconds=limit, checkpoint=checkpoint)
     else:
-        result = synthesize_topology(spec, args.top, None, progress, max_seconds=limit)
+        result = synthesize_topology(spec, args.top, None, progress, max_seconds=limit, checkpoint=checkpoint)
     if progress:
         print(file=sys.stderr)
     if args.output:
@@ -155,7 +156,9 @@ def add_topology(what) -> None:
                    help="refuse a search estimated to take longer on one core (default 6)")
     t.add_argument("--workers", type=int, help="local worker processes (default: this process)")
     t.add_argument("--scheduler", help="Dask scheduler address tcp://HOST:PORT")
-    t.add_argument("-o", "--output", metavar="DIR", help="write candidate_NN.mech, its lever diagram and summary.csv here")
+    t.add_argument("-o", "--output", metavar="DIR", help="write candidate_NN.mech, its lever diagram and summary.csv here; the finished "
+                        "gear trains are kept in DIR/topology_checkpoint.json, and the same command "
+                        "again resumes from them")
     t.add_argument("--no-levers", action="store_true", help="with -o: no lever diagrams (candidate_NN_levers.svg)")
     t.add_argument("--json", action="store_true", help="machine-readable output")
     t.set_defaults(func=_checked)
