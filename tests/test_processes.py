@@ -158,12 +158,15 @@ sys.exit(cli.entry_point())
 """
 
 
+@pytest.mark.parametrize("nohup", [False, True])
 @pytest.mark.parametrize("hook", ["atexit.register", "threading._register_atexit"])
-def test_sigterm_after_the_command_exits_143_without_a_traceback(tmp_path, hook):
+def test_sigterm_after_the_command_exits_143_without_a_traceback(tmp_path, hook, nohup):
     # before: exit 0 and a traceback (Terminated raised in an exit hook), or exit -15 (while the
-    # interpreter freed its modules, its handler reset to the default action)
+    # interpreter freed its modules, its handler reset to the default action); under nohup (SIGHUP
+    # ignored) the traceback came back: the late rule waited for both handlers
+    ignore_hup = (lambda: signal.signal(signal.SIGHUP, signal.SIG_IGN)) if nohup else None
     done = subprocess.run([sys.executable, "-c", _LATE_SIGNAL.replace("HOOK", hook)], cwd=tmp_path,
-                          capture_output=True, text=True, timeout=120)
+                          capture_output=True, text=True, timeout=120, preexec_fn=ignore_hup)
     assert done.returncode == 143 and "Traceback" not in done.stderr and "Exception" not in done.stderr, \
         (done.returncode, done.stderr)
     assert done.stdout.strip()  # the command's own output is kept

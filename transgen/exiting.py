@@ -28,19 +28,15 @@ def terminate(signum, frame):
 
 def install_terminate() -> bool:
     """:func:`terminate` for SIGTERM and SIGHUP where they have their default action (not in a
-    program that set its own, nor outside the main thread); whether both were installed."""
+    program that set its own, nor outside the main thread, nor SIGHUP under ``nohup``, which
+    ignores it); whether it handles at least one of them."""
     import signal
 
-    installed = True
     for signum in (signal.SIGTERM, signal.SIGHUP):
         if signal.getsignal(signum) is signal.SIG_DFL:
-            try:
+            with contextlib.suppress(ValueError):  # not the main thread
                 signal.signal(signum, terminate)
-            except ValueError:  # not the main thread
-                installed = False
-        else:
-            installed = installed and signal.getsignal(signum) is terminate
-    return installed
+    return any(signal.getsignal(signum) is terminate for signum in (signal.SIGTERM, signal.SIGHUP))
 
 
 def late_code(code: int) -> int:
