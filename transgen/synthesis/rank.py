@@ -30,7 +30,8 @@ from fractions import Fraction
 
 from ..errors import TransgenError
 from .search import FittedConcept, SearchSpec, TrainResult, train_task
-from .topology import Concept, link_count, trains
+from .ravigneaux import ravigneaux_teeth, share_lines, spec_trains
+from .topology import Concept, link_count
 
 __all__ = ["TopologyInputError", "Candidate", "TopologySynthesis", "synthesize_topology", "concept_text",
            "estimate_seconds", "rank_fitted", "RANKING", "MAX_SETS", "MAX_ELEMENTS"]
@@ -115,7 +116,7 @@ class TopologySynthesis:
 
     def to_dict(self) -> dict:
         s = self.spec
-        return {"request": {"sets": s.sets, "brakes": s.brakes, "clutches": s.clutches, "engaged": s.engaged,
+        return {"request": {"sets": s.sets, "ravigneaux": s.ravigneaux, "brakes": s.brakes, "clutches": s.clutches, "engaged": s.engaged,
                             "targets": dict(zip(s.gears, s.targets)), "tolerance": s.tolerance,
                             "ring_sun": [s.k_low, s.k_high]},
                 "trains": self.trains, "counts": dict(self.counts), "seconds": self.seconds, "ranking": RANKING,
@@ -125,10 +126,10 @@ class TopologySynthesis:
 def estimate_seconds(spec: SearchSpec, n_trains: int | None = None) -> float:
     """Estimated single-core run time [s] of the search (the early pruning's placements times its
     measured cost, plus a per-train overhead)."""
-    n = link_count(spec.sets, spec.engaged)
+    n = link_count(spec.planetaries, spec.engaged)
     pairs = n * (n - 1) // 2
     inner = math.comb(n - 2, spec.brakes) * math.comb(pairs, spec.clutches) * n * (n - 1)
-    count = n_trains if n_trains is not None else _train_estimate(spec.sets, n)
+    count = n_trains if n_trains is not None else _train_estimate(spec.planetaries, n)
     return count * (inner * SECONDS_PER_PLACEMENT + SECONDS_PER_TRAIN)
 
 
@@ -142,6 +143,9 @@ def validate_spec(spec: SearchSpec, max_seconds: float = MAX_SECONDS) -> None:
     """Refuse what cannot be searched, before any work (bounded sizes, a time estimate)."""
     if not 1 <= spec.sets <= MAX_SETS:
         raise TopologyInputError(f"--sets must be 1..{MAX_SETS}, not {spec.sets}")
+    if not 0 <= spec.ravigneaux <= spec.sets or spec.planetaries > MAX_SETS:
+        raise TopologyInputError(f"--ravigneaux must be 0..--sets with at most {MAX_SETS} planetary statements "
+                                 f"(a compound counts two), not {spec.ravigneaux} of {spec.sets} sets")
     if spec.brakes < 0 or spec.clutches < 0 or not 1 <= spec.brakes + spec.clutches <= MAX_ELEMENTS:
         raise TopologyInputError(f"--brakes and --clutches: 1..{MAX_ELEMENTS} elements in all, not "
                                  f"{spec.brakes} + {spec.clutches}")
@@ -189,7 +193,9 @@ def concept_text(concept: Concept, gears: dict, ratios: dict | None = None, teet
             m = 3 * p + j
             members.append(f"{word}={names[link_of[m]] if m in link_of else 'housing'}")
         ns, nr = by_set.get(f"P{p + 1}", ("?", "?"))
-        lines.append(f"planetary P{p + 1} {' '.join(members)} Ns={ns} Nr={nr}")
+        pinions = " pinions=2" if p in t.double_pinion else ""
+        lines.append(f"planetary P{p + 1} {' '.join(members)} Ns={ns} Nr={nr}{pinions}")
+    lines += share_lines(t)
     lines.append("")
     for name, links in concept.elements:
         if len(links) == 1:
@@ -230,6 +236,8 @@ def _teeth(fc: FittedConcept, spec: SearchSpec, rules, per_set: int = 8):
     from .teeth import planet_count
 
     c = fc.concept
+    if c.train.ravigneaux:  # shared gears: synthesize teeth's own search, which honours them
+        return ravigneaux_teeth(concept_text(c, dict(zip(spec.gears, fc.gears))), spec, rules)
     options = []
     for p, k in enumerate(fc.fit.k):
         found: dict = {}
@@ -334,7 +342,7 @@ def synthesize_topology(spec: SearchSpec, top: int = 20, executor=None, progress
         raise TopologyInputError(f"--top must be 1..1000, not {top}")
     rules = rules or AssemblyRules(k_min=spec.k_low, k_max=spec.k_high)
     start = time.perf_counter()
-    all_trains = trains(spec.sets, link_count(spec.sets, spec.engaged)) if train_list is None else list(train_list)
+    all_trains = spec_trains(spec) if train_list is None else list(train_list)
     total = TrainResult()
     results: dict[int, TrainResult] = {}
     if executor is None:

@@ -1,0 +1,111 @@
+"""Ravigneaux compounds in ``transgen synthesize topology --ravigneaux K``: gear trains, ``.mech``
+statements and tooth counts.
+
+A Ravigneaux compound has four members (small sun, large sun, carrier, ring) and two degrees of
+freedom. It is searched as two planetary sets that share the ring and the carrier: set ``a``
+simple (the large sun on the long pinion, ``w_s + k_a w_r - (1 + k_a) w_c = 0``) and set ``b``
+double-pinion (the small sun on the short pinion, which meshes the long one: ``w_s - k_b w_r +
+(k_b - 1) w_c = 0``), each basic ratio ``k = Nr/Ns`` within the ring/sun bounds. Its ring and
+carrier are each one link from the start; the rest of the enumeration, the pruning, the screen
+(both rows are affine in their ``k``) and the fit are those of simple sets.
+
+Of ``N`` sets, ``K`` are compounds: ``N - K`` simple sets (internal sets ``0 .. N - K - 1``),
+then the compounds as internal pairs ``(N - K + 2q, N - K + 2q + 1)``, ``N + K`` planetary
+statements in all. The symmetries are the permutations of the simple sets and of the compounds
+as wholes (:func:`transgen.synthesis.topology.set_permutations`): the two suns of a compound
+mesh different pinions and are never swapped.
+
+A candidate's ``.mech`` states the compound as the file language does
+(``mechanisms/hsw_ravigneaux4.mech``): the two planetary statements, ``share A.ring B.ring``,
+``share A.carrier B.carrier`` and ``share B.outer_pinion A.pinion`` (the long pinion), so that
+``transgen synthesize teeth`` (:func:`transgen.synthesis.teeth.synthesize_teeth`, which honours
+shares: one ring, one long pinion at one centre distance, a short pinion that fits) finds
+buildable teeth; the search uses that same function for its candidates.
+"""
+from __future__ import annotations
+
+from fractions import Fraction
+
+import numpy as np
+
+from .topology import Train, _canonical_codes, _partitions, link_count, locked_pair, set_permutations, trains
+
+__all__ = ["compound_pairs", "ravigneaux_trains", "spec_trains", "share_lines", "ravigneaux_teeth"]
+
+
+def compound_pairs(n_simple: int, n_compounds: int) -> tuple[tuple[int, int], ...]:
+    """The internal set pairs ``(simple half, double-pinion half)`` of the compounds."""
+    return tuple((n_simple + 2 * q, n_simple + 2 * q + 1) for q in range(n_compounds))
+
+
+def ravigneaux_trains(n_simple: int, n_compounds: int, n_links: int, bare_input: bool = True) -> list[Train]:
+    """Every gear train of ``n_simple`` simple sets and ``n_compounds`` Ravigneaux compounds with
+    ``n_links`` links (the bare input shaft counted), one per class of kind-keeping set
+    permutations, in a fixed order (no member grounded)."""
+    pairs = compound_pairs(n_simple, n_compounds)
+    n_sets = n_simple + 2 * n_compounds
+    glued = {3 * b + j: 3 * a + j for a, b in pairs for j in (1, 2)}  # ring and carrier of b -> of a
+    members = list(range(3 * n_sets))
+    reduced = [m for m in members if m not in glued]
+    template = Train(n_sets, (), (), pairs)
+    perms = set_permutations(template)
+    out: list[Train] = []
+    for bare in ((0, 1) if bare_input else (0,)):
+        target = n_links - bare
+        rows = []
+        for blocks in _partitions(reduced, target):
+            block_of = {m: i for i, b in enumerate(blocks) for m in b}
+            # a compound's small sun never on its own ring's or carrier's link (it would lock b)
+            if any(block_of[3 * b] in (block_of[3 * a + 1], block_of[3 * a + 2]) for a, b in pairs):
+                continue
+            rows.append([block_of[glued.get(m, m)] for m in members])
+        if not rows:
+            continue
+        labels = np.array(rows, dtype=np.int64)
+        codes = _canonical_codes(labels, members, (), perms)
+        _, first = np.unique(codes, return_index=True)
+        for row in sorted(first, key=lambda r: codes[r]):
+            blocks = [tuple(m for m in members if labels[row, m] == b) for b in range(target)]
+            train = Train(n_sets, tuple(sorted(blocks)) + (((),) if bare else ()), (), pairs)
+            if not locked_pair(train):
+                out.append(train)
+    return out
+
+
+def spec_trains(spec) -> list[Train]:
+    """The gear trains of a :class:`transgen.synthesis.search.SearchSpec` (simple or compound)."""
+    n_links = link_count(spec.planetaries, spec.engaged)
+    if not spec.ravigneaux:
+        return trains(spec.sets, n_links)
+    return ravigneaux_trains(spec.sets - spec.ravigneaux, spec.ravigneaux, n_links)
+
+
+def share_lines(train: Train) -> list[str]:
+    """The ``share`` statements of the compounds (sets named ``P1 ..`` as in the ``.mech``)."""
+    out = []
+    for a, b in train.ravigneaux:
+        pa, pb = f"P{a + 1}", f"P{b + 1}"
+        out += [f"share {pa}.ring {pb}.ring            # one ring gear",
+                f"share {pa}.carrier {pb}.carrier      # one carrier",
+                f"share {pb}.outer_pinion {pa}.pinion  # the long pinion"]
+    return out
+
+
+def ravigneaux_teeth(text: str, spec, rules):
+    """Tooth counts of a compound candidate (its ``.mech`` ``text`` with ``Ns=? Nr=?``) by
+    :func:`transgen.synthesis.teeth.synthesize_teeth` under ``rules`` and the shares, each target
+    within ``spec.tolerance`` (relative): ``(teeth, ratios)`` as ``(name, Ns, Nr, planets)`` and
+    the exact ratios of the best solution (largest error, then size), or ``(None, None)``."""
+    from ..language import parse_mechanism
+    from .teeth import RatioTarget, synthesize_teeth
+
+    mech = parse_mechanism(text, "<candidate>", unknown_teeth=True)
+    targets = tuple(RatioTarget(g, repr(t), Fraction(spec.tolerance * abs(t)).limit_denominator(10 ** 9))
+                    for g, t in zip(spec.gears, spec.targets))
+    found = synthesize_teeth(mech, targets, rules, top=1)
+    if not found.solutions:
+        return None, None
+    best = found.solutions[0]
+    teeth = tuple(sorted(((t.name, t.n_sun, t.n_ring, t.planets) for t in best.teeth),
+                         key=lambda t: int(t[0][1:])))
+    return teeth, {g: float(r) for g, r in best.ratios.items()}
