@@ -37,7 +37,8 @@ __all__ = ["TopologyInputError", "Candidate", "TopologySynthesis", "synthesize_t
            "estimate_seconds", "rank_fitted", "RANKING", "MAX_SETS", "MAX_ELEMENTS"]
 
 MAX_SETS = 4
-"""Most simple sets searched (4 sets: 8721 gear trains of 8 links)."""
+"""Most planetary statements searched, a Ravigneaux compound counting two (4 simple sets: 8721
+gear trains of 8 links)."""
 
 MAX_ELEMENTS = 7
 """Most shift elements (brakes + clutches)."""

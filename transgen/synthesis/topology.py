@@ -21,6 +21,10 @@ The search space (what :func:`enumerate_concepts` walks) and why each rule loses
 * no member is fixed to the housing (``grounded``: a fixed member makes a simple set a fixed
   reduction; allowed on request with ``max_grounded``).
 
+Ravigneaux compounds (``Train.ravigneaux``, :mod:`transgen.synthesis.ravigneaux`) are a simple
+and a double-pinion set whose ring and carrier are one link each; their symmetries are those of
+:func:`set_permutations` (kinds kept, the two suns never swapped).
+
 Symmetries removed (:func:`canonical_key`): the ``N!`` permutations of the sets, the order of
 the links (a link is named by the members it joins, so relabelling links changes nothing), the
 order of the brakes and clutches and the two ends of each clutch. The sun/ring reflection of a
