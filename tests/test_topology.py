@@ -371,10 +371,11 @@ def test_a_stopped_search_keeps_the_trains_it_finished(tmp_path):
 # ------------------------------------------------------------------ Ravigneaux compounds
 
 
-def _labelled_compound_trains(n_simple: int, n_links: int):
+def _labelled_compound_trains(n_simple: int, n_links: int, max_grounded: int = 0):
     """Every train of ``n_simple`` simple sets and one Ravigneaux compound (sets told apart): a
-    block label for each member, the compound's two rings and two carriers in one block each,
-    no two members of one set in a block, no two sets on the same three links."""
+    block label (or the housing, at most ``max_grounded`` times) for each member, the compound's
+    two rings and two carriers together, no two members of one set in a block or on the housing,
+    no two sets on the same three links."""
     from transgen.synthesis.ravigneaux import compound_pairs
 
     pairs = compound_pairs(n_simple, 1)
@@ -386,19 +387,24 @@ def _labelled_compound_trains(n_simple: int, n_links: int):
     for bare in (0, 1):
         blocks = n_links - bare
         seen = set()
-        for labels in itertools.product(range(blocks), repeat=len(free)):
+        housing = blocks  # the label of a grounded member
+        for labels in itertools.product(range(blocks + (1 if max_grounded else 0)), repeat=len(free)):
+            if labels.count(housing) > max_grounded:
+                continue
             order = {}
-            norm = tuple(order.setdefault(x, len(order)) for x in labels)
+            norm = tuple(x if x == housing else order.setdefault(x, len(order)) for x in labels)
             if norm in seen or len(order) != blocks:
                 continue
             seen.add(norm)
             label = dict(zip(free, norm))
             label.update({m: label[g] for m, g in glued.items()})
+            grounded = tuple(m for m in range(n) if label[m] == housing)
             links = [tuple(m for m in range(n) if label[m] == x) for x in range(blocks)]
-            if any(len({m // 3 for m in link}) < len(link) for link in links):
+            if any(len({m // 3 for m in group}) < len(group) for group in links + [grounded]):
                 continue
-            train = Train(n_sets, tuple(links) + (((),) if bare else ()), (), pairs)
-            on = [frozenset(label[3 * p + j] for j in range(3)) for p in range(n_sets)]
+            train = Train(n_sets, tuple(links) + (((),) if bare else ()), grounded, pairs)
+            on = [frozenset(label[3 * p + j] if label[3 * p + j] != housing else -1 - 3 * p - j for j in range(3))
+                  for p in range(n_sets)]
             if len(set(on)) < n_sets:
                 continue
             yield train
@@ -414,7 +420,8 @@ def _plain_feasible(c: Concept, gears: int, engaged: int, k: np.ndarray) -> bool
         row = np.zeros(n)
         coeffs = (1.0, -k[p], k[p] - 1) if p in t.double_pinion else (1.0, k[p], -(1 + k[p]))
         for j, coeff in enumerate(coeffs):
-            row[link_of[3 * p + j]] += coeff
+            if 3 * p + j in link_of:  # else held: speed zero
+                row[link_of[3 * p + j]] += coeff
         rows.append(row)
     elements = [(b,) for b in c.brakes] + list(c.clutches)
     ratios, used = [], set()
@@ -440,17 +447,18 @@ def _plain_feasible(c: Concept, gears: int, engaged: int, k: np.ndarray) -> bool
     return len(ratios) >= gears and distinct >= gears and len(used) == len(elements) and not dead
 
 
-@pytest.mark.parametrize("n_simple,brakes,clutches,engaged,gears", [(0, 2, 2, 2, 3), (1, 1, 1, 1, 2)])
+@pytest.mark.parametrize("n_simple,brakes,clutches,engaged,gears,grounded",
+                         [(0, 2, 2, 2, 3, 0), (1, 1, 1, 1, 2, 0), (0, 1, 2, 1, 2, 1)])
 def test_the_compound_enumeration_finds_the_brute_forces_distinct_concepts(n_simple, brakes, clutches, engaged,
-                                                                           gears):
+                                                                           gears, grounded):
     from transgen.synthesis.ravigneaux import spec_trains
 
     spec = SearchSpec(n_simple + 1, brakes, clutches, engaged, tuple(str(g) for g in range(gears)),
-                      tuple(float(g + 2) for g in range(gears)), ravigneaux=1)
+                      tuple(float(g + 2) for g in range(gears)), ravigneaux=1, grounded=grounded)
     k = sample_points(spec.planetaries, spec.k_low, spec.k_high, 0, spec.seed)[0][0]
     n_links = link_count(spec.planetaries, engaged)
     brute_keys, brute_feasible, labelled = set(), set(), 0
-    for train in _labelled_compound_trains(n_simple, n_links):
+    for train in _labelled_compound_trains(n_simple, n_links, grounded):
         for i, o, bs, cs in placements(train, brakes, clutches):
             labelled += 1
             c = Concept(train, i, o, bs, cs)

@@ -117,7 +117,8 @@ class TopologySynthesis:
 
     def to_dict(self) -> dict:
         s = self.spec
-        return {"request": {"sets": s.sets, "ravigneaux": s.ravigneaux, "brakes": s.brakes, "clutches": s.clutches, "engaged": s.engaged,
+        return {"request": {"sets": s.sets, "ravigneaux": s.ravigneaux, "grounded": s.grounded,
+                            "brakes": s.brakes, "clutches": s.clutches, "engaged": s.engaged,
                             "targets": dict(zip(s.gears, s.targets)), "tolerance": s.tolerance,
                             "ring_sun": [s.k_low, s.k_high]},
                 "trains": self.trains, "counts": dict(self.counts), "seconds": self.seconds, "ranking": RANKING,
@@ -147,6 +148,9 @@ def validate_spec(spec: SearchSpec, max_seconds: float = MAX_SECONDS) -> None:
     if not 0 <= spec.ravigneaux <= spec.sets or spec.planetaries > MAX_SETS:
         raise TopologyInputError(f"--ravigneaux must be 0..--sets with at most {MAX_SETS} planetary statements "
                                  f"(a compound counts two), not {spec.ravigneaux} of {spec.sets} sets")
+    if not 0 <= spec.grounded <= min(2, spec.planetaries):
+        raise TopologyInputError(f"--grounded must be 0..{min(2, spec.planetaries)} (members fixed to the housing), "
+                                 f"not {spec.grounded}")
     if spec.brakes < 0 or spec.clutches < 0 or not 1 <= spec.brakes + spec.clutches <= MAX_ELEMENTS:
         raise TopologyInputError(f"--brakes and --clutches: 1..{MAX_ELEMENTS} elements in all, not "
                                  f"{spec.brakes} + {spec.clutches}")

@@ -24,11 +24,13 @@ buildable teeth; the search uses that same function for its candidates.
 """
 from __future__ import annotations
 
+import itertools
 from fractions import Fraction
 
 import numpy as np
 
-from .topology import Train, _canonical_codes, _partitions, link_count, locked_pair, set_permutations, trains
+from .topology import (Train, _canonical_codes, _partitions, _train_code, link_count, locked_pair, set_permutations,
+                       trains)
 
 __all__ = ["compound_pairs", "ravigneaux_trains", "spec_trains", "share_lines", "ravigneaux_teeth"]
 
@@ -38,35 +40,57 @@ def compound_pairs(n_simple: int, n_compounds: int) -> tuple[tuple[int, int], ..
     return tuple((n_simple + 2 * q, n_simple + 2 * q + 1) for q in range(n_compounds))
 
 
-def ravigneaux_trains(n_simple: int, n_compounds: int, n_links: int, bare_input: bool = True) -> list[Train]:
+def ravigneaux_trains(n_simple: int, n_compounds: int, n_links: int, bare_input: bool = True,
+                      max_grounded: int = 0) -> list[Train]:
     """Every gear train of ``n_simple`` simple sets and ``n_compounds`` Ravigneaux compounds with
-    ``n_links`` links (the bare input shaft counted), one per class of kind-keeping set
-    permutations, in a fixed order (no member grounded)."""
+    ``n_links`` links (the bare input shaft counted), at most ``max_grounded`` members fixed to
+    the housing (a compound's ring or carrier counted once), one per class of kind-keeping set
+    permutations, in a fixed order."""
     pairs = compound_pairs(n_simple, n_compounds)
     n_sets = n_simple + 2 * n_compounds
     glued = {3 * b + j: 3 * a + j for a, b in pairs for j in (1, 2)}  # ring and carrier of b -> of a
     members = list(range(3 * n_sets))
     reduced = [m for m in members if m not in glued]
-    template = Train(n_sets, (), (), pairs)
-    perms = set_permutations(template)
+    perms = set_permutations(Train(n_sets, (), (), pairs))
     out: list[Train] = []
+    seen = set()
+    for count in range(max_grounded + 1):
+        for fixed in itertools.combinations(reduced, count):
+            grounded = tuple(sorted(set(fixed) | {m for m, g in glued.items() if g in fixed}))
+            if len({m // 3 for m in grounded}) < len(grounded):
+                continue  # two members of one set held: the set is locked
+            for train in _trains_grounded(n_sets, pairs, glued, members, reduced, grounded, n_links, bare_input, perms):
+                if grounded:  # one representative across the grounded choices too
+                    code = min(_train_code(train.links, train.grounded, p) for p in perms)
+                    if code in seen:
+                        continue
+                    seen.add(code)
+                out.append(train)
+    return out
+
+
+def _trains_grounded(n_sets, pairs, glued, members, reduced, grounded, n_links, bare_input, perms) -> list[Train]:
+    """The trains of :func:`ravigneaux_trains` with the members ``grounded`` held."""
+    out = []
+    free = [m for m in members if m not in grounded]
     for bare in ((0, 1) if bare_input else (0,)):
         target = n_links - bare
         rows = []
-        for blocks in _partitions(reduced, target):
+        for blocks in _partitions([m for m in reduced if m not in grounded], target):
             block_of = {m: i for i, b in enumerate(blocks) for m in b}
             # a compound's small sun never on its own ring's or carrier's link (it would lock b)
-            if any(block_of[3 * b] in (block_of[3 * a + 1], block_of[3 * a + 2]) for a, b in pairs):
+            if any(3 * b in block_of and block_of[3 * b] in (block_of.get(3 * a + 1), block_of.get(3 * a + 2))
+                   for a, b in pairs):
                 continue
-            rows.append([block_of[glued.get(m, m)] for m in members])
+            rows.append([block_of[glued.get(m, m)] for m in free])
         if not rows:
             continue
         labels = np.array(rows, dtype=np.int64)
-        codes = _canonical_codes(labels, members, (), perms)
+        codes = _canonical_codes(labels, free, grounded, perms)
         _, first = np.unique(codes, return_index=True)
         for row in sorted(first, key=lambda r: codes[r]):
-            blocks = [tuple(m for m in members if labels[row, m] == b) for b in range(target)]
-            train = Train(n_sets, tuple(sorted(blocks)) + (((),) if bare else ()), (), pairs)
+            blocks = [tuple(m for c, m in enumerate(free) if labels[row, c] == b) for b in range(target)]
+            train = Train(n_sets, tuple(sorted(blocks)) + (((),) if bare else ()), grounded, pairs)
             if not locked_pair(train):
                 out.append(train)
     return out
@@ -76,8 +100,8 @@ def spec_trains(spec) -> list[Train]:
     """The gear trains of a :class:`transgen.synthesis.search.SearchSpec` (simple or compound)."""
     n_links = link_count(spec.planetaries, spec.engaged)
     if not spec.ravigneaux:
-        return trains(spec.sets, n_links)
-    return ravigneaux_trains(spec.sets - spec.ravigneaux, spec.ravigneaux, n_links)
+        return trains(spec.sets, n_links, max_grounded=spec.grounded)
+    return ravigneaux_trains(spec.sets - spec.ravigneaux, spec.ravigneaux, n_links, max_grounded=spec.grounded)
 
 
 def share_lines(train: Train) -> list[str]:

@@ -44,6 +44,9 @@ class SearchSpec:
     ravigneaux: int = 0
     """How many of the ``sets`` are Ravigneaux compounds (two planetary statements each,
     :mod:`transgen.synthesis.ravigneaux`)."""
+    grounded: int = 0
+    """Most members fixed to the housing (a fixed member makes its set a fixed reduction, as the
+    front set of a Lepelletier design); default none."""
     prune: bool = True
     """Apply the necessary conditions (gear count, distinct ratios, cell screen); ``False`` only
     for the brute-force comparison in the tests."""

@@ -54,7 +54,7 @@ def cmd_topology(args) -> int:
     low, high = ring_sun_range(args.ring_sun)
     engaged = args.engaged if args.engaged is not None else max(2, args.sets + args.ravigneaux - 1)
     spec = SearchSpec(args.sets, args.brakes, args.clutches, engaged, gears, targets, args.tolerance, low, high,
-                      ravigneaux=args.ravigneaux)
+                      ravigneaux=args.ravigneaux, grounded=args.grounded)
     limit = args.max_hours * 3600
     validate_spec(spec, limit)  # before any executor starts
     executor = None
@@ -148,6 +148,9 @@ def add_topology(what) -> None:
     t.add_argument("--ravigneaux", type=int, default=0,
                    help="how many of the --sets are Ravigneaux compounds (small sun, large sun, carrier, ring; two "
                         "planetary statements sharing ring and carrier, each Nr/Ns within --ring-sun; default 0)")
+    t.add_argument("--grounded", type=int, default=0,
+                   help="members that may be fixed to the housing (0..2; a fixed member makes its set a fixed "
+                        "reduction, as a Lepelletier design's front set; default 0)")
     t.add_argument("--brakes", type=int, required=True, help="brakes (link to housing)")
     t.add_argument("--clutches", type=int, required=True, help="clutches (link to link)")
     t.add_argument("--engaged", type=int, help="elements engaged per gear (default max(2, planetary statements - 1), "
