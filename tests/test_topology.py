@@ -560,8 +560,27 @@ def test_the_ravigneaux_four_speed_is_found_from_its_ratios(tmp_path):
 def test_ravigneaux_counts_are_checked(capsys):
     from transgen.cli import main
 
-    for args in (["--sets", "1", "--ravigneaux", "2"], ["--sets", "3", "--ravigneaux", "2"],
-                 ["--sets", "1", "--ravigneaux", "-1"]):
+    for args, word in ((["--sets", "1", "--ravigneaux", "2"], "--ravigneaux"),
+                       (["--sets", "3", "--ravigneaux", "2"], "--ravigneaux"),
+                       (["--sets", "1", "--ravigneaux", "-1"], "--ravigneaux"),
+                       (["--sets", "1", "--ravigneaux", "1", "--grounded", "3"], "--grounded"),
+                       (["--sets", "2", "--grounded", "-1"], "--grounded")):
         assert main(["synthesize", "topology", *args, "--brakes", "2", "--clutches", "2",
                      "--ratios", "1=2,2=1"]) == 2
-        assert "--ravigneaux" in capsys.readouterr().err
+        assert word in capsys.readouterr().err
+
+
+def test_the_compound_command_writes_a_valid_document_and_drawable_files(tmp_path, capsys):
+    from transgen.cli import main
+    from transgen.schemas import validate
+
+    out = tmp_path / "rav"
+    code = main(["synthesize", "topology", "--sets", "1", "--ravigneaux", "1", "--brakes", "2", "--clutches", "3",
+                 "--ratios", "1=2.4,2=1.4667,3=1.0,OD=0.6667,R=-2.0", "--top", "2", "-o", str(out), "--json"])
+    assert code == 0
+    doc = json.loads(capsys.readouterr().out)
+    validate(doc)
+    assert doc["request"]["ravigneaux"] == 1 and doc["request"]["grounded"] == 0
+    text = (out / "candidate_01.mech").read_text()
+    assert "pinions=2" in text and text.count("\nshare ") == 3
+    assert (out / "candidate_01_levers.svg").exists()
