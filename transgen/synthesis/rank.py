@@ -224,6 +224,24 @@ def _task(spec: SearchSpec, train) -> TrainResult:
     return train_task(train, spec)
 
 
+def set_options(k: float, rules, count: int) -> list[tuple[int, int, int]]:
+    """The ``count`` admissible ``(Ns, Nr, planets)`` of a simple set with ``Nr/Ns`` closest to
+    ``k`` (smallest sets first among equal fractions) under ``rules``."""
+    from .teeth import planet_count
+
+    found: dict = {}
+    top_sun = int(rules.max_teeth / rules.k_min)
+    for ns in range(rules.min_teeth, top_sun + 1):
+        for nr in range(max(ns + 1, int(k * ns) - 2), min(rules.max_teeth, int(k * ns) + 3) + 1):
+            n = planet_count(ns, nr, 1, rules)
+            if n is not None:
+                f = Fraction(nr, ns)
+                if f not in found:
+                    found[f] = (ns, nr, n)
+    ranked = sorted(found.items(), key=lambda item: (abs(float(item[0]) - k), item[1][0] + item[1][1]))
+    return [v for _, v in ranked[:count]]
+
+
 def _teeth(fc: FittedConcept, spec: SearchSpec, rules, per_set: int = 8):
     """Tooth counts near the fitted ``k`` under ``rules`` (the assembly rules of ``synthesize
     teeth``, :func:`transgen.synthesis.teeth.planet_count`): for each set the ``per_set``
@@ -238,24 +256,13 @@ def _teeth(fc: FittedConcept, spec: SearchSpec, rules, per_set: int = 8):
     from ..kinematics import analyze
     from ..language import parse_mechanism
     from .fit import batch_ratios
-    from .teeth import planet_count
 
     c = fc.concept
     if c.train.ravigneaux:  # shared gears: synthesize teeth's own search, which honours them
-        return ravigneaux_teeth(concept_text(c, dict(zip(spec.gears, fc.gears))), spec, rules)
+        return ravigneaux_teeth(fc, spec, rules, lambda k, count: set_options(k, rules, count), concept_text)
     options = []
-    for p, k in enumerate(fc.fit.k):
-        found: dict = {}
-        top_sun = int(rules.max_teeth / rules.k_min)
-        for ns in range(rules.min_teeth, top_sun + 1):
-            for nr in range(max(ns + 1, int(k * ns) - 2), min(rules.max_teeth, int(k * ns) + 3) + 1):
-                n = planet_count(ns, nr, 1, rules)
-                if n is not None:
-                    f = Fraction(nr, ns)
-                    if f not in found:
-                        found[f] = (ns, nr, n)
-        ranked = sorted(found.items(), key=lambda item: (abs(float(item[0]) - k), item[1][0] + item[1][1]))
-        options.append([v for _, v in ranked[:per_set]])
+    for k in fc.fit.k:
+        options.append(set_options(k, rules, per_set))
         if not options[-1]:
             return None, None
     choices = list(itertools.product(*options))

@@ -20,7 +20,9 @@ A candidate's ``.mech`` states the compound as the file language does
 ``share A.carrier B.carrier`` and ``share B.outer_pinion A.pinion`` (the long pinion), so that
 ``transgen synthesize teeth`` (:func:`transgen.synthesis.teeth.synthesize_teeth`, which honours
 shares: one ring, one long pinion at one centre distance, a short pinion that fits) finds
-buildable teeth; the search uses that same function for its candidates.
+buildable teeth. The search uses that same function for its candidates' compounds, with the
+simple sets outside compounds fixed in turn to their admissible ``Nr/Ns`` closest to the fitted
+``k`` (:func:`ravigneaux_teeth`).
 """
 from __future__ import annotations
 
@@ -115,21 +117,35 @@ def share_lines(train: Train) -> list[str]:
     return out
 
 
-def ravigneaux_teeth(text: str, spec, rules):
-    """Tooth counts of a compound candidate (its ``.mech`` ``text`` with ``Ns=? Nr=?``) by
+def ravigneaux_teeth(fc, spec, rules, set_options, concept_text, per_set: int = 4):
+    """Tooth counts of a fitted compound concept ``fc``: the simple sets outside compounds take
+    each of their ``per_set`` admissible ``Nr/Ns`` closest to the fitted ``k``
+    (``set_options(k, count)``), and for every such choice the compounds' teeth come from
     :func:`transgen.synthesis.teeth.synthesize_teeth` under ``rules`` and the shares, each target
-    within ``spec.tolerance`` (relative): ``(teeth, ratios)`` as ``(name, Ns, Nr, planets)`` and
-    the exact ratios of the best solution (largest error, then size), or ``(None, None)``."""
+    within ``spec.tolerance`` (relative). ``(teeth, ratios)``: ``(name, Ns, Nr, planets)`` of every
+    set and the exact ratios of the best (largest error, then size), or ``(None, None)``."""
     from ..language import parse_mechanism
     from .teeth import RatioTarget, synthesize_teeth
 
-    mech = parse_mechanism(text, "<candidate>", unknown_teeth=True)
+    train = fc.concept.train
+    paired = {s for pair in train.ravigneaux for s in pair}
+    simple = [p for p in range(train.sets) if p not in paired]
+    gears = dict(zip(spec.gears, fc.gears))
     targets = tuple(RatioTarget(g, repr(t), Fraction(spec.tolerance * abs(t)).limit_denominator(10 ** 9))
                     for g, t in zip(spec.gears, spec.targets))
-    found = synthesize_teeth(mech, targets, rules, top=1)
-    if not found.solutions:
-        return None, None
-    best = found.solutions[0]
-    teeth = tuple(sorted(((t.name, t.n_sun, t.n_ring, t.planets) for t in best.teeth),
-                         key=lambda t: int(t[0][1:])))
-    return teeth, {g: float(r) for g, r in best.ratios.items()}
+    best = None
+    for choice in itertools.product(*(set_options(fc.fit.k[p], per_set) for p in simple)):
+        known = tuple((f"P{p + 1}", ns, nr, n) for p, (ns, nr, n) in zip(simple, choice))
+        mech = parse_mechanism(concept_text(fc.concept, gears, None, known), "<candidate>", unknown_teeth=True)
+        found = synthesize_teeth(mech, targets, rules, top=1)
+        if not found.solutions:
+            continue
+        sol = found.solutions[0]
+        every = {name: (name, ns, nr, n) for name, ns, nr, n in known}
+        every.update({t.name: (t.name, t.n_sun, t.n_ring, t.planets) for t in sol.teeth})
+        teeth = tuple(every.values())
+        key = (sol.max_error, sum(ns + nr for _, ns, nr, _ in teeth))
+        if best is None or key < best[0]:
+            best = (key, tuple(sorted(teeth, key=lambda t: int(t[0][1:]))),
+                    {g: float(r) for g, r in sol.ratios.items()})
+    return (None, None) if best is None else best[1:]
