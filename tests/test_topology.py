@@ -20,25 +20,30 @@ from transgen.synthesis.topology import (Concept, Train, canonical_key, count_or
 # ------------------------------------------------------------------ brute force, no symmetry breaking
 
 
-def _labelled_trains(n_sets: int, n_links: int):
+def _labelled_trains(n_sets: int, n_links: int, max_grounded: int = 0):
     """Every train with the sets told apart: each member gets a block label (first occurrence
-    order), no two members of one set in a block; with and without a bare input shaft."""
+    order) or the housing (at most ``max_grounded`` members), no two members of one set in a
+    block or on the housing; with and without a bare input shaft."""
     n = 3 * n_sets
     for bare in (0, 1):
         blocks = n_links - bare
+        housing = blocks
         seen = set()
-        for labels in itertools.product(range(blocks), repeat=n):
+        for labels in itertools.product(range(blocks + (1 if max_grounded else 0)), repeat=n):
+            if labels.count(housing) > max_grounded:
+                continue
             order = {}
-            norm = tuple(order.setdefault(x, len(order)) for x in labels)
+            norm = tuple(x if x == housing else order.setdefault(x, len(order)) for x in labels)
             if norm in seen or len(order) != blocks:
                 continue
             seen.add(norm)
             links = [tuple(m for m in range(n) if norm[m] == b) for b in range(blocks)]
-            if any(len({m // 3 for m in link}) < len(link) for link in links):
+            grounded = tuple(m for m in range(n) if norm[m] == housing)
+            if any(len({m // 3 for m in link}) < len(link) for link in links + [grounded]):
                 continue
-            train = Train(n_sets, tuple(links) + (((),) if bare else ()))
+            train = Train(n_sets, tuple(links) + (((),) if bare else ()), grounded)
             link_sets = [frozenset(l for l, link in enumerate(links) for m in link if m // 3 == p)
-                         for p in range(n_sets)]
+                         | {-1 - m for m in grounded if m // 3 == p} for p in range(n_sets)]
             if len(set(link_sets)) < n_sets:  # two sets on the same three links: locked
                 continue
             yield train
@@ -80,15 +85,17 @@ def _simple_feasible(c: Concept, gears: int, engaged: int, k: np.ndarray) -> boo
     return len(ratios) >= gears and distinct >= gears and len(used) == len(elements) and not dead
 
 
-@pytest.mark.parametrize("n_sets,brakes,clutches,engaged,gears", [(2, 1, 1, 1, 2), (2, 1, 2, 2, 3)])
-def test_the_enumeration_finds_the_brute_forces_distinct_concepts(n_sets, brakes, clutches, engaged, gears):
+@pytest.mark.parametrize("n_sets,brakes,clutches,engaged,gears,grounded",
+                         [(2, 1, 1, 1, 2, 0), (2, 1, 2, 2, 3, 0), (2, 1, 1, 1, 2, 1)])
+def test_the_enumeration_finds_the_brute_forces_distinct_concepts(n_sets, brakes, clutches, engaged, gears,
+                                                                  grounded):
     spec = SearchSpec(n_sets, brakes, clutches, engaged, tuple(str(g) for g in range(gears)),
-                      tuple(float(g + 2) for g in range(gears)))
+                      tuple(float(g + 2) for g in range(gears)), grounded=grounded)
     k = sample_points(n_sets, spec.k_low, spec.k_high, 0, spec.seed)[0][0]
     n_links = link_count(n_sets, engaged)
     brute_keys, brute_feasible = set(), set()
     labelled = 0
-    for train in _labelled_trains(n_sets, n_links):
+    for train in _labelled_trains(n_sets, n_links, grounded):
         for i, o, bs, cs in placements(train, brakes, clutches):
             labelled += 1
             c = Concept(train, i, o, bs, cs)
@@ -99,7 +106,7 @@ def test_the_enumeration_finds_the_brute_forces_distinct_concepts(n_sets, brakes
             if _simple_feasible(c, gears, engaged, k):
                 brute_feasible.add(key)
     fast_keys, enumerated, distinct = [], 0, 0
-    for train in trains(n_sets, n_links):
+    for train in trains(n_sets, n_links, max_grounded=grounded):
         counts, kin, feasible = feasible_placements(train, spec)
         enumerated += counts.enumerated
         distinct += counts.distinct
