@@ -132,6 +132,8 @@ def estimate_seconds(spec: SearchSpec, n_trains: int | None = None) -> float:
     pairs = n * (n - 1) // 2
     inner = math.comb(n - 2, spec.brakes) * math.comb(pairs, spec.clutches) * n * (n - 1)
     count = n_trains if n_trains is not None else _train_estimate(spec.planetaries, n)
+    if n_trains is None and spec.grounded:  # each choice of held members: a bound, not a count
+        count *= sum(math.comb(3 * spec.planetaries, g) for g in range(spec.grounded + 1))
     return count * (inner * SECONDS_PER_PLACEMENT + SECONDS_PER_TRAIN)
 
 
