@@ -3,11 +3,13 @@ time for N = 2, 3 (whole search) and N = 4 (every ``--step``-th gear train, extr
 
 Cases, from published ratios only: ZF 3HP22 Simpson (2 sets, 2 brakes, 2 clutches), Ford AXOD
 (2 sets, 2 brakes, 3 clutches), Allison HT 740 (3 sets, 3 brakes, 2 clutches, the thesis
-layout), ZF 8HP (4 sets, 2 brakes, 3 clutches, 3 engaged). Process time (CPU seconds of this
+layout), ZF 8HP (4 sets, 2 brakes, 3 clutches, 3 engaged); with Ravigneaux compounds the
+HowStuffWorks 4-speed (one compound) and the ZF 6HP (a simple set with its sun held and a
+compound: ``--grounded 1``). Process time (CPU seconds of this
 process) is printed: wall time is meaningless on a loaded machine. ``--levels`` sets the cell
 screen's subdivisions (default: the search's, 2 up to three sets, 0 for four).
 
-    python benchmarks/bench_topology.py [--case simpson|axod|ht740|zf8hp] [--step 290] [--levels L]
+    python benchmarks/bench_topology.py [--case simpson|axod|ht740|zf8hp|hsw4|zf6hp] [--step 290] [--levels L]
     python benchmarks/bench_topology.py --case zf8hp --partial DIR   # rank what a checkpoint holds so far
 """
 from __future__ import annotations
@@ -17,20 +19,25 @@ import time
 
 from transgen.synthesis.rank import synthesize_topology
 from transgen.synthesis.search import SearchSpec, TrainResult, train_task
-from transgen.synthesis.topology import link_count, trains
+from transgen.synthesis.ravigneaux import spec_trains
 
 CASES = {
     "simpson": (2, 2, 2, 2, "1=2.479,2=1.479,3=1.000,R=-2.086"),
     "axod": (2, 2, 3, 2, "1=2.77,2=1.54,3=1.00,4=0.69,R=-2.26"),
     "ht740": (3, 3, 2, 2, "1=3.69,2=2.02,3=1.38,4=1.00,R=-6.04"),
     "zf8hp": (4, 2, 3, 3, "1=4.696,2=3.130,3=2.104,4=1.667,5=1.285,6=1.000,7=0.839,8=0.667,R=-3.297"),
+    # Ravigneaux compounds: (sets, brakes, clutches, engaged, ratios, ravigneaux, grounded)
+    "hsw4": (1, 2, 3, 2, "1=2.4,2=1.4667,3=1.0,OD=0.6667,R=-2.0", 1, 0),
+    "zf6hp": (2, 2, 3, 2, "1=4.171,2=2.340,3=1.521,4=1.143,5=0.867,6=0.691,R=-3.403", 1, 1),
 }
 
 
 def spec_of(case: str, levels: int | None = None) -> SearchSpec:
-    sets, brakes, clutches, engaged, text = CASES[case]
+    sets, brakes, clutches, engaged, text, *compound = CASES[case]
+    ravigneaux, grounded = compound or (0, 0)
     gears, targets = zip(*[(g, float(r)) for g, r in (item.split("=") for item in text.split(","))])
-    return SearchSpec(sets, brakes, clutches, engaged, gears, targets, levels=levels)
+    return SearchSpec(sets, brakes, clutches, engaged, gears, targets, levels=levels, ravigneaux=ravigneaux,
+                      grounded=grounded)
 
 
 def main() -> None:
@@ -53,7 +60,7 @@ def main() -> None:
             print(f"  {c.rank}. error {c.max_ratio_error:.3%} in {d['input']} out {d['output']} "
                   f"{d['elements']} table {c.gears} teeth {c.teeth}")
         return
-    all_trains = trains(spec.sets, link_count(spec.sets, spec.engaged))
+    all_trains = spec_trains(spec)
     t_trains = time.process_time() - start
     sample = all_trains[::args.step]
     total = TrainResult()
@@ -75,7 +82,7 @@ def partial(spec: SearchSpec, folder: str) -> None:
     from transgen.synthesis.checkpoint import Checkpoint
     from transgen.synthesis.rank import rank_fitted
 
-    all_trains = trains(spec.sets, link_count(spec.sets, spec.engaged))
+    all_trains = spec_trains(spec)
     saved = Checkpoint(folder, spec, all_trains)
     total = TrainResult()
     for index in sorted(saved.done):

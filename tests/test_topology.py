@@ -20,25 +20,30 @@ from transgen.synthesis.topology import (Concept, Train, canonical_key, count_or
 # ------------------------------------------------------------------ brute force, no symmetry breaking
 
 
-def _labelled_trains(n_sets: int, n_links: int):
+def _labelled_trains(n_sets: int, n_links: int, max_grounded: int = 0):
     """Every train with the sets told apart: each member gets a block label (first occurrence
-    order), no two members of one set in a block; with and without a bare input shaft."""
+    order) or the housing (at most ``max_grounded`` members), no two members of one set in a
+    block or on the housing; with and without a bare input shaft."""
     n = 3 * n_sets
     for bare in (0, 1):
         blocks = n_links - bare
+        housing = blocks
         seen = set()
-        for labels in itertools.product(range(blocks), repeat=n):
+        for labels in itertools.product(range(blocks + (1 if max_grounded else 0)), repeat=n):
+            if labels.count(housing) > max_grounded:
+                continue
             order = {}
-            norm = tuple(order.setdefault(x, len(order)) for x in labels)
+            norm = tuple(x if x == housing else order.setdefault(x, len(order)) for x in labels)
             if norm in seen or len(order) != blocks:
                 continue
             seen.add(norm)
             links = [tuple(m for m in range(n) if norm[m] == b) for b in range(blocks)]
-            if any(len({m // 3 for m in link}) < len(link) for link in links):
+            grounded = tuple(m for m in range(n) if norm[m] == housing)
+            if any(len({m // 3 for m in link}) < len(link) for link in links + [grounded]):
                 continue
-            train = Train(n_sets, tuple(links) + (((),) if bare else ()))
+            train = Train(n_sets, tuple(links) + (((),) if bare else ()), grounded)
             link_sets = [frozenset(l for l, link in enumerate(links) for m in link if m // 3 == p)
-                         for p in range(n_sets)]
+                         | {-1 - m for m in grounded if m // 3 == p} for p in range(n_sets)]
             if len(set(link_sets)) < n_sets:  # two sets on the same three links: locked
                 continue
             yield train
@@ -80,15 +85,17 @@ def _simple_feasible(c: Concept, gears: int, engaged: int, k: np.ndarray) -> boo
     return len(ratios) >= gears and distinct >= gears and len(used) == len(elements) and not dead
 
 
-@pytest.mark.parametrize("n_sets,brakes,clutches,engaged,gears", [(2, 1, 1, 1, 2), (2, 1, 2, 2, 3)])
-def test_the_enumeration_finds_the_brute_forces_distinct_concepts(n_sets, brakes, clutches, engaged, gears):
+@pytest.mark.parametrize("n_sets,brakes,clutches,engaged,gears,grounded",
+                         [(2, 1, 1, 1, 2, 0), (2, 1, 2, 2, 3, 0), (2, 1, 1, 1, 2, 1)])
+def test_the_enumeration_finds_the_brute_forces_distinct_concepts(n_sets, brakes, clutches, engaged, gears,
+                                                                  grounded):
     spec = SearchSpec(n_sets, brakes, clutches, engaged, tuple(str(g) for g in range(gears)),
-                      tuple(float(g + 2) for g in range(gears)))
+                      tuple(float(g + 2) for g in range(gears)), grounded=grounded)
     k = sample_points(n_sets, spec.k_low, spec.k_high, 0, spec.seed)[0][0]
     n_links = link_count(n_sets, engaged)
     brute_keys, brute_feasible = set(), set()
     labelled = 0
-    for train in _labelled_trains(n_sets, n_links):
+    for train in _labelled_trains(n_sets, n_links, grounded):
         for i, o, bs, cs in placements(train, brakes, clutches):
             labelled += 1
             c = Concept(train, i, o, bs, cs)
@@ -99,7 +106,7 @@ def test_the_enumeration_finds_the_brute_forces_distinct_concepts(n_sets, brakes
             if _simple_feasible(c, gears, engaged, k):
                 brute_feasible.add(key)
     fast_keys, enumerated, distinct = [], 0, 0
-    for train in trains(n_sets, n_links):
+    for train in trains(n_sets, n_links, max_grounded=grounded):
         counts, kin, feasible = feasible_placements(train, spec)
         enumerated += counts.enumerated
         distinct += counts.distinct
@@ -366,3 +373,221 @@ def test_a_stopped_search_keeps_the_trains_it_finished(tmp_path):
     with pytest.raises(KeyboardInterrupt):
         synthesize_topology(spec, checkpoint=tmp_path, executor=Stopping())
     assert sorted(json_.loads((tmp_path / CHECKPOINT).read_text())["done"], key=int) == ["0", "1", "2"]
+
+
+# ------------------------------------------------------------------ Ravigneaux compounds
+
+
+def _labelled_compound_trains(n_simple: int, n_links: int, max_grounded: int = 0):
+    """Every train of ``n_simple`` simple sets and one Ravigneaux compound (sets told apart): a
+    block label (or the housing, at most ``max_grounded`` times) for each member, the compound's
+    two rings and two carriers together, no two members of one set in a block or on the housing,
+    no two sets on the same three links."""
+    from transgen.synthesis.ravigneaux import compound_pairs
+
+    pairs = compound_pairs(n_simple, 1)
+    n_sets = n_simple + 2
+    (a, b), = pairs
+    n = 3 * n_sets
+    glued = {3 * b + 1: 3 * a + 1, 3 * b + 2: 3 * a + 2}
+    free = [m for m in range(n) if m not in glued]
+    for bare in (0, 1):
+        blocks = n_links - bare
+        seen = set()
+        housing = blocks  # the label of a grounded member
+        for labels in itertools.product(range(blocks + (1 if max_grounded else 0)), repeat=len(free)):
+            if labels.count(housing) > max_grounded:
+                continue
+            order = {}
+            norm = tuple(x if x == housing else order.setdefault(x, len(order)) for x in labels)
+            if norm in seen or len(order) != blocks:
+                continue
+            seen.add(norm)
+            label = dict(zip(free, norm))
+            label.update({m: label[g] for m, g in glued.items()})
+            grounded = tuple(m for m in range(n) if label[m] == housing)
+            links = [tuple(m for m in range(n) if label[m] == x) for x in range(blocks)]
+            if any(len({m // 3 for m in group}) < len(group) for group in links + [grounded]):
+                continue
+            train = Train(n_sets, tuple(links) + (((),) if bare else ()), grounded, pairs)
+            on = [frozenset(label[3 * p + j] if label[3 * p + j] != housing else -1 - 3 * p - j for j in range(3))
+                  for p in range(n_sets)]
+            if len(set(on)) < n_sets:
+                continue
+            yield train
+
+
+def _plain_feasible(c: Concept, gears: int, engaged: int, k: np.ndarray) -> bool:
+    """The early pruning written plainly for simple and double-pinion sets (matrix rank)."""
+    t = c.train
+    n = len(t.links)
+    link_of = t.link_of()
+    rows = []
+    for p in range(t.sets):
+        row = np.zeros(n)
+        coeffs = (1.0, -k[p], k[p] - 1) if p in t.double_pinion else (1.0, k[p], -(1 + k[p]))
+        for j, coeff in enumerate(coeffs):
+            if 3 * p + j in link_of:  # else held: speed zero
+                row[link_of[3 * p + j]] += coeff
+        rows.append(row)
+    elements = [(b,) for b in c.brakes] + list(c.clutches)
+    ratios, used = [], set()
+    for combo in itertools.combinations(range(len(elements)), engaged):
+        a = list(rows)
+        for e in combo:
+            row = np.zeros(n)
+            row[elements[e][0]] = 1
+            if len(elements[e]) == 2:
+                row[elements[e][1]] = -1
+            a.append(row)
+        a = np.array(a)
+        if n - np.linalg.matrix_rank(a, tol=1e-9) != 1:
+            continue
+        w = np.linalg.svd(a)[2][-1]
+        if abs(w[c.input]) < 1e-9 or abs(w[c.output]) < 1e-9:
+            continue
+        ratios.append(w[c.input] / w[c.output])
+        used.update(combo)
+    distinct = len({round(r, 7) for r in ratios})
+    touched = {l for e in elements for l in e} | {c.input, c.output}
+    dead = any(len(t.links[l]) == 1 and l not in touched for l in range(n))
+    return len(ratios) >= gears and distinct >= gears and len(used) == len(elements) and not dead
+
+
+@pytest.mark.parametrize("n_simple,brakes,clutches,engaged,gears,grounded",
+                         [(0, 2, 2, 2, 3, 0), (1, 1, 1, 1, 2, 0), (0, 1, 2, 1, 2, 1)])
+def test_the_compound_enumeration_finds_the_brute_forces_distinct_concepts(n_simple, brakes, clutches, engaged,
+                                                                           gears, grounded):
+    from transgen.synthesis.ravigneaux import spec_trains
+
+    spec = SearchSpec(n_simple + 1, brakes, clutches, engaged, tuple(str(g) for g in range(gears)),
+                      tuple(float(g + 2) for g in range(gears)), ravigneaux=1, grounded=grounded)
+    k = sample_points(spec.planetaries, spec.k_low, spec.k_high, 0, spec.seed)[0][0]
+    n_links = link_count(spec.planetaries, engaged)
+    brute_keys, brute_feasible, labelled = set(), set(), 0
+    for train in _labelled_compound_trains(n_simple, n_links, grounded):
+        for i, o, bs, cs in placements(train, brakes, clutches):
+            labelled += 1
+            c = Concept(train, i, o, bs, cs)
+            key = canonical_key(c)
+            if key not in brute_keys:
+                brute_keys.add(key)
+                if _plain_feasible(c, gears, engaged, k):
+                    brute_feasible.add(key)
+    fast_keys, enumerated, distinct = [], 0, 0
+    for train in spec_trains(spec):
+        counts, kin, feasible = feasible_placements(train, spec)
+        enumerated += counts.enumerated
+        distinct += counts.distinct
+        for i, o, rows in feasible:
+            fast_keys += [canonical_key(placement_concept(kin, spec, i, o, r)) for r in rows]
+    assert len(fast_keys) == len(set(fast_keys)), "one representative per class"
+    assert set(fast_keys) == brute_feasible
+    assert distinct == len(brute_keys)
+    assert enumerated == labelled
+    assert brute_feasible and len(brute_feasible) < len(brute_keys)
+
+
+def test_a_compounds_two_suns_are_not_interchangeable():
+    """Swapping the small and the large sun is another mechanism: other ratios, another key."""
+    from transgen.synthesis.fit import concept_ratios
+
+    pairs = ((0, 1),)
+    # links: S1, S2, ring, carrier, bare input; brake on S1, clutches IN-S2 and IN-carrier
+    one = Train(2, ((0,), (3,), (1, 4), (2, 5), ()), (), pairs)
+    two = Train(2, ((3,), (0,), (1, 4), (2, 5), ()), (), pairs)  # the suns' places swapped
+    c1, c2 = (Concept(t, 4, 2, (0,), ((1, 4), (3, 4))) for t in (one, two))
+    assert canonical_key(c1) != canonical_key(c2)
+    k = np.array([[2.0, 2.4]])
+    cands = [(0,), (1, 4), (3, 4)]
+    combos = np.array([[0, 1], [0, 2], [1, 2]])
+    r1 = concept_ratios(one, 4, 2, cands, combos, k)[0]
+    r2 = concept_ratios(two, 4, 2, cands, combos, k)[0]
+    # each against transgen.kinematics.analyze on the written file (teeth of k = 2 and 2.4)
+    for train, r in ((one, r1), (two, r2)):
+        text = concept_text(Concept(train, 4, 2, (0,), ((1, 4), (3, 4))), {"a": ("A", "B"), "b": ("A", "C")},
+                            teeth=(("P1", 36, 72, 3), ("P2", 30, 72, 3)))
+        mech = parse_mechanism(text)
+        assert analyze(mech, ("A", "B")).ratio == pytest.approx(r[0], rel=1e-9)
+        assert analyze(mech, ("A", "C")).ratio == pytest.approx(r[1], rel=1e-9)
+    assert not np.allclose(r1, r2)
+
+
+def _concept_of(mech) -> Concept:
+    """A parsed mechanism with one Ravigneaux compound (a simple and a double-pinion set on one
+    ring and one carrier) and simple sets, as a :class:`Concept` (for comparing keys)."""
+    double = [p for p in mech.planetaries if p.pinions == 2]
+    (b,) = double
+    (a,) = [p for p in mech.planetaries if p.pinions == 1 and (p.ring, p.carrier) == (b.ring, b.carrier)]
+    order = [p for p in mech.planetaries if p not in (a, b)] + [a, b]
+    names = [l.name for l in mech.links]
+    members = {n: tuple(3 * s + j for s, p in enumerate(order) for j, m in enumerate((p.sun, p.ring, p.carrier))
+                        if m == n) for n in names}
+    train = Train(len(order), tuple(members[n] for n in names), (), ((len(order) - 2, len(order) - 1),))
+    idx = {n: i for i, n in enumerate(names)}
+    brakes = tuple(idx[e.link1] for e in mech.elements if e.kind == "brake")
+    clutches = tuple(tuple(sorted((idx[e.link1], idx[e.link2]))) for e in mech.elements if e.kind == "clutch")
+    return Concept(train, idx[mech.input], idx[mech.output], brakes, clutches)
+
+
+def test_the_ravigneaux_four_speed_is_found_from_its_ratios(tmp_path):
+    """HowStuffWorks' Ravigneaux 4-speed from its ratios alone (as ``transgen ratios`` prints
+    them; its file is read only after the search, to compare the keys)."""
+    from pathlib import Path
+
+    from transgen.language import load_mechanism
+    from transgen.synthesis.teeth import AssemblyRules
+
+    spec = SearchSpec(1, 2, 3, 2, ("1", "2", "3", "OD", "R"), (2.4, 1.4667, 1.0, 0.6667, -2.0), ravigneaux=1)
+    result = synthesize_topology(spec, top=5)
+    assert result.candidates
+    known = load_mechanism(Path(__file__).parent.parent / "mechanisms" / "hsw_ravigneaux4.mech")
+    want = canonical_key(_concept_of(known))
+    same = [c for c in result.candidates if canonical_key(c.concept) == want]
+    assert same, "the published kinematics are among the candidates"
+    c = same[0]
+    assert c.teeth and c.max_ratio_error <= 0.01
+    mech = parse_mechanism(c.mech)
+    assert len(mech.shares) == 3
+    for gear, engaged in c.gears.items():
+        assert analyze(mech, engaged).ratio == pytest.approx(c.ratios[gear], rel=1e-9)
+    teeth = {name: (ns, nr) for name, ns, nr, _ in c.teeth}
+    assert teeth["P1"][1] == teeth["P2"][1], "one ring"
+    from transgen.synthesis.shares import share_rules
+    from transgen.synthesis.teeth import planet_counts
+
+    rules = AssemblyRules(k_min=spec.k_low, k_max=spec.k_high)
+    pinions = {p.name: p.pinions for p in mech.planetaries}
+    planets = share_rules(mech).planets(teeth, rules, lambda ns, nr, n: planet_counts(ns, nr, n, rules))
+    assert planets is not None, "the shares hold: one long pinion at one centre distance"
+    assert set(pinions.values()) == {1, 2}
+    assert result.counts["fitted"] >= 1 and result.counts["feasible"] < result.counts["distinct"]
+
+
+def test_ravigneaux_counts_are_checked(capsys):
+    from transgen.cli import main
+
+    for args, word in ((["--sets", "1", "--ravigneaux", "2"], "--ravigneaux"),
+                       (["--sets", "3", "--ravigneaux", "2"], "--ravigneaux"),
+                       (["--sets", "1", "--ravigneaux", "-1"], "--ravigneaux"),
+                       (["--sets", "1", "--ravigneaux", "1", "--grounded", "3"], "--grounded"),
+                       (["--sets", "2", "--grounded", "-1"], "--grounded")):
+        assert main(["synthesize", "topology", *args, "--brakes", "2", "--clutches", "2",
+                     "--ratios", "1=2,2=1"]) == 2
+        assert word in capsys.readouterr().err
+
+
+def test_the_compound_command_writes_a_valid_document_and_drawable_files(tmp_path, capsys):
+    from transgen.cli import main
+    from transgen.schemas import validate
+
+    out = tmp_path / "rav"
+    code = main(["synthesize", "topology", "--sets", "1", "--ravigneaux", "1", "--brakes", "2", "--clutches", "3",
+                 "--ratios", "1=2.4,2=1.4667,3=1.0,OD=0.6667,R=-2.0", "--top", "2", "-o", str(out), "--json"])
+    assert code == 0
+    doc = json.loads(capsys.readouterr().out)
+    validate(doc)
+    assert doc["request"]["ravigneaux"] == 1 and doc["request"]["grounded"] == 0
+    text = (out / "candidate_01.mech").read_text()
+    assert "pinions=2" in text and text.count("\nshare ") == 3
+    assert (out / "candidate_01_levers.svg").exists()

@@ -30,13 +30,15 @@ from fractions import Fraction
 
 from ..errors import TransgenError
 from .search import FittedConcept, SearchSpec, TrainResult, train_task
-from .topology import Concept, link_count, trains
+from .ravigneaux import ravigneaux_teeth, share_lines, spec_trains
+from .topology import Concept, link_count
 
 __all__ = ["TopologyInputError", "Candidate", "TopologySynthesis", "synthesize_topology", "concept_text",
            "estimate_seconds", "rank_fitted", "RANKING", "MAX_SETS", "MAX_ELEMENTS"]
 
 MAX_SETS = 4
-"""Most simple sets searched (4 sets: 8721 gear trains of 8 links)."""
+"""Most planetary statements searched, a Ravigneaux compound counting two (4 simple sets: 8721
+gear trains of 8 links)."""
 
 MAX_ELEMENTS = 7
 """Most shift elements (brakes + clutches)."""
@@ -115,7 +117,8 @@ class TopologySynthesis:
 
     def to_dict(self) -> dict:
         s = self.spec
-        return {"request": {"sets": s.sets, "brakes": s.brakes, "clutches": s.clutches, "engaged": s.engaged,
+        return {"request": {"sets": s.sets, "ravigneaux": s.ravigneaux, "grounded": s.grounded,
+                            "brakes": s.brakes, "clutches": s.clutches, "engaged": s.engaged,
                             "targets": dict(zip(s.gears, s.targets)), "tolerance": s.tolerance,
                             "ring_sun": [s.k_low, s.k_high]},
                 "trains": self.trains, "counts": dict(self.counts), "seconds": self.seconds, "ranking": RANKING,
@@ -125,10 +128,12 @@ class TopologySynthesis:
 def estimate_seconds(spec: SearchSpec, n_trains: int | None = None) -> float:
     """Estimated single-core run time [s] of the search (the early pruning's placements times its
     measured cost, plus a per-train overhead)."""
-    n = link_count(spec.sets, spec.engaged)
+    n = link_count(spec.planetaries, spec.engaged)
     pairs = n * (n - 1) // 2
     inner = math.comb(n - 2, spec.brakes) * math.comb(pairs, spec.clutches) * n * (n - 1)
-    count = n_trains if n_trains is not None else _train_estimate(spec.sets, n)
+    count = n_trains if n_trains is not None else _train_estimate(spec.planetaries, n)
+    if n_trains is None and spec.grounded:  # each choice of held members: a bound, not a count
+        count *= sum(math.comb(3 * spec.planetaries, g) for g in range(spec.grounded + 1))
     return count * (inner * SECONDS_PER_PLACEMENT + SECONDS_PER_TRAIN)
 
 
@@ -142,6 +147,12 @@ def validate_spec(spec: SearchSpec, max_seconds: float = MAX_SECONDS) -> None:
     """Refuse what cannot be searched, before any work (bounded sizes, a time estimate)."""
     if not 1 <= spec.sets <= MAX_SETS:
         raise TopologyInputError(f"--sets must be 1..{MAX_SETS}, not {spec.sets}")
+    if not 0 <= spec.ravigneaux <= spec.sets or spec.planetaries > MAX_SETS:
+        raise TopologyInputError(f"--ravigneaux must be 0..--sets with at most {MAX_SETS} planetary statements "
+                                 f"(a compound counts two), not {spec.ravigneaux} of {spec.sets} sets")
+    if not 0 <= spec.grounded <= min(2, spec.planetaries):
+        raise TopologyInputError(f"--grounded must be 0..{min(2, spec.planetaries)} (members fixed to the housing), "
+                                 f"not {spec.grounded}")
     if spec.brakes < 0 or spec.clutches < 0 or not 1 <= spec.brakes + spec.clutches <= MAX_ELEMENTS:
         raise TopologyInputError(f"--brakes and --clutches: 1..{MAX_ELEMENTS} elements in all, not "
                                  f"{spec.brakes} + {spec.clutches}")
@@ -189,7 +200,9 @@ def concept_text(concept: Concept, gears: dict, ratios: dict | None = None, teet
             m = 3 * p + j
             members.append(f"{word}={names[link_of[m]] if m in link_of else 'housing'}")
         ns, nr = by_set.get(f"P{p + 1}", ("?", "?"))
-        lines.append(f"planetary P{p + 1} {' '.join(members)} Ns={ns} Nr={nr}")
+        pinions = " pinions=2" if p in t.double_pinion else ""
+        lines.append(f"planetary P{p + 1} {' '.join(members)} Ns={ns} Nr={nr}{pinions}")
+    lines += share_lines(t)
     lines.append("")
     for name, links in concept.elements:
         if len(links) == 1:
@@ -213,6 +226,24 @@ def _task(spec: SearchSpec, train) -> TrainResult:
     return train_task(train, spec)
 
 
+def set_options(k: float, rules, count: int) -> list[tuple[int, int, int]]:
+    """The ``count`` admissible ``(Ns, Nr, planets)`` of a simple set with ``Nr/Ns`` closest to
+    ``k`` (smallest sets first among equal fractions) under ``rules``."""
+    from .teeth import planet_count
+
+    found: dict = {}
+    top_sun = int(rules.max_teeth / rules.k_min)
+    for ns in range(rules.min_teeth, top_sun + 1):
+        for nr in range(max(ns + 1, int(k * ns) - 2), min(rules.max_teeth, int(k * ns) + 3) + 1):
+            n = planet_count(ns, nr, 1, rules)
+            if n is not None:
+                f = Fraction(nr, ns)
+                if f not in found:
+                    found[f] = (ns, nr, n)
+    ranked = sorted(found.items(), key=lambda item: (abs(float(item[0]) - k), item[1][0] + item[1][1]))
+    return [v for _, v in ranked[:count]]
+
+
 def _teeth(fc: FittedConcept, spec: SearchSpec, rules, per_set: int = 8):
     """Tooth counts near the fitted ``k`` under ``rules`` (the assembly rules of ``synthesize
     teeth``, :func:`transgen.synthesis.teeth.planet_count`): for each set the ``per_set``
@@ -227,22 +258,13 @@ def _teeth(fc: FittedConcept, spec: SearchSpec, rules, per_set: int = 8):
     from ..kinematics import analyze
     from ..language import parse_mechanism
     from .fit import batch_ratios
-    from .teeth import planet_count
 
     c = fc.concept
+    if c.train.ravigneaux:  # shared gears: synthesize teeth's own search, which honours them
+        return ravigneaux_teeth(fc, spec, rules, lambda k, count: set_options(k, rules, count), concept_text)
     options = []
-    for p, k in enumerate(fc.fit.k):
-        found: dict = {}
-        top_sun = int(rules.max_teeth / rules.k_min)
-        for ns in range(rules.min_teeth, top_sun + 1):
-            for nr in range(max(ns + 1, int(k * ns) - 2), min(rules.max_teeth, int(k * ns) + 3) + 1):
-                n = planet_count(ns, nr, 1, rules)
-                if n is not None:
-                    f = Fraction(nr, ns)
-                    if f not in found:
-                        found[f] = (ns, nr, n)
-        ranked = sorted(found.items(), key=lambda item: (abs(float(item[0]) - k), item[1][0] + item[1][1]))
-        options.append([v for _, v in ranked[:per_set]])
+    for k in fc.fit.k:
+        options.append(set_options(k, rules, per_set))
         if not options[-1]:
             return None, None
     choices = list(itertools.product(*options))
@@ -334,7 +356,7 @@ def synthesize_topology(spec: SearchSpec, top: int = 20, executor=None, progress
         raise TopologyInputError(f"--top must be 1..1000, not {top}")
     rules = rules or AssemblyRules(k_min=spec.k_low, k_max=spec.k_high)
     start = time.perf_counter()
-    all_trains = trains(spec.sets, link_count(spec.sets, spec.engaged)) if train_list is None else list(train_list)
+    all_trains = spec_trains(spec) if train_list is None else list(train_list)
     total = TrainResult()
     results: dict[int, TrainResult] = {}
     if executor is None:

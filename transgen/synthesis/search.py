@@ -10,15 +10,14 @@ sweep executors (``sim.study.executors``) in any order and the merged result is 
 from __future__ import annotations
 
 import itertools
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from .fit import Fit, fit_concept, grid, refine, sample_points
 from .screen import VertexSpeeds, cell_screen, vertex_starts
-from .topology import (Concept, Train, count_orbits, feasible_mask, rank_mask, row_masks, train_automorphisms,
-                       train_kinematics)
+from .topology import (Concept, Train, count_orbits, feasible_mask, rank_mask, row_masks, set_permutations,
+                       train_automorphisms, train_kinematics)
 
 __all__ = ["SearchSpec", "TrainResult", "FittedConcept", "train_task", "feasible_placements", "placement_concept"]
 
@@ -42,9 +41,20 @@ class SearchSpec:
     """Subdivisions of the screen's grid cells (each halves the cells' edges); default 2 up to
     three sets, 0 for four (measured: at N = 4 the refinement of the few survivors costs less
     than subdividing, docs/topology.md)."""
+    ravigneaux: int = 0
+    """How many of the ``sets`` are Ravigneaux compounds (two planetary statements each,
+    :mod:`transgen.synthesis.ravigneaux`)."""
+    grounded: int = 0
+    """Most members fixed to the housing (a fixed member makes its set a fixed reduction, as the
+    front set of a Lepelletier design); default none."""
     prune: bool = True
     """Apply the necessary conditions (gear count, distinct ratios, cell screen); ``False`` only
     for the brute-force comparison in the tests."""
+
+    @property
+    def planetaries(self) -> int:
+        """Planetary statements (basic ratios): a compound counts two."""
+        return self.sets + self.ravigneaux
 
 
 @dataclass(frozen=True)
@@ -95,7 +105,7 @@ def feasible_placements(train: Train, spec: SearchSpec):
     feasible concept (one representative per class of the train's automorphisms)."""
     out = TrainResult()
     autos = train_automorphisms(train)
-    factor = math.factorial(train.sets) // len(autos)  # labelled copies of this train
+    factor = len(set_permutations(train)) // len(autos)  # labelled copies of this train
     raw, distinct = count_orbits(train, spec.brakes, spec.clutches, autos)
     out.enumerated = raw * factor
     out.distinct = distinct

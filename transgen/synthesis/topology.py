@@ -21,6 +21,10 @@ The search space (what :func:`enumerate_concepts` walks) and why each rule loses
 * no member is fixed to the housing (``grounded``: a fixed member makes a simple set a fixed
   reduction; allowed on request with ``max_grounded``).
 
+Ravigneaux compounds (``Train.ravigneaux``, :mod:`transgen.synthesis.ravigneaux`) are a simple
+and a double-pinion set whose ring and carrier are one link each; their symmetries are those of
+:func:`set_permutations` (kinds kept, the two suns never swapped).
+
 Symmetries removed (:func:`canonical_key`): the ``N!`` permutations of the sets, the order of
 the links (a link is named by the members it joins, so relabelling links changes nothing), the
 order of the brakes and clutches and the two ends of each clutch. The sun/ring reflection of a
@@ -47,7 +51,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = [
-    "MEMBERS", "Train", "Concept", "trains", "train_automorphisms", "canonical_key", "link_count",
+    "MEMBERS", "Train", "set_permutations", "Concept", "trains", "train_automorphisms", "canonical_key", "link_count",
     "placements", "count_orbits", "locked_pair", "TrainKinematics", "train_kinematics", "sample_speeds", "feasible_mask", "rank_mask", "row_masks",
 ]
 
@@ -71,6 +75,14 @@ class Train:
     sets: int
     links: tuple[tuple[int, ...], ...]
     grounded: tuple[int, ...] = ()
+    ravigneaux: tuple[tuple[int, int], ...] = ()
+    """The Ravigneaux compounds ``(a, b)``: set ``a`` simple (large sun, long pinion), set ``b``
+    double-pinion (small sun), one ring and one carrier (:mod:`transgen.synthesis.ravigneaux`)."""
+
+    @property
+    def double_pinion(self) -> frozenset[int]:
+        """The double-pinion sets (``w_s - k w_r + (k - 1) w_c = 0``)."""
+        return frozenset(b for _, b in self.ravigneaux)
 
     @property
     def bare(self) -> int | None:
@@ -87,6 +99,27 @@ class Train:
         if not members:
             return "IN"
         return "_".join(f"{MEMBERS[m % 3]}{m // 3 + 1}" for m in members)
+
+
+def set_permutations(train: Train) -> list[tuple[int, ...]]:
+    """The set permutations that keep each set's kind: any permutation of the simple sets outside
+    compounds times any permutation of the Ravigneaux compounds as wholes (a compound's two sets
+    are not interchangeable: their suns mesh different pinions); the identity first."""
+    if not train.ravigneaux:
+        return list(itertools.permutations(range(train.sets)))
+    paired = {s for pair in train.ravigneaux for s in pair}
+    simple = [p for p in range(train.sets) if p not in paired]
+    out = []
+    for ps in itertools.permutations(simple):
+        for pr in itertools.permutations(range(len(train.ravigneaux))):
+            perm = list(range(train.sets))
+            for a, b in zip(simple, ps):
+                perm[a] = b
+            for q, r in enumerate(pr):
+                for x, y in zip(train.ravigneaux[q], train.ravigneaux[r]):
+                    perm[x] = y
+            out.append(tuple(perm))
+    return out
 
 
 def _perm_members(members, perm) -> tuple[int, ...]:
@@ -204,7 +237,7 @@ def train_automorphisms(train: Train) -> list[tuple[tuple[int, ...], tuple[int, 
     itself (the identity first); the link permutation sends link ``i`` to link ``pi[i]``."""
     index = {m if m else (BARE,): i for i, m in enumerate(train.links)}
     out = []
-    for perm in itertools.permutations(range(train.sets)):
+    for perm in set_permutations(train):
         images = [(_perm_members(m, perm) if m else (BARE,)) for m in train.links]
         if all(img in index for img in images) and _perm_members(train.grounded, perm) == train.grounded:
             out.append((perm, tuple(index[img] for img in images)))
@@ -247,8 +280,9 @@ def _concept_code(c: Concept, perm) -> tuple:
 
 def canonical_key(c: Concept) -> tuple:
     """The smallest label-free encoding of ``c`` over all permutations of its sets: links named
-    by their members, clutch ends and element order sorted. Equal keys = isomorphic concepts."""
-    return min(_concept_code(c, p) for p in itertools.permutations(range(c.train.sets)))
+    by their members, clutch ends and element order sorted (kind-keeping permutations only,
+    :func:`set_permutations`; the compounds are part of the key). Equal keys = isomorphic concepts."""
+    return min(_concept_code(c, p) for p in set_permutations(c.train)) + (c.train.ravigneaux,)
 
 
 def placements(train: Train, n_brakes: int, n_clutches: int):
@@ -360,13 +394,17 @@ class TrainKinematics:
 
 def speed_basis(train: Train, k: np.ndarray) -> np.ndarray:
     """Orthonormal bases (P x L x D) of the link speeds allowed by the sets at each row of ``k``
-    (P x N): the null space of ``A(k)``, row ``p``: ``w_s + k_p w_r - (1 + k_p) w_c = 0``."""
+    (P x N): the null space of ``A(k)``, row ``p``: ``w_s + k_p w_r - (1 + k_p) w_c = 0`` (a
+    double-pinion set: ``w_s - k_p w_r + (k_p - 1) w_c = 0``; both affine in ``k_p``)."""
     k = np.atleast_2d(k)
     link_of = train.link_of()
     n_links = len(train.links)
     a = np.zeros((k.shape[0], train.sets, n_links))
+    double = train.double_pinion
     for p in range(train.sets):
-        for j, coeff in enumerate((np.ones(k.shape[0]), k[:, p], -(1 + k[:, p]))):
+        coeffs = ((np.ones(k.shape[0]), -k[:, p], k[:, p] - 1) if p in double else
+                  (np.ones(k.shape[0]), k[:, p], -(1 + k[:, p])))
+        for j, coeff in enumerate(coeffs):
             m = 3 * p + j
             if m in link_of:
                 a[:, p, link_of[m]] += coeff

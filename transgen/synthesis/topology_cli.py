@@ -52,8 +52,9 @@ def cmd_topology(args) -> int:
 
     gears, targets = parse_targets(args.ratios)
     low, high = ring_sun_range(args.ring_sun)
-    engaged = args.engaged if args.engaged is not None else max(2, args.sets - 1)
-    spec = SearchSpec(args.sets, args.brakes, args.clutches, engaged, gears, targets, args.tolerance, low, high)
+    engaged = args.engaged if args.engaged is not None else max(2, args.sets + args.ravigneaux - 1)
+    spec = SearchSpec(args.sets, args.brakes, args.clutches, engaged, gears, targets, args.tolerance, low, high,
+                      ravigneaux=args.ravigneaux, grounded=args.grounded)
     limit = args.max_hours * 3600
     validate_spec(spec, limit)  # before any executor starts
     executor = None
@@ -104,7 +105,8 @@ def cmd_topology(args) -> int:
         print_document("transgen.synthesize.topology/1", result.to_dict(), result.UNITS)
         return 0 if result.candidates else 1
     s = spec
-    print(f"topology search: {s.sets} simple sets, {s.brakes} brakes, {s.clutches} clutches, {s.engaged} engaged "
+    kinds = f"{s.sets - s.ravigneaux} simple sets, {s.ravigneaux} Ravigneaux" if s.ravigneaux else f"{s.sets} simple sets"
+    print(f"topology search: {kinds}, {s.brakes} brakes, {s.clutches} clutches, {s.engaged} engaged "
           f"per gear, {len(gears)} targets " + ", ".join(f"{g}={t:g}" for g, t in zip(gears, targets))
           + f", tolerance {s.tolerance:.2%}, ring/sun {low:g}..{high:g}")
     c = result.counts
@@ -143,10 +145,16 @@ def add_topology(what) -> None:
                     "Example: transgen synthesize topology --sets 2 --brakes 2 --clutches 2 "
                     "--ratios 1=2.45,2=1.45,3=1.00,R=-2.1 --tolerance 0.02")
     t.add_argument("--sets", type=int, required=True, help="simple planetary sets (1..4)")
-    t.add_argument("--ravigneaux", type=int, default=0, help="Ravigneaux sets (not supported yet: must be 0)")
+    t.add_argument("--ravigneaux", type=int, default=0,
+                   help="how many of the --sets are Ravigneaux compounds (small sun, large sun, carrier, ring; two "
+                        "planetary statements sharing ring and carrier, each Nr/Ns within --ring-sun; default 0)")
+    t.add_argument("--grounded", type=int, default=0,
+                   help="members that may be fixed to the housing (0..2; a fixed member makes its set a fixed "
+                        "reduction, as a Lepelletier design's front set; default 0)")
     t.add_argument("--brakes", type=int, required=True, help="brakes (link to housing)")
     t.add_argument("--clutches", type=int, required=True, help="clutches (link to link)")
-    t.add_argument("--engaged", type=int, help="elements engaged per gear (default max(2, sets - 1))")
+    t.add_argument("--engaged", type=int, help="elements engaged per gear (default max(2, planetary statements - 1), "
+                                                "a Ravigneaux counting two)")
     t.add_argument("--ratios", required=True, help="target ratios GEAR=RATIO,... (input/output speed; reverse negative)")
     t.add_argument("--tolerance", type=number_option(0, 0.2), default=0.01,
                    help="largest relative ratio error (default 0.01)")
@@ -165,8 +173,6 @@ def add_topology(what) -> None:
 
 
 def _checked(args) -> int:
-    if args.ravigneaux:
-        raise ValueError("--ravigneaux: compound (Ravigneaux) sets are not supported yet; search simple sets")
     if args.workers is not None and not 1 <= args.workers <= 256:
         raise ValueError(f"--workers must be 1..256, not {args.workers}")
     return cmd_topology(args)
