@@ -49,42 +49,6 @@ def _labelled_trains(n_sets: int, n_links: int, max_grounded: int = 0):
             yield train
 
 
-def _simple_feasible(c: Concept, gears: int, engaged: int, k: np.ndarray) -> bool:
-    """The early pruning of one concept written plainly (rank of the stacked constraints)."""
-    t = c.train
-    n = len(t.links)
-    link_of = t.link_of()
-    rows = []
-    for p in range(t.sets):
-        row = np.zeros(n)
-        for j, coeff in enumerate((1.0, k[p], -(1 + k[p]))):
-            if 3 * p + j in link_of:
-                row[link_of[3 * p + j]] += coeff
-        rows.append(row)
-    elements = [(b,) for b in c.brakes] + list(c.clutches)
-    ratios, used = [], set()
-    for combo in itertools.combinations(range(len(elements)), engaged):
-        a = [r.copy() for r in rows]
-        for e in combo:
-            row = np.zeros(n)
-            row[elements[e][0]] = 1
-            if len(elements[e]) == 2:
-                row[elements[e][1]] = -1
-            a.append(row)
-        a = np.array(a)
-        if n - np.linalg.matrix_rank(a, tol=1e-9) != 1:
-            continue
-        w = np.linalg.svd(a)[2][-1]
-        if abs(w[c.input]) < 1e-9 or abs(w[c.output]) < 1e-9:
-            continue
-        ratios.append(w[c.input] / w[c.output])
-        used.update(combo)
-    distinct = len({round(r, 7) for r in ratios})
-    touched = {l for e in elements for l in e} | {c.input, c.output}
-    dead = any(len(t.links[l]) == 1 and l not in touched for l in range(n))
-    return len(ratios) >= gears and distinct >= gears and len(used) == len(elements) and not dead
-
-
 @pytest.mark.parametrize("n_sets,brakes,clutches,engaged,gears,grounded",
                          [(2, 1, 1, 1, 2, 0), (2, 1, 2, 2, 3, 0), (2, 1, 1, 1, 2, 1)])
 def test_the_enumeration_finds_the_brute_forces_distinct_concepts(n_sets, brakes, clutches, engaged, gears,
@@ -93,20 +57,25 @@ def test_the_enumeration_finds_the_brute_forces_distinct_concepts(n_sets, brakes
                       tuple(float(g + 2) for g in range(gears)), grounded=grounded)
     k = sample_points(n_sets, spec.k_low, spec.k_high, 0, spec.seed)[0][0]
     n_links = link_count(n_sets, engaged)
-    brute_keys, brute_feasible = set(), set()
-    labelled = 0
-    for train in _labelled_trains(n_sets, n_links, grounded):
-        for i, o, bs, cs in placements(train, brakes, clutches):
+    _assert_the_search_finds_the_brute_force(spec, _labelled_trains(n_sets, n_links, grounded),
+                                             trains(n_sets, n_links, max_grounded=grounded), k)
+
+
+def _assert_the_search_finds_the_brute_force(spec, labelled_trains, search_trains, k):
+    """Every labelled placement reduced by its canonical key and pruned plainly
+    (:func:`_plain_feasible`) gives the search's feasible representatives and counts."""
+    brute_keys, brute_feasible, labelled = set(), set(), 0
+    for train in labelled_trains:
+        for i, o, bs, cs in placements(train, spec.brakes, spec.clutches):
             labelled += 1
             c = Concept(train, i, o, bs, cs)
             key = canonical_key(c)
-            if key in brute_keys:
-                continue
-            brute_keys.add(key)
-            if _simple_feasible(c, gears, engaged, k):
-                brute_feasible.add(key)
+            if key not in brute_keys:
+                brute_keys.add(key)
+                if _plain_feasible(c, len(spec.gears), spec.engaged, k):
+                    brute_feasible.add(key)
     fast_keys, enumerated, distinct = [], 0, 0
-    for train in trains(n_sets, n_links, max_grounded=grounded):
+    for train in search_trains:
         counts, kin, feasible = feasible_placements(train, spec)
         enumerated += counts.enumerated
         distinct += counts.distinct
@@ -464,28 +433,8 @@ def test_the_compound_enumeration_finds_the_brute_forces_distinct_concepts(n_sim
                       tuple(float(g + 2) for g in range(gears)), ravigneaux=1, grounded=grounded)
     k = sample_points(spec.planetaries, spec.k_low, spec.k_high, 0, spec.seed)[0][0]
     n_links = link_count(spec.planetaries, engaged)
-    brute_keys, brute_feasible, labelled = set(), set(), 0
-    for train in _labelled_compound_trains(n_simple, n_links, grounded):
-        for i, o, bs, cs in placements(train, brakes, clutches):
-            labelled += 1
-            c = Concept(train, i, o, bs, cs)
-            key = canonical_key(c)
-            if key not in brute_keys:
-                brute_keys.add(key)
-                if _plain_feasible(c, gears, engaged, k):
-                    brute_feasible.add(key)
-    fast_keys, enumerated, distinct = [], 0, 0
-    for train in spec_trains(spec):
-        counts, kin, feasible = feasible_placements(train, spec)
-        enumerated += counts.enumerated
-        distinct += counts.distinct
-        for i, o, rows in feasible:
-            fast_keys += [canonical_key(placement_concept(kin, spec, i, o, r)) for r in rows]
-    assert len(fast_keys) == len(set(fast_keys)), "one representative per class"
-    assert set(fast_keys) == brute_feasible
-    assert distinct == len(brute_keys)
-    assert enumerated == labelled
-    assert brute_feasible and len(brute_feasible) < len(brute_keys)
+    _assert_the_search_finds_the_brute_force(spec, _labelled_compound_trains(n_simple, n_links, grounded),
+                                             spec_trains(spec), k)
 
 
 def test_a_compounds_two_suns_are_not_interchangeable():
